@@ -1,0 +1,522 @@
+//! The symbolic Lagrangian pipeline (thesis Chapter 3) on Symbolica atoms.
+//!
+//! Variables: for each joint k that appears in a rotation, `S{k} = sin q_k`, `C{k} = cos q_k`;
+//! for each joint in a translation, `Q{k} = q_k`; velocities `QD{k}`, accelerations `QDD{k}`;
+//! barycentric parameters `P{j}`. Every kinematic quantity is then a polynomial, reduced to a
+//! canonical form modulo `S_k² + C_k² = 1` (no `S_k` power above one). Derivatives follow the
+//! chain rule `∂/∂q_k = ∂/∂Q_k + C_k ∂/∂S_k − S_k ∂/∂C_k`.
+//!
+//! The inertia matrix (3.2), gravity (3.4) and Christoffel symbols (3.3) are formed per
+//! barycentric parameter: D = Σ_j p_j D⁽ʲ⁾(q), φ = Σ_j p_j φ⁽ʲ⁾(q), so the regressor
+//! (τ = Y p) is their coefficient matrices and no expansion ever mixes parameters.
+
+use crate::expr::{Expr, Func};
+use crate::model::{Model, Transform};
+use symbolica::atom::{Atom, AtomCore, Symbol};
+use symbolica::{parse, symbol};
+
+/// Symbols of one model's symbolic work.
+pub struct Vars {
+    /// `S{k}` per joint.
+    pub s: Vec<Symbol>,
+    /// `C{k}` per joint.
+    pub c: Vec<Symbol>,
+    /// `Q{k}` per joint.
+    pub q: Vec<Symbol>,
+    /// `QD{k}` per joint.
+    pub qd: Vec<Symbol>,
+    /// `QDD{k}` per joint.
+    pub qdd: Vec<Symbol>,
+    /// Whether joint k appears in a rotation (needs S, C) / in a translation (needs Q).
+    pub revolute: Vec<bool>,
+    /// See `revolute`.
+    pub prismatic: Vec<bool>,
+}
+
+impl Vars {
+    /// Symbols for `n` joints; the joint kinds are read from the model's transforms.
+    pub fn new(model: &Model) -> Vars {
+        let n = model.joints.len();
+        let mut revolute = vec![false; n];
+        let mut prismatic = vec![false; n];
+        for f in &model.frames {
+            for t in &f.transforms {
+                match t {
+                    Transform::Rot { joints, .. } => {
+                        for (k, &c) in joints.iter().enumerate() {
+                            revolute[k] |= c != 0;
+                        }
+                    }
+                    Transform::Trans { expr, .. } => {
+                        for s in expr.symbols() {
+                            if let Some(k) = model.joints.iter().position(|j| *j == s) {
+                                prismatic[k] = true;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let mk = |p: &str| (0..n).map(|k| symbol!(&format!("lockstep::{p}{k}"))).collect();
+        Vars {
+            s: mk("S"),
+            c: mk("C"),
+            q: mk("Q"),
+            qd: mk("QD"),
+            qdd: mk("QDD"),
+            revolute,
+            prismatic,
+        }
+    }
+
+    /// Total derivative ∂e/∂q_k by the chain rule.
+    pub fn dq(&self, e: &Atom, k: usize) -> Atom {
+        let mut out = Atom::num(0);
+        if self.prismatic[k] {
+            out = out + e.derivative(self.q[k]);
+        }
+        if self.revolute[k] {
+            let ds = e.derivative(self.s[k]);
+            let dc = e.derivative(self.c[k]);
+            out = out + ds * Atom::var(self.c[k]) - dc * Atom::var(self.s[k]);
+        }
+        reduce(&out, self)
+    }
+}
+
+/// Expand and reduce modulo `S_k² + C_k² = 1` until no power of an `S_k` above one is left.
+pub fn reduce(e: &Atom, v: &Vars) -> Atom {
+    let mut cur = e.expand();
+    for k in 0..v.s.len() {
+        if !v.revolute[k] {
+            continue;
+        }
+        let sk = v.s[k].get_name().to_string();
+        let ck = v.c[k].get_name().to_string();
+        let pat = parse!(&format!("{sk}^n_"));
+        let rhs = parse!(&format!("{sk}^(n_-2)*(1-{ck}^2)"));
+        loop {
+            if !cur.contains_symbol(v.s[k]) {
+                break;
+            }
+            let next = cur
+                .replace(pat.to_pattern())
+                .when(symbol!("n_").filter(|n| n >= &2))
+                .with(rhs.to_pattern())
+                .expand();
+            if next == cur {
+                break;
+            }
+            cur = next;
+        }
+    }
+    cur
+}
+
+/// The best rational approximation of a finite f64 with relative error below 1e-15 and a
+/// denominator below 10¹², or the exact binary fraction when there is none.
+pub fn rational(x: f64) -> Atom {
+    if x == 0.0 {
+        return Atom::num(0);
+    }
+    if x.fract() == 0.0 && x.abs() < 9e15 {
+        return Atom::num(x as i64);
+    }
+    // Continued fraction.
+    let (mut h0, mut h1, mut k0, mut k1) = (0i128, 1i128, 1i128, 0i128);
+    let mut r = x.abs();
+    for _ in 0..40 {
+        let a = r.floor();
+        if a > 1e15 {
+            break;
+        }
+        let ai = a as i128;
+        let (h2, k2) = (ai * h1 + h0, ai * k1 + k0);
+        if k2 > 1_000_000_000_000 {
+            break;
+        }
+        (h0, h1, k0, k1) = (h1, h2, k1, k2);
+        let approx = h1 as f64 / k1 as f64;
+        if (approx - x.abs()).abs() <= 1e-15 * x.abs() {
+            let sign = if x < 0.0 { -1 } else { 1 };
+            return Atom::num((sign * h1 as i64, k1 as i64));
+        }
+        let f = r - a;
+        if f == 0.0 {
+            break;
+        }
+        r = 1.0 / f;
+    }
+    // Exact dyadic fraction.
+    let (mant, exp) = {
+        let bits = x.abs().to_bits();
+        let e = ((bits >> 52) & 0x7ff) as i32;
+        let m = if e == 0 { (bits & ((1 << 52) - 1)) << 1 } else { (bits & ((1 << 52) - 1)) | (1 << 52) };
+        (m as i64, e - 1075)
+    };
+    let sign = if x < 0.0 { -1 } else { 1 };
+    let num = Atom::num(sign * mant);
+    if exp >= 0 {
+        num * Atom::num(2).pow(Atom::num(exp as i64))
+    } else {
+        num / Atom::num(2).pow(Atom::num(-exp as i64))
+    }
+}
+
+/// sin and cos of `n·q_k`, exact polynomials in S_k, C_k.
+fn sincos_multiple(v: &Vars, k: usize, n: i64) -> (Atom, Atom) {
+    let s = Atom::var(v.s[k]);
+    let c = Atom::var(v.c[k]);
+    let m = n.unsigned_abs();
+    let (mut sn, mut cn) = (Atom::num(0), Atom::num(1));
+    for _ in 0..m {
+        let s2 = &sn * &c + &cn * &s;
+        let c2 = &cn * &c - &sn * &s;
+        sn = s2;
+        cn = c2;
+    }
+    if n < 0 {
+        sn = -sn;
+    }
+    (reduce(&sn, v), reduce(&cn, v))
+}
+
+/// sin and cos of a number, snapped to exact 0, ±1, ±1/2 where the angle is a multiple of
+/// π/6 (so that π/2 offsets cancel exactly).
+fn sincos_const(a: f64) -> (Atom, Atom) {
+    let unit = std::f64::consts::PI / 6.0;
+    let m = a / unit;
+    if (m - m.round()).abs() < 1e-12 {
+        let i = (m.round() as i64).rem_euclid(12);
+        // sin(i·30°) for i = 0..11 in halves, and sqrt(3)/2 where needed.
+        let table: [(i64, bool); 12] = [
+            (0, false),
+            (1, false),
+            (1, true),
+            (2, false),
+            (1, true),
+            (1, false),
+            (0, false),
+            (-1, false),
+            (-1, true),
+            (-2, false),
+            (-1, true),
+            (-1, false),
+        ];
+        let val = |(h, r3): (i64, bool)| -> Atom {
+            if r3 {
+                Atom::num((h, 2)) * Atom::num(3).sqrt()
+            } else {
+                Atom::num((h, 2))
+            }
+        };
+        let s = val(table[i as usize]);
+        let c = val(table[((i + 3) % 12) as usize]);
+        return (s, c);
+    }
+    (rational(a.sin()), rational(a.cos()))
+}
+
+/// sin and cos of `Σ n_k q_k + θ0` by the angle-addition formulas.
+pub fn sincos(v: &Vars, joints: &[i64], offset: f64) -> (Atom, Atom) {
+    let (mut s, mut c) = sincos_const(offset);
+    for (k, &n) in joints.iter().enumerate() {
+        if n == 0 {
+            continue;
+        }
+        let (sk, ck) = sincos_multiple(v, k, n);
+        let s2 = &s * &ck + &c * &sk;
+        let c2 = &c * &ck - &s * &sk;
+        s = s2;
+        c = c2;
+    }
+    (reduce(&s, v), reduce(&c, v))
+}
+
+/// A model expression as an atom: joints become `Q{k}`, constants their (rational) values,
+/// inertial symbols `lockstep::u_<name>`.
+pub fn atom_of(e: &Expr, model: &Model, v: &Vars) -> Atom {
+    match e {
+        Expr::Num(x) => rational(*x),
+        Expr::Sym(s) if s == "pi" => rational(std::f64::consts::PI),
+        Expr::Sym(s) => {
+            if let Some(k) = model.joints.iter().position(|j| j == s) {
+                Atom::var(v.q[k])
+            } else if let Some(x) = model.constants.get(s) {
+                rational(*x)
+            } else {
+                Atom::var(user_symbol(s))
+            }
+        }
+        Expr::Add(a, b) => atom_of(a, model, v) + atom_of(b, model, v),
+        Expr::Sub(a, b) => atom_of(a, model, v) - atom_of(b, model, v),
+        Expr::Mul(a, b) => atom_of(a, model, v) * atom_of(b, model, v),
+        Expr::Div(a, b) => atom_of(a, model, v) / atom_of(b, model, v),
+        Expr::Pow(a, n) => atom_of(a, model, v).pow(Atom::num(*n as i64)),
+        Expr::Neg(a) => -atom_of(a, model, v),
+        Expr::Fun(f, a) => {
+            let x = atom_of(a, model, v);
+            match f {
+                Func::Sin => x.sin(),
+                Func::Cos => x.cos(),
+                Func::Sqrt => x.sqrt(),
+            }
+        }
+    }
+}
+
+/// The Symbolica symbol of a model-file inertial symbol.
+pub fn user_symbol(name: &str) -> Symbol {
+    symbol!(&format!("lockstep::u_{name}"))
+}
+
+/// Pose of a frame in frame 0: rotation R (3×3) and origin p (3), reduced polynomials.
+#[derive(Clone)]
+pub struct Pose {
+    /// Rotation matrix, `r[row][col]`.
+    pub r: [[Atom; 3]; 3],
+    /// Origin (m).
+    pub p: [Atom; 3],
+}
+
+impl Pose {
+    fn identity() -> Pose {
+        let one = |i: usize, j: usize| if i == j { Atom::num(1) } else { Atom::num(0) };
+        Pose {
+            r: std::array::from_fn(|i| std::array::from_fn(|j| one(i, j))),
+            p: std::array::from_fn(|_| Atom::num(0)),
+        }
+    }
+
+    /// `self · local`, reduced.
+    fn compose(&self, local: &Pose, v: &Vars) -> Pose {
+        let r = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                let mut acc = Atom::num(0);
+                for k in 0..3 {
+                    acc = acc + &self.r[i][k] * &local.r[k][j];
+                }
+                reduce(&acc, v)
+            })
+        });
+        let p = std::array::from_fn(|i| {
+            let mut acc = self.p[i].clone();
+            for k in 0..3 {
+                acc = acc + &self.r[i][k] * &local.p[k];
+            }
+            reduce(&acc, v)
+        });
+        Pose { r, p }
+    }
+}
+
+fn elementary(t: &Transform, model: &Model, v: &Vars) -> Pose {
+    let mut pose = Pose::identity();
+    match t {
+        Transform::Rot { axis, joints, offset } => {
+            let (s, c) = sincos(v, joints, *offset);
+            let (i, j) = match axis {
+                0 => (1, 2),
+                1 => (2, 0),
+                _ => (0, 1),
+            };
+            pose.r[i][i] = c.clone();
+            pose.r[j][j] = c;
+            pose.r[i][j] = -s.clone();
+            pose.r[j][i] = s;
+        }
+        Transform::Trans { axis, expr } => {
+            pose.p[*axis] = reduce(&atom_of(expr, model, v), v);
+        }
+    }
+    pose
+}
+
+/// Poses of every frame of the model in frame 0 (index as [`Model::frames`]).
+pub fn frame_poses(model: &Model, v: &Vars) -> Vec<Pose> {
+    let mut poses: Vec<Pose> = Vec::with_capacity(model.frames.len());
+    for f in &model.frames {
+        let mut pose = match f.parent {
+            None => Pose::identity(),
+            Some(p) => poses[p].clone(),
+        };
+        for t in &f.transforms {
+            pose = pose.compose(&elementary(t, model, v), v);
+        }
+        poses.push(pose);
+    }
+    poses
+}
+
+/// The barycentric parameters of the model: name, link, kind (0..10) and the expression in
+/// the model file's inertial symbols. Structurally zero ones are left out.
+pub struct Barycentric {
+    /// Parameter name (`M`-symbol or `M_<link>`, `MX_<link>`, `XX_<link>` …).
+    pub name: String,
+    /// Link index.
+    pub link: usize,
+    /// Kind index into `[M, MX, MY, MZ, XX, XY, XZ, YY, YZ, ZZ]`.
+    pub kind: usize,
+    /// Value in terms of the model file's symbols (parallel-axis theorem applied).
+    pub expr: Atom,
+}
+
+/// Barycentric parameters of every link (m, m·c, I about the frame origin).
+pub fn barycentric(model: &Model, v: &Vars) -> Vec<Barycentric> {
+    const KINDS: [&str; 10] = ["M", "MX", "MY", "MZ", "XX", "XY", "XZ", "YY", "YZ", "ZZ"];
+    let mut out = Vec::new();
+    for (li, l) in model.links.iter().enumerate() {
+        let m = atom_of(&l.mass, model, v);
+        let c: Vec<Atom> = l.com.iter().map(|e| atom_of(e, model, v)).collect();
+        let i: Vec<Atom> = l.inertia.iter().map(|e| atom_of(e, model, v)).collect();
+        let (x, y, z) = (&c[0], &c[1], &c[2]);
+        let exprs = [
+            m.clone(),
+            &m * x,
+            &m * y,
+            &m * z,
+            &i[0] + &m * (y * y + z * z),
+            &i[1] - &m * x * y,
+            &i[2] - &m * x * z,
+            &i[3] + &m * (x * x + z * z),
+            &i[4] - &m * y * z,
+            &i[5] + &m * (x * x + y * y),
+        ];
+        for (kind, e) in exprs.into_iter().enumerate() {
+            let e = e.expand();
+            if e.is_zero() {
+                continue;
+            }
+            let name = if kind == 0 {
+                match &l.mass {
+                    Expr::Sym(s) if !model.constants.contains_key(s) => s.clone(),
+                    _ => format!("M_{}", l.name),
+                }
+            } else {
+                format!("{}_{}", KINDS[kind], l.name)
+            };
+            out.push(Barycentric {
+                name,
+                link: li,
+                kind,
+                expr: e,
+            });
+        }
+    }
+    out
+}
+
+/// Per-parameter coefficient matrices of the full model:
+/// `d[j][a][b]` = ∂D_ab/∂p_j, `phi[j][a]` = ∂φ_a/∂p_j (reduced polynomials in S, C, Q).
+pub struct Coefficients {
+    /// Inertia-matrix coefficients, `NP × NJ × NJ`.
+    pub d: Vec<Vec<Vec<Atom>>>,
+    /// Gravity coefficients, `NP × NJ`.
+    pub phi: Vec<Vec<Atom>>,
+}
+
+/// Form D⁽ʲ⁾ and φ⁽ʲ⁾ for every barycentric parameter (thesis 3.2, 3.4) from the body-frame
+/// Jacobians of each link's frame: v_b = Rᵀ ∂p/∂q q̇, S(ω_b) = Rᵀ Ṙ.
+pub fn coefficients(model: &Model, v: &Vars, poses: &[Pose], params: &[Barycentric]) -> Coefficients {
+    let n = model.joints.len();
+    let zero = || Atom::num(0);
+    let mut d = vec![vec![vec![zero(); n]; n]; params.len()];
+    let mut phi = vec![vec![zero(); n]; params.len()];
+    let g: Vec<Atom> = model.gravity.iter().map(|&x| rational(x)).collect();
+    for (li, _) in model.links.iter().enumerate() {
+        let pose = &poses[model.links[li].frame];
+        // Derivatives of R and p by each joint.
+        let dr: Vec<[[Atom; 3]; 3]> = (0..n)
+            .map(|k| std::array::from_fn(|i| std::array::from_fn(|j| v.dq(&pose.r[i][j], k))))
+            .collect();
+        let dp: Vec<[Atom; 3]> = (0..n)
+            .map(|k| std::array::from_fn(|i| v.dq(&pose.p[i], k)))
+            .collect();
+        // Body-frame Jacobians: jv[x][k], jw[x][k].
+        let mut jv = vec![vec![zero(); n]; 3];
+        let mut jw = vec![vec![zero(); n]; 3];
+        for k in 0..n {
+            for x in 0..3 {
+                let mut acc = zero();
+                for m in 0..3 {
+                    acc = acc + &pose.r[m][x] * &dp[k][m];
+                }
+                jv[x][k] = reduce(&acc, v);
+            }
+            // S = Rᵀ dR; ω = (S21, S02, S10).
+            let s_entry = |a: usize, b: usize| {
+                let mut acc = zero();
+                for m in 0..3 {
+                    acc = acc + &pose.r[m][a] * &dr[k][m][b];
+                }
+                reduce(&acc, v)
+            };
+            jw[0][k] = s_entry(2, 1);
+            jw[1][k] = s_entry(0, 2);
+            jw[2][k] = s_entry(1, 0);
+        }
+        let cross = |a: &[Atom; 3], b: &[Atom; 3]| -> [Atom; 3] {
+            [
+                &a[1] * &b[2] - &a[2] * &b[1],
+                &a[2] * &b[0] - &a[0] * &b[2],
+                &a[0] * &b[1] - &a[1] * &b[0],
+            ]
+        };
+        let col = |j: &Vec<Vec<Atom>>, k: usize| -> [Atom; 3] {
+            [j[0][k].clone(), j[1][k].clone(), j[2][k].clone()]
+        };
+        for (pi, par) in params.iter().enumerate().filter(|(_, p)| p.link == li) {
+            for a in 0..n {
+                for b in a..n {
+                    let e = match par.kind {
+                        0 => (0..3).fold(zero(), |acc, x| acc + &jv[x][a] * &jv[x][b]),
+                        1..=3 => {
+                            let x = par.kind - 1;
+                            let c1 = cross(&col(&jv, a), &col(&jw, b));
+                            let c2 = cross(&col(&jv, b), &col(&jw, a));
+                            &c1[x] + &c2[x]
+                        }
+                        _ => {
+                            // Inertia entry (r, c) of the symmetric tensor.
+                            let (r, c) = match par.kind {
+                                4 => (0, 0),
+                                5 => (0, 1),
+                                6 => (0, 2),
+                                7 => (1, 1),
+                                8 => (1, 2),
+                                _ => (2, 2),
+                            };
+                            if r == c {
+                                &jw[r][a] * &jw[r][b]
+                            } else {
+                                &jw[r][a] * &jw[c][b] + &jw[c][a] * &jw[r][b]
+                            }
+                        }
+                    };
+                    let e = reduce(&e, v);
+                    d[pi][a][b] = e.clone();
+                    d[pi][b][a] = e;
+                }
+            }
+            // Potential V = −g·(m p + R h): φ_k = ∂V/∂q_k.
+            for k in 0..n {
+                let e = match par.kind {
+                    0 => (0..3).fold(zero(), |acc, x| acc - &g[x] * &dp[k][x]),
+                    1..=3 => {
+                        let x = par.kind - 1;
+                        (0..3).fold(zero(), |acc, m| acc - &g[m] * &dr[k][m][x])
+                    }
+                    _ => zero(),
+                };
+                phi[pi][k] = reduce(&e, v);
+            }
+        }
+    }
+    Coefficients { d, phi }
+}
+
+/// Christoffel coefficient Γ⁽ʲ⁾_{i,jj,k} = ½(∂d_kjj/∂q_i + ∂d_ki/∂q_jj − ∂d_ijj/∂q_k)
+/// for parameter `p` (thesis 3.3), with the derivatives memoised in `dd[p][a][b][i]`.
+pub fn christoffel(dd: &[Vec<Vec<Vec<Atom>>>], p: usize, i: usize, jj: usize, k: usize) -> Atom {
+    (&dd[p][k][jj][i] + &dd[p][k][i][jj] - &dd[p][i][jj][k]) * Atom::num((1, 2))
+}

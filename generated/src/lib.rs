@@ -1,0 +1,90 @@
+//! lockstep's dynamics kernels, generated at build time from `model/*.toml` by the
+//! symbolic generator (`lockstep-codegen`, Symbolica).
+//!
+//! For every model and every configuration (set of free joints F; locked joints have
+//! q̇ = q̈ = 0 and their positions are inputs) a module holds straight-line f64 functions:
+//!
+//! | function | shape | equation (thesis) |
+//! |---|---|---|
+//! | `mass_matrix(q, p)` | `[[f64; NF]; NF]` | D_FF(q) (3.2) |
+//! | `christoffel_matrix(q, qd, p)` | `[[f64; NF]; NF]` | C_FF(q, q̇) (3.3) |
+//! | `coriolis(q, qd, p)` | `[f64; NF]` | C_FF q̇_F |
+//! | `gravity(q, p)` | `[f64; NF]` | φ_F(q) (3.4) |
+//! | `inverse_dynamics(q, qd, qdd, p)` | `[f64; NF]` | τ_F = D q̈ + C q̇ + φ (3.5) |
+//! | `forward_dynamics(q, qd, tau, p)` | `[f64; NF]` | q̈_F = D⁻¹(τ − C q̇ − φ) (Cholesky) |
+//! | `regressor(q, qd, qdd)` | `[[f64; NP]; NF]` | τ_F = Y_F p |
+//!
+//! `q` is the full joint vector `[f64; NJ]` (rad or m); `qd`, `qdd`, `tau` hold the free
+//! joints only, in ascending joint order; `p` is the barycentric parameter vector
+//! `[f64; NP]` of the model (per link: mass m (kg), first moments m·c (kg·m), inertia about
+//! the link-frame origin (kg·m²)), named in [`Model::params`].
+//!
+//! The [`Model`] table gives the same kernels behind slices for code that picks a model and a
+//! configuration at run time.
+
+#![allow(clippy::all, clippy::pedantic)]
+#![allow(unused_variables, unused_mut, non_snake_case)]
+
+pub mod inertia;
+
+/// Kernels of one configuration behind slices (row-major matrices).
+#[derive(Debug, Clone, Copy)]
+pub struct Configuration {
+    /// Name (`full`, `c1`, `k3`, …).
+    pub name: &'static str,
+    /// Free joint indices, ascending.
+    pub free: &'static [usize],
+    /// Indices of the barycentric parameters that appear in this configuration's equations.
+    pub params_present: &'static [usize],
+    /// D_FF: `(q[NJ], p[NP], out[NF·NF])`.
+    pub mass_matrix: fn(&[f64], &[f64], &mut [f64]),
+    /// C_FF: `(q[NJ], qd[NF], p[NP], out[NF·NF])`.
+    pub christoffel_matrix: fn(&[f64], &[f64], &[f64], &mut [f64]),
+    /// φ_F: `(q[NJ], p[NP], out[NF])`.
+    pub gravity: fn(&[f64], &[f64], &mut [f64]),
+    /// τ_F: `(q[NJ], qd[NF], qdd[NF], p[NP], out[NF])`.
+    pub inverse_dynamics: fn(&[f64], &[f64], &[f64], &[f64], &mut [f64]),
+    /// q̈_F: `(q[NJ], qd[NF], tau[NF], p[NP], out[NF])`.
+    pub forward_dynamics: fn(&[f64], &[f64], &[f64], &[f64], &mut [f64]),
+    /// Y_F: `(q[NJ], qd[NF], qdd[NF], out[NF·NP])`.
+    pub regressor: fn(&[f64], &[f64], &[f64], &mut [f64]),
+}
+
+/// A generated model.
+#[derive(Debug, Clone, Copy)]
+pub struct Model {
+    /// Model name (the `[robot] name` of its file).
+    pub name: &'static str,
+    /// Joint variable names (NJ).
+    pub joints: &'static [&'static str],
+    /// Barycentric parameter names (NP).
+    pub params: &'static [&'static str],
+    /// Link of each barycentric parameter (index into [`Model::links`]).
+    pub param_link: &'static [usize],
+    /// Kind of each barycentric parameter: index into [`inertia::BARYCENTRIC_KINDS`]
+    /// (0 = m, 1..=3 = m·c, 4..=9 = inertia about the frame origin).
+    pub param_kind: &'static [usize],
+    /// Link names.
+    pub links: &'static [&'static str],
+    /// Inertial symbols of the model file (thesis form: m, centroid, inertia about it).
+    pub inertial_symbols: &'static [&'static str],
+    /// Barycentric parameters from the model file's inertial symbols:
+    /// `(symbols[NI], out[NP])`.
+    pub barycentric_from_symbols: fn(&[f64], &mut [f64]),
+    /// Configurations.
+    pub configurations: &'static [Configuration],
+}
+
+impl Model {
+    /// Configuration by name.
+    pub fn configuration(&self, name: &str) -> Option<&'static Configuration> {
+        self.configurations.iter().find(|c| c.name == name)
+    }
+}
+
+include!(concat!(env!("OUT_DIR"), "/models.rs"));
+
+/// Model by name.
+pub fn model(name: &str) -> Option<&'static Model> {
+    MODELS.iter().copied().find(|m| m.name == name)
+}
