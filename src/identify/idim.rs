@@ -1,0 +1,316 @@
+//! IDIM-LS: inverse dynamic identification model, least squares (Gautier; the EMPS
+//! benchmark's reference method).
+//!
+//! 1. Low-pass the measured positions forward and backward (4th-order Butterworth, cut-off
+//!    100 Hz by default: zero phase).
+//! 2. Velocities and accelerations by central differences of the filtered positions; the
+//!    two samples at each end, where they are not defined, are left out.
+//! 3. Build the observation y (measured torque or force) and the regressor W: the rigid-body
+//!    regressor Y_F(q, q̇, q̈) of the generated kernels, then one column per effect parameter.
+//! 4. Parallel decimation: y and every column of W through MATLAB's `decimate` (×10 by
+//!    default), which removes the high-frequency torque ripple without distorting the
+//!    linear relation y = W θ.
+//! 5. θ̂ = argmin ‖y − Wθ‖ (SVD), σ̂² = ‖y − Wθ̂‖²/(r − p), cov(θ̂) = σ̂² (WᵀW)⁻¹.
+
+use crate::measurement::Measurement;
+use crate::plant::Plant;
+use crate::signal::{butter_lowpass, central_difference, decimate, decimation_indices};
+use anyhow::{bail, Context, Result};
+use nalgebra::{DMatrix, DVector};
+
+/// Samples dropped at each end of a record: the double central difference (q̈) is defined
+/// from the third sample to the third last.
+const EDGE: usize = 2;
+
+/// Data-preparation settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IdimOptions {
+    /// Cut-off of the zero-phase Butterworth on positions (Hz).
+    pub cutoff_hz: f64,
+    /// Order of that Butterworth.
+    pub filter_order: usize,
+    /// Parallel decimation factor (1 = none).
+    pub decimation: usize,
+}
+
+impl Default for IdimOptions {
+    /// The EMPS benchmark's settings: 4th order, 100 Hz, decimation ×10.
+    fn default() -> Self {
+        IdimOptions {
+            cutoff_hz: 100.0,
+            filter_order: 4,
+            decimation: 10,
+        }
+    }
+}
+
+/// The prepared linear system of one or more records, after decimation.
+#[derive(Debug, Clone)]
+pub struct Observation {
+    /// Column (parameter) names.
+    pub names: Vec<String>,
+    /// Observation vector y (N·m or N), rows stacked record by record and joint by joint.
+    pub y: DVector<f64>,
+    /// Regressor W, rows × parameters.
+    pub w: DMatrix<f64>,
+    /// Per row: time (s), joint index, filtered q, q̇, q̈ at the decimated instants.
+    pub rows: Vec<RowInfo>,
+}
+
+/// What one observation row is.
+#[derive(Debug, Clone, Copy)]
+pub struct RowInfo {
+    /// Record index (order of the files given).
+    pub record: usize,
+    /// Time (s).
+    pub t: f64,
+    /// Joint index in the model.
+    pub joint: usize,
+    /// Filtered position (rad or m).
+    pub q: f64,
+    /// Velocity (rad/s or m/s).
+    pub qd: f64,
+    /// Acceleration (rad/s² or m/s²).
+    pub qdd: f64,
+}
+
+/// Build the decimated observation of `plant` on `records`, configuration `config`.
+///
+/// # Errors
+/// Unknown configuration; a record too short for the filters; a record with fewer joints
+/// than the model; a cut-off at or above the Nyquist frequency.
+pub fn observation(
+    plant: &Plant,
+    config: &str,
+    records: &[Measurement],
+    opts: &IdimOptions,
+) -> Result<Observation> {
+    let model = plant.model;
+    let conf = model.configuration(config).with_context(|| {
+        format!(
+            "model '{}' has no configuration '{config}' (it has: {})",
+            model.name,
+            model.configurations.iter().map(|c| c.name).collect::<Vec<_>>().join(", ")
+        )
+    })?;
+    let nj = model.joints.len();
+    let nf = conf.free.len();
+    let np = model.params.len();
+    // Columns: rigid-body parameters present in this configuration, then effects on free joints.
+    let mut names: Vec<String> = conf.params_present.iter().map(|&j| model.params[j].to_string()).collect();
+    let effects: Vec<_> = plant.effects.iter().filter(|e| conf.free.contains(&e.joint)).collect();
+    for e in &effects {
+        names.extend(e.parameter_names());
+    }
+    let ncol = names.len();
+    let mut y_all: Vec<f64> = Vec::new();
+    let mut w_cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
+    let mut rows = Vec::new();
+    for (ri, m) in records.iter().enumerate() {
+        if m.q.len() < nj {
+            bail!("{}: has {} joints, model '{}' needs {nj}", m.file.display(), m.q.len(), model.name);
+        }
+        let dt = m.dt();
+        let fs = 1.0 / dt;
+        if opts.cutoff_hz <= 0.0 || opts.cutoff_hz >= fs / 2.0 {
+            bail!(
+                "{}: filter cut-off {} Hz must lie between 0 and the Nyquist frequency {} Hz",
+                m.file.display(),
+                opts.cutoff_hz,
+                fs / 2.0
+            );
+        }
+        let bw = butter_lowpass(opts.filter_order, opts.cutoff_hz / (fs / 2.0));
+        let n = m.len();
+        if n <= 2 * EDGE + 3 * 8 * opts.decimation.max(1) {
+            bail!(
+                "{}: too few samples ({n}) for the filters and decimation ×{} (need more than {})",
+                m.file.display(),
+                opts.decimation,
+                2 * EDGE + 3 * 8 * opts.decimation.max(1)
+            );
+        }
+        let too_short = || {
+            anyhow::anyhow!(
+                "{}: too few samples ({n}) for the filters (need more than {})",
+                m.file.display(),
+                3 * 8 * opts.decimation.max(1)
+            )
+        };
+        // Filtered q of every joint (locked ones too: their positions enter the kernels).
+        let qf: Vec<Vec<f64>> = (0..nj).map(|j| bw.filtfilt(&m.q[j]).ok_or_else(too_short)).collect::<Result<_>>()?;
+        let qd: Vec<Vec<f64>> = conf.free.iter().map(|&j| central_difference(&qf[j], dt)).collect();
+        let qdd: Vec<Vec<f64>> = qd.iter().map(|v| central_difference(v, dt)).collect();
+        // Rows of this record: for each free joint a, interior sample k ∈ [2, n − 3] (where
+        // both central differences are defined; the end values are one-sided).
+        let interior: Vec<usize> = (EDGE..n - EDGE).collect();
+        let ni = interior.len();
+        let mut yr = vec![vec![0.0; ni]; nf];
+        let mut wr = vec![vec![vec![0.0; ni]; ncol]; nf];
+        let mut yk = vec![0.0; nf * np];
+        let mut qk = vec![0.0; nj];
+        let mut qdk = vec![0.0; nf];
+        let mut qddk = vec![0.0; nf];
+        for (r, &k) in interior.iter().enumerate() {
+            for j in 0..nj {
+                qk[j] = qf[j][k];
+            }
+            for a in 0..nf {
+                qdk[a] = qd[a][k];
+                qddk[a] = qdd[a][k];
+            }
+            (conf.regressor)(&qk, &qdk, &qddk, &mut yk);
+            for a in 0..nf {
+                yr[a][r] = m.tau[conf.free[a]][k];
+                let mut c = 0;
+                for &j in conf.params_present {
+                    wr[a][c][r] = yk[a * np + j];
+                    c += 1;
+                }
+                for e in &effects {
+                    let vals = if e.joint == conf.free[a] { e.kind.regressor(qd[a][k]) } else { vec![0.0; e.kind.symbols().len()] };
+                    for v in vals {
+                        wr[a][c][r] = v;
+                        c += 1;
+                    }
+                }
+            }
+        }
+        // Parallel decimation.
+        let idx: Vec<usize> = decimation_indices(ni, opts.decimation.max(1)).map(|i| interior[i]).collect();
+        for a in 0..nf {
+            let yd = decimate(&yr[a], opts.decimation).ok_or_else(too_short)?;
+            y_all.extend_from_slice(&yd);
+            for c in 0..ncol {
+                let wd = decimate(&wr[a][c], opts.decimation).ok_or_else(too_short)?;
+                w_cols[c].extend_from_slice(&wd);
+            }
+            for &k in &idx {
+                rows.push(RowInfo {
+                    record: ri,
+                    t: m.t[k],
+                    joint: conf.free[a],
+                    q: qf[conf.free[a]][k],
+                    qd: qd[a][k],
+                    qdd: qdd[a][k],
+                });
+            }
+        }
+    }
+    let r = y_all.len();
+    let w = DMatrix::from_fn(r, ncol, |i, c| w_cols[c][i]);
+    Ok(Observation {
+        names,
+        y: DVector::from_vec(y_all),
+        w,
+        rows,
+    })
+}
+
+/// Result of a least-squares fit.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// Parameter names.
+    pub names: Vec<String>,
+    /// Estimates θ̂ (SI).
+    pub theta: Vec<f64>,
+    /// Standard deviations σ_θ̂ (SI).
+    pub std: Vec<f64>,
+    /// Condition number of W (2-norm).
+    pub condition: f64,
+    /// Number of rows.
+    pub rows: usize,
+    /// Relative error 100·‖y − Wθ̂‖/‖y‖ (%).
+    pub relative_error: f64,
+}
+
+impl Fit {
+    /// Relative standard deviation 100·σ/|θ| (%).
+    pub fn relative_std(&self, i: usize) -> f64 {
+        100.0 * self.std[i] / self.theta[i].abs()
+    }
+
+    /// Value by name.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.names.iter().position(|n| n == name).map(|i| self.theta[i])
+    }
+}
+
+/// Ordinary least squares on an observation.
+///
+/// # Errors
+/// Fewer rows than parameters, or W rank-deficient (names the columns that are not
+/// separately identifiable).
+pub fn least_squares(obs: &Observation) -> Result<Fit> {
+    let (r, p) = obs.w.shape();
+    if r <= p {
+        bail!("{r} observation rows for {p} parameters: more data needed");
+    }
+    // Scale columns to unit norm for a meaningful rank test.
+    let scale: Vec<f64> = (0..p).map(|c| obs.w.column(c).norm().max(f64::MIN_POSITIVE)).collect();
+    let ws = DMatrix::from_fn(r, p, |i, c| obs.w[(i, c)] / scale[c]);
+    let svd = ws.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    let smin = svd.singular_values.min();
+    if smin <= 1e-10 * smax {
+        // The right singular vector of the smallest singular value names the dependency.
+        let k = svd.singular_values.imin();
+        let v_t = svd.v_t.as_ref().expect("computed");
+        let dep: Vec<String> = (0..p)
+            .filter(|&c| v_t[(k, c)].abs() > 0.1)
+            .map(|c| obs.names[c].clone())
+            .collect();
+        bail!(
+            "the regressor is rank-deficient: {} are not separately identifiable from these data",
+            dep.join(", ")
+        );
+    }
+    let sol = svd.solve(&obs.y, 0.0).map_err(|e| anyhow::anyhow!("least squares: {e}"))?;
+    let theta: Vec<f64> = (0..p).map(|c| sol[c] / scale[c]).collect();
+    let th = DVector::from_vec(theta.clone());
+    let resid = &obs.y - &obs.w * &th;
+    let sigma2 = resid.norm_squared() / (r - p) as f64;
+    let wtw = obs.w.transpose() * &obs.w;
+    let cov = wtw
+        .try_inverse()
+        .context("WᵀW is singular")?
+        * sigma2;
+    let std = (0..p).map(|i| cov[(i, i)].max(0.0).sqrt()).collect();
+    let condition = {
+        let s = obs.w.clone().singular_values();
+        s.max() / s.min()
+    };
+    Ok(Fit {
+        names: obs.names.clone(),
+        theta,
+        std,
+        condition,
+        rows: r,
+        relative_error: 100.0 * resid.norm() / obs.y.norm(),
+    })
+}
+
+/// The model's prediction Wθ for the observation with the plant's parameter values.
+///
+/// # Errors
+/// A parameter of the observation has no value in the plant.
+pub fn predict(plant: &Plant, obs: &Observation) -> Result<DVector<f64>> {
+    let theta: Vec<f64> = obs
+        .names
+        .iter()
+        .map(|n| {
+            plant.parameters.get(n).copied().with_context(|| {
+                format!(
+                    "{}: parameter '{n}' has no value (identify first, or add it under [parameters])",
+                    plant.file.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "plant".into())
+                )
+            })
+        })
+        .collect::<Result<_>>()?;
+    Ok(&obs.w * DVector::from_vec(theta))
+}
+
+/// Relative error 100·‖y − ŷ‖/‖y‖ (%).
+pub fn relative_error(y: &DVector<f64>, yhat: &DVector<f64>) -> f64 {
+    100.0 * (y - yhat).norm() / y.norm()
+}
