@@ -1,7 +1,14 @@
 //! lockstep runtime: plant, simulation, identification, diagnosis, control, reporting.
+//!
+//! The dynamics kernels come from the `generated` crate (built from `model/*.toml` by the
+//! symbolic generator); this crate never depends on Symbolica.
+pub mod cli;
+pub mod compare;
+pub mod demo;
 pub mod effects;
 pub mod identify;
 pub mod measurement;
 pub mod plant;
+pub mod report;
 pub mod signal;
 pub mod util;

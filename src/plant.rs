@@ -97,7 +97,7 @@ impl Plant {
         let spec: PlantFile = toml::from_str(&text).map_err(|e| {
             let line = e
                 .span()
-                .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
             anyhow::anyhow!(
                 "{}{}: {}",
                 path.display(),

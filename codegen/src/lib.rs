@@ -79,5 +79,10 @@ pub fn models_index(names: &[String]) -> String {
         s.push_str(&format!("&{n}::MODEL, "));
     }
     s.push_str("];\n");
+    s.push_str("/// The emitted source of every model module (for review and snapshot tests).\npub static SOURCES: &[(&str, &str)] = &[");
+    for n in names {
+        s.push_str(&format!("(\"{n}\", include_str!(concat!(env!(\"OUT_DIR\"), \"/{n}.rs\"))), "));
+    }
+    s.push_str("];\n");
     s
 }

@@ -347,7 +347,7 @@ impl Model {
             let msg = e.message().to_string();
             let line = e
                 .span()
-                .map(|s| text[..s.start.min(text.len())].lines().count().max(1));
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
             err(
                 &line.map(|l| format!("line {l}")).unwrap_or_default(),
                 msg.replace('`', "'"),

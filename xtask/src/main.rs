@@ -1,1 +1,76 @@
-fn main() {}
+//! `cargo xtask gen --model NAME [--config NAME]`: regenerate kernels by hand and print
+//! what was written, the operation counts and the generation time.
+//!
+//! `cargo build` regenerates the kernels by itself (generated/build.rs) whenever a model or
+//! the generator changes; this command is for inspecting one model or configuration.
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::time::Instant;
+
+#[derive(Parser)]
+#[command(name = "xtask")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Generate the kernels of one model (all configurations, or one).
+    Gen {
+        /// Model name (file model/<name>.toml).
+        #[arg(long, default_value = "emps")]
+        model: String,
+        /// Only this configuration (name or 1-based index).
+        #[arg(long)]
+        config: Option<String>,
+        /// Output directory.
+        #[arg(long, default_value = "target/xtask-gen")]
+        out: PathBuf,
+    },
+}
+
+fn main() -> Result<()> {
+    let Cli { cmd: Cmd::Gen { model, config, out } } = Cli::parse();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let file = root.join("model").join(format!("{model}.toml"));
+    if !file.exists() {
+        bail!("{}: no such model file", file.display());
+    }
+    let m = codegen::load(&file)?;
+    let only = match &config {
+        None => None,
+        Some(c) => {
+            let name = match c.parse::<usize>() {
+                Ok(i) if i >= 1 && i <= m.configurations.len() => {
+                    // A number names a configuration of the first sequence, or the i-th one.
+                    match m.sequences.first() {
+                        Some((_, steps)) if i <= steps.len() => m.configurations[steps[i - 1]].name.clone(),
+                        _ => m.configurations[i - 1].name.clone(),
+                    }
+                }
+                _ => c.clone(),
+            };
+            Some(vec![name])
+        }
+    };
+    let t0 = Instant::now();
+    let g = codegen::generate::generate(&m, only.as_deref()).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let secs = t0.elapsed().as_secs_f64();
+    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+    let suffix = only.as_ref().map(|o| format!("_{}", o[0])).unwrap_or_default();
+    let path = out.join(format!("{}{suffix}.rs", m.name));
+    codegen::write_if_changed(&path, &g.source)?;
+    eprintln!("model {} ({}): symbolic model {:.2} s", m.name, file.display(), g.model_seconds);
+    for c in &g.configs {
+        let total: usize = c.ops.iter().map(|(_, o)| o.total()).sum();
+        eprintln!("  configuration {} (free {}): {} operations, {:.2} s", c.name, c.free.join(", "), total, c.seconds);
+        for (k, o) in &c.ops {
+            eprintln!("    {k:<20} {:>6} add {:>6} mul {:>4} other", o.add, o.mul, o.other);
+        }
+    }
+    eprintln!("wrote {} in {secs:.2} s", path.display());
+    Ok(())
+}

@@ -1,0 +1,23 @@
+//! Reporting: tables for the terminal and Markdown, figures ([`plot`]).
+pub mod plot;
+
+use crate::identify::idim::Fit;
+
+/// The parameter table of a least-squares fit: name, value, σ, relative σ.
+pub fn fit_table(fit: &Fit) -> String {
+    let mut s = format!("{:<12} {:>14} {:>12} {:>8}\n", "parameter", "value", "std dev", "rel %");
+    for i in 0..fit.names.len() {
+        s.push_str(&format!(
+            "{:<12} {:>14.6} {:>12.4e} {:>8.3}\n",
+            fit.names[i],
+            fit.theta[i],
+            fit.std[i],
+            fit.relative_std(i)
+        ));
+    }
+    s.push_str(&format!(
+        "rows {}, condition number {:.2}, relative error {:.3} %\n",
+        fit.rows, fit.condition, fit.relative_error
+    ));
+    s
+}

@@ -1,0 +1,159 @@
+//! Figures as SVG and PNG (plotters; the PNG font is embedded, no system libraries).
+//!
+//! A figure is a vertical stack of panels; each panel has lines and point clouds. Both files
+//! are written through a temporary file and a rename, so no half-written figure is left.
+
+use anyhow::{anyhow, Context, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+
+fn register_font() {
+    REGISTER.call_once(|| {
+        // Only fails when the bytes are not a font, which the embedded file is.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Style {
+    /// A polyline.
+    Line,
+    /// Small dots (for scatter plots such as residual vs velocity).
+    Points,
+}
+
+/// One data series.
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Legend text.
+    pub name: String,
+    /// Abscissae.
+    pub x: Vec<f64>,
+    /// Ordinates.
+    pub y: Vec<f64>,
+    /// Drawing style.
+    pub style: Style,
+}
+
+/// One panel (axes) of a figure.
+#[derive(Debug, Clone)]
+pub struct Panel {
+    /// Title above the axes.
+    pub title: String,
+    /// Label of the x axis (with unit).
+    pub x_label: String,
+    /// Label of the y axis (with unit).
+    pub y_label: String,
+    /// Series, drawn in order.
+    pub series: Vec<Series>,
+}
+
+const COLORS: [RGBColor; 5] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+];
+
+fn range(vals: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in vals.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (-1.0, 1.0);
+    }
+    if hi - lo < 1e-12 * (1.0 + hi.abs()) {
+        return (lo - 1.0, hi + 1.0);
+    }
+    let pad = 0.04 * (hi - lo);
+    (lo - pad, hi + pad)
+}
+
+fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, panels: &[Panel]) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| anyhow!("{e:?}"))?;
+    let areas = root.split_evenly((panels.len(), 1));
+    for (panel, area) in panels.iter().zip(areas) {
+        let (x0, x1) = range(panel.series.iter().flat_map(|s| s.x.iter().copied()));
+        let (y0, y1) = range(panel.series.iter().flat_map(|s| s.y.iter().copied()));
+        let mut chart = ChartBuilder::on(&area)
+            .caption(&panel.title, ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(38)
+            .y_label_area_size(62)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| anyhow!("{e:?}"))?;
+        chart
+            .configure_mesh()
+            .x_desc(&panel.x_label)
+            .y_desc(&panel.y_label)
+            .label_style(("sans-serif", 13))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(|e| anyhow!("{e:?}"))?;
+        for (i, s) in panel.series.iter().enumerate() {
+            let color = COLORS[i % COLORS.len()];
+            let pts = s.x.iter().copied().zip(s.y.iter().copied()).filter(|(a, b)| a.is_finite() && b.is_finite());
+            let anno = match s.style {
+                Style::Line => chart
+                    .draw_series(LineSeries::new(pts, color.stroke_width(1)))
+                    .map_err(|e| anyhow!("{e:?}"))?,
+                Style::Points => chart
+                    .draw_series(pts.map(|p| Circle::new(p, 1, color.filled())))
+                    .map_err(|e| anyhow!("{e:?}"))?,
+            };
+            anno.label(s.name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 13))
+            .draw()
+            .map_err(|e| anyhow!("{e:?}"))?;
+    }
+    root.present().map_err(|e| anyhow!("{e:?}"))?;
+    Ok(())
+}
+
+/// Write `<stem>.svg` and `<stem>.png` (width × 300 px per panel) and return both paths.
+///
+/// # Errors
+/// The directory cannot be created or a file cannot be written (named).
+pub fn figure(stem: &Path, panels: &[Panel], width: u32) -> Result<[PathBuf; 2]> {
+    register_font();
+    let height = 300 * panels.len().max(1) as u32;
+    let svg_path = stem.with_extension("svg");
+    let mut svg = String::new();
+    draw(SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area(), panels)
+        .with_context(|| format!("drawing {}", svg_path.display()))?;
+    crate::util::write_atomic(&svg_path, svg.as_bytes())?;
+    let png_path = stem.with_extension("png");
+    let dir = png_path.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let tmp = dir.join(format!(
+        ".{}.tmp{}.png",
+        png_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+        std::process::id()
+    ));
+    let res = draw(BitMapBackend::new(&tmp, (width, height)).into_drawing_area(), panels)
+        .with_context(|| format!("drawing {}", png_path.display()))
+        .and_then(|_| std::fs::rename(&tmp, &png_path).with_context(|| format!("cannot write {}", png_path.display())));
+    if res.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    res?;
+    Ok([svg_path, png_path])
+}
