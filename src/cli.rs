@@ -76,14 +76,26 @@ impl Common {
     fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
         let plant = Plant::load(&self.plant)?;
         let nj = plant.model.joints.len();
-        let records = self.data.iter().map(|d| Measurement::read_csv(d, nj)).collect::<Result<Vec<_>, _>>()?;
+        let records = self
+            .data
+            .iter()
+            .map(|d| Measurement::read_csv(d, nj))
+            .collect::<Result<Vec<_>, _>>()?;
         if self.order == 0 || self.order > 12 {
             bail!("--order: expected 1 to 12, got {}", self.order);
         }
         if self.decimate == 0 {
             bail!("--decimate: expected 1 or more");
         }
-        Ok((plant, records, IdimOptions { cutoff_hz: self.cutoff, filter_order: self.order, decimation: self.decimate }))
+        Ok((
+            plant,
+            records,
+            IdimOptions {
+                cutoff_hz: self.cutoff,
+                filter_order: self.order,
+                decimation: self.decimate,
+            },
+        ))
     }
 }
 
@@ -101,7 +113,12 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Identify { common, out } => {
             let (mut plant, records, opts) = common.load()?;
             let fit = least_squares(&observation(&plant, &common.config, &records, &opts)?)?;
-            println!("IDIM-LS, plant {}, configuration {}, {} record(s)", common.plant.display(), common.config, records.len());
+            println!(
+                "IDIM-LS, plant {}, configuration {}, {} record(s)",
+                common.plant.display(),
+                common.config,
+                records.len()
+            );
             print!("{}", fit_table(&fit));
             if let Some(out) = out {
                 for (n, v) in fit.names.iter().zip(&fit.theta) {
@@ -114,15 +131,28 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Compare { common, out } => {
             let (plant, records, opts) = common.load()?;
             let cmps = compare_torque(&plant, &common.config, &records, &opts)?;
-            println!("{:<28} {:<6} {:>10} {:>12} {:>12} {:>10} {:>12}", "record", "joint", "error %", "RMSE", "max |e|", "at t (s)", "at qd");
+            println!(
+                "{:<28} {:<6} {:>10} {:>12} {:>12} {:>10} {:>12}",
+                "record", "joint", "error %", "RMSE", "max |e|", "at t (s)", "at qd"
+            );
             for c in &cmps {
-                let stem = c.file.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+                let stem = c
+                    .file
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
                 let base = out.join(format!("{stem}_{}", c.joint));
                 write_residual_csv(&base.with_extension("csv"), c)?;
                 plot(&base, c, &stem)?;
                 println!(
                     "{:<28} {:<6} {:>10.3} {:>12.4e} {:>12.4e} {:>10.3} {:>12.4e}",
-                    stem, c.joint, c.relative_error, c.rmse, c.max_error.0.abs(), c.max_error.1, c.max_error.2
+                    stem,
+                    c.joint,
+                    c.relative_error,
+                    c.rmse,
+                    c.max_error.0.abs(),
+                    c.max_error.1,
+                    c.max_error.2
                 );
                 let (a, b) = c.sign_step;
                 println!("    residual ~ a*sign(qd) + b + c*qd: a = {a:.4}, b = {b:.4} (a step of 2a at qd = 0 means missing Coulomb friction; b, an offset)");
@@ -131,10 +161,21 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         Command::Models => {
             for m in generated::MODELS {
-                println!("{}: joints {}; {} barycentric parameters ({})", m.name, m.joints.join(", "), m.params.len(), m.params.join(", "));
+                println!(
+                    "{}: joints {}; {} barycentric parameters ({})",
+                    m.name,
+                    m.joints.join(", "),
+                    m.params.len(),
+                    m.params.join(", ")
+                );
                 for c in m.configurations {
                     let free: Vec<&str> = c.free.iter().map(|&j| m.joints[j]).collect();
-                    println!("  configuration {}: free {}; parameters present {}", c.name, free.join(", "), c.params_present.len());
+                    println!(
+                        "  configuration {}: free {}; parameters present {}",
+                        c.name,
+                        free.join(", "),
+                        c.params_present.len()
+                    );
                 }
             }
         }

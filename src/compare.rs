@@ -51,7 +51,12 @@ impl Comparison {
 /// # Errors
 /// As [`observation`] and [`predict`]: unknown configuration, a record too short, a
 /// parameter without value.
-pub fn compare_torque(plant: &Plant, config: &str, records: &[Measurement], opts: &IdimOptions) -> Result<Vec<Comparison>> {
+pub fn compare_torque(
+    plant: &Plant,
+    config: &str,
+    records: &[Measurement],
+    opts: &IdimOptions,
+) -> Result<Vec<Comparison>> {
     let mut out = Vec::new();
     for m in records {
         let obs = observation(plant, config, std::slice::from_ref(m), opts)?;
@@ -62,7 +67,9 @@ pub fn compare_torque(plant: &Plant, config: &str, records: &[Measurement], opts
             v
         };
         for j in joints {
-            let idx: Vec<usize> = (0..obs.rows.len()).filter(|&i| obs.rows[i].joint == j).collect();
+            let idx: Vec<usize> = (0..obs.rows.len())
+                .filter(|&i| obs.rows[i].joint == j)
+                .collect();
             let y: Vec<f64> = idx.iter().map(|&i| obs.y[i]).collect();
             let yh: Vec<f64> = idx.iter().map(|&i| yhat[i]).collect();
             let t: Vec<f64> = idx.iter().map(|&i| obs.rows[i].t).collect();
@@ -70,7 +77,9 @@ pub fn compare_torque(plant: &Plant, config: &str, records: &[Measurement], opts
             let q: Vec<f64> = idx.iter().map(|&i| obs.rows[i].q).collect();
             let e: Vec<f64> = y.iter().zip(&yh).map(|(a, b)| a - b).collect();
             let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-            let imax = (0..e.len()).max_by(|&a, &b| e[a].abs().total_cmp(&e[b].abs())).unwrap_or(0);
+            let imax = (0..e.len())
+                .max_by(|&a, &b| e[a].abs().total_cmp(&e[b].abs()))
+                .unwrap_or(0);
             out.push(Comparison {
                 file: m.file.clone(),
                 joint: plant.model.joints[j].to_string(),
@@ -93,7 +102,15 @@ pub fn compare_torque(plant: &Plant, config: &str, records: &[Measurement], opts
 /// at zero velocity show even when a fitted viscous coefficient has absorbed part of it.
 fn sign_fit(e: &[f64], qd: &[f64]) -> (f64, f64) {
     let n = e.len();
-    let sign = |v: f64| if v > 0.0 { 1.0 } else if v < 0.0 { -1.0 } else { 0.0 };
+    let sign = |v: f64| {
+        if v > 0.0 {
+            1.0
+        } else if v < 0.0 {
+            -1.0
+        } else {
+            0.0
+        }
+    };
     let a = nalgebra::DMatrix::from_fn(n, 3, |i, c| match c {
         0 => sign(qd[i]),
         1 => 1.0,
@@ -114,7 +131,16 @@ pub fn write_residual_csv(path: &Path, c: &Comparison) -> Result<()> {
     write_atomic_with(path, |w| {
         writeln!(w, "t,q,qd,y,yhat,residual")?;
         for i in 0..c.t.len() {
-            writeln!(w, "{},{},{},{},{},{}", c.t[i], c.q[i], c.qd[i], c.y[i], c.yhat[i], c.y[i] - c.yhat[i])?;
+            writeln!(
+                w,
+                "{},{},{},{},{},{}",
+                c.t[i],
+                c.q[i],
+                c.qd[i],
+                c.y[i],
+                c.yhat[i],
+                c.y[i] - c.yhat[i]
+            )?;
         }
         Ok(())
     })
@@ -131,25 +157,48 @@ pub fn plot(stem: &Path, c: &Comparison, title: &str) -> Result<[PathBuf; 2]> {
         stem,
         &[
             Panel {
-                title: format!("{title}: measured vs model ({}, error {:.2} %)", c.joint, c.relative_error),
+                title: format!(
+                    "{title}: measured vs model ({}, error {:.2} %)",
+                    c.joint, c.relative_error
+                ),
                 x_label: "t (s)".into(),
                 y_label: format!("torque ({unit})"),
                 series: vec![
-                    Series { name: "measured".into(), x: c.t.clone(), y: c.y.clone(), style: Style::Line },
-                    Series { name: "model".into(), x: c.t.clone(), y: c.yhat.clone(), style: Style::Line },
+                    Series {
+                        name: "measured".into(),
+                        x: c.t.clone(),
+                        y: c.y.clone(),
+                        style: Style::Line,
+                    },
+                    Series {
+                        name: "model".into(),
+                        x: c.t.clone(),
+                        y: c.yhat.clone(),
+                        style: Style::Line,
+                    },
                 ],
             },
             Panel {
                 title: "residual vs time".into(),
                 x_label: "t (s)".into(),
                 y_label: format!("residual ({unit})"),
-                series: vec![Series { name: "y − ŷ".into(), x: c.t.clone(), y: e.clone(), style: Style::Line }],
+                series: vec![Series {
+                    name: "y − ŷ".into(),
+                    x: c.t.clone(),
+                    y: e.clone(),
+                    style: Style::Line,
+                }],
             },
             Panel {
                 title: "residual vs velocity".into(),
                 x_label: "velocity (rad/s or m/s)".into(),
                 y_label: format!("residual ({unit})"),
-                series: vec![Series { name: "y − ŷ".into(), x: c.qd.clone(), y: e, style: Style::Points }],
+                series: vec![Series {
+                    name: "y − ŷ".into(),
+                    x: c.qd.clone(),
+                    y: e,
+                    style: Style::Points,
+                }],
             },
         ],
         1000,

@@ -21,12 +21,16 @@ use std::path::{Path, PathBuf};
 
 /// The repository's bundled data directory.
 pub fn bundled_data_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join("emps")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data")
+        .join("emps")
 }
 
 /// The repository's plant directory.
 pub fn bundled_plant_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("model").join("plants")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("model")
+        .join("plants")
 }
 
 /// Figures of one demo step.
@@ -53,9 +57,21 @@ pub struct DemoResult {
     pub text: String,
 }
 
-fn fit_and_compare(plant: &mut Plant, label: &str, train: &Measurement, pulses: &Measurement, out: &Path, tag: &str) -> Result<Step> {
+fn fit_and_compare(
+    plant: &mut Plant,
+    label: &str,
+    train: &Measurement,
+    pulses: &Measurement,
+    out: &Path,
+    tag: &str,
+) -> Result<Step> {
     let opts = IdimOptions::default();
-    let fit = least_squares(&observation(plant, "full", std::slice::from_ref(train), &opts)?)?;
+    let fit = least_squares(&observation(
+        plant,
+        "full",
+        std::slice::from_ref(train),
+        &opts,
+    )?)?;
     for (n, v) in fit.names.iter().zip(&fit.theta) {
         plant.parameters.insert(n.clone(), *v);
     }
@@ -65,9 +81,22 @@ fn fit_and_compare(plant: &mut Plant, label: &str, train: &Measurement, pulses: 
     let v = compare_torque(plant, "full", std::slice::from_ref(pulses), &opts)?.remove(0);
     write_residual_csv(&out.join(format!("{tag}_train_residual.csv")), &t)?;
     write_residual_csv(&out.join(format!("{tag}_pulses_residual.csv")), &v)?;
-    plot(&out.join(format!("{tag}_train")), &t, &format!("{label}, training record"))?;
-    plot(&out.join(format!("{tag}_pulses")), &v, &format!("{label}, pulses record"))?;
-    Ok(Step { label: label.into(), fit, train: t, validation: v })
+    plot(
+        &out.join(format!("{tag}_train")),
+        &t,
+        &format!("{label}, training record"),
+    )?;
+    plot(
+        &out.join(format!("{tag}_pulses")),
+        &v,
+        &format!("{label}, pulses record"),
+    )?;
+    Ok(Step {
+        label: label.into(),
+        fit,
+        train: t,
+        validation: v,
+    })
 }
 
 /// Run the demo, writing under `out`.
@@ -77,7 +106,11 @@ fn fit_and_compare(plant: &mut Plant, label: &str, train: &Measurement, pulses: 
 pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let bar = ProgressBar::new(5);
-    bar.set_style(ProgressStyle::with_template("{spinner} [{bar:30}] {pos}/{len} {msg}").expect("valid template").progress_chars("=> "));
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{bar:30}] {pos}/{len} {msg}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
     bar.set_message("reading the EMPS records");
     let train = Measurement::read_csv(&data_dir.join("emps_train.csv"), 1)?;
     let pulses = Measurement::read_csv(&data_dir.join("emps_test_pulses.csv"), 1)?;
@@ -89,7 +122,14 @@ pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
     // Step 1: mass + viscous friction only.
     bar.set_message("fitting mass + viscous friction");
     let mut plant = Plant::load(&bundled_plant_dir().join("emps_viscous.toml"))?;
-    let s1 = fit_and_compare(&mut plant, "mass + viscous", &train, &pulses, out, "1_viscous")?;
+    let s1 = fit_and_compare(
+        &mut plant,
+        "mass + viscous",
+        &train,
+        &pulses,
+        out,
+        "1_viscous",
+    )?;
     bar.inc(1);
     writeln!(text, "1. Model: tau = M qdd + Fv qd")?;
     text.push_str(&indent(&fit_table(&s1.fit)));
@@ -105,34 +145,75 @@ pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
 
     // Step 2: add the effects the residual points to.
     bar.set_message("adding Coulomb friction and offset, refitting");
-    plant.add_effect(Effect { kind: EffectKind::Coulomb, joint: 0 })?;
-    plant.add_effect(Effect { kind: EffectKind::Offset, joint: 0 })?;
-    let s2 = fit_and_compare(&mut plant, "mass + viscous + Coulomb + offset", &train, &pulses, out, "2_coulomb_offset")?;
+    plant.add_effect(Effect {
+        kind: EffectKind::Coulomb,
+        joint: 0,
+    })?;
+    plant.add_effect(Effect {
+        kind: EffectKind::Offset,
+        joint: 0,
+    })?;
+    let s2 = fit_and_compare(
+        &mut plant,
+        "mass + viscous + Coulomb + offset",
+        &train,
+        &pulses,
+        out,
+        "2_coulomb_offset",
+    )?;
     bar.inc(1);
-    writeln!(text, "2. Added: coulomb, offset  ->  tau = M qdd + Fv qd + Fc sign(qd) + offset")?;
+    writeln!(
+        text,
+        "2. Added: coulomb, offset  ->  tau = M qdd + Fv qd + Fc sign(qd) + offset"
+    )?;
     text.push_str(&indent(&fit_table(&s2.fit)));
     writeln!(text, "   Benchmark reference: M 95.1089, Fv 203.5034, Fc 20.3935, offset -3.1648, error 4.0834 %.\n")?;
 
     // Step 3: direction-dependent friction.
     bar.set_message("asymmetric friction");
     let mut plant3 = Plant::load(&bundled_plant_dir().join("emps_asymmetric.toml"))?;
-    let s3 = fit_and_compare(&mut plant3, "mass + asymmetric friction", &train, &pulses, out, "3_asymmetric")?;
+    let s3 = fit_and_compare(
+        &mut plant3,
+        "mass + asymmetric friction",
+        &train,
+        &pulses,
+        out,
+        "3_asymmetric",
+    )?;
     bar.inc(1);
-    writeln!(text, "3. Direction-dependent friction (no offset): Fv/Fc differ for qd > 0 and qd < 0")?;
+    writeln!(
+        text,
+        "3. Direction-dependent friction (no offset): Fv/Fc differ for qd > 0 and qd < 0"
+    )?;
     text.push_str(&indent(&fit_table(&s3.fit)));
     writeln!(text, "   Benchmark reference: M 95.1540, Fv+ 166.7061, Fc+ 20.1440, Fv- 240.4236, Fc- 20.6277, error 3.1117 %.\n")?;
 
     bar.set_message("summary");
     let steps = vec![s1, s2, s3];
-    writeln!(text, "Relative force error 100*||y - yhat||/||y|| (parameters fitted on the training record):")?;
-    writeln!(text, "   {:<36} {:>10} {:>16}", "model", "training", "pulses (valid.)")?;
+    writeln!(
+        text,
+        "Relative force error 100*||y - yhat||/||y|| (parameters fitted on the training record):"
+    )?;
+    writeln!(
+        text,
+        "   {:<36} {:>10} {:>16}",
+        "model", "training", "pulses (valid.)"
+    )?;
     for s in &steps {
-        writeln!(text, "   {:<36} {:>9.2}% {:>15.2}%", s.label, s.train.relative_error, s.validation.relative_error)?;
+        writeln!(
+            text,
+            "   {:<36} {:>9.2}% {:>15.2}%",
+            s.label, s.train.relative_error, s.validation.relative_error
+        )?;
     }
     crate::util::write_atomic(&out.join("summary.txt"), text.as_bytes())?;
     bar.inc(1);
     bar.finish_and_clear();
-    Ok(DemoResult { steps, out: out.to_path_buf(), text })
+    Ok(DemoResult {
+        steps,
+        out: out.to_path_buf(),
+        text,
+    })
 }
 
 fn indent(s: &str) -> String {

@@ -129,7 +129,11 @@ mod tests {
         assert_eq!(tau(0.5), 2.0 * 0.5 + 3.0);
         assert_eq!(tau(-0.5), 5.0 * -0.5 - 7.0);
         assert_eq!(
-            Effect { kind: EffectKind::AsymmetricFriction, joint: 3 }.parameter_names(),
+            Effect {
+                kind: EffectKind::AsymmetricFriction,
+                joint: 3
+            }
+            .parameter_names(),
             vec!["Fv_pos_3", "Fc_pos_3", "Fv_neg_3", "Fc_neg_3"]
         );
     }

@@ -2,6 +2,9 @@
 //!
 //! The dynamics kernels come from the `generated` crate (built from `model/*.toml` by the
 //! symbolic generator); this crate never depends on Symbolica.
+// Index loops mirror the equations they implement.
+#![allow(clippy::needless_range_loop)]
+
 pub mod cli;
 pub mod compare;
 pub mod demo;

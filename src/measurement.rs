@@ -166,10 +166,8 @@ impl Measurement {
         let mut t = Vec::new();
         let mut tau = vec![Vec::new(); joints];
         let mut q = vec![Vec::new(); joints];
-        let mut qd: Vec<Option<Vec<f64>>> =
-            qd_i.iter().map(|i| i.map(|_| Vec::new())).collect();
-        let mut tau_m: Vec<Option<Vec<f64>>> =
-            tm_i.iter().map(|i| i.map(|_| Vec::new())).collect();
+        let mut qd: Vec<Option<Vec<f64>>> = qd_i.iter().map(|i| i.map(|_| Vec::new())).collect();
+        let mut tau_m: Vec<Option<Vec<f64>>> = tm_i.iter().map(|i| i.map(|_| Vec::new())).collect();
         for (r, rec) in rdr.records().enumerate() {
             let row = r + 2;
             let rec = rec.map_err(|e| DataError::Record {

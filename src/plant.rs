@@ -74,7 +74,11 @@ impl Plant {
         let m = generated::model(model).with_context(|| {
             format!(
                 "unknown model '{model}' (generated models: {})",
-                generated::MODELS.iter().map(|m| m.name).collect::<Vec<_>>().join(", ")
+                generated::MODELS
+                    .iter()
+                    .map(|m| m.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
             )
         })?;
         Ok(Plant {
@@ -111,19 +115,29 @@ impl Plant {
         plant.description = spec.description.clone();
         for (i, e) in spec.effects.iter().enumerate() {
             for j in &e.joints {
-                let joint = plant.model.joints.iter().position(|x| x == j).ok_or_else(|| {
-                    anyhow::anyhow!(
-                        "{}: effect {} ({}): unknown joint '{j}' (model '{}' has {})",
-                        path.display(),
-                        i + 1,
-                        e.kind,
-                        plant.model.name,
-                        plant.model.joints.join(", ")
-                    )
-                })?;
+                let joint = plant
+                    .model
+                    .joints
+                    .iter()
+                    .position(|x| x == j)
+                    .ok_or_else(|| {
+                        anyhow::anyhow!(
+                            "{}: effect {} ({}): unknown joint '{j}' (model '{}' has {})",
+                            path.display(),
+                            i + 1,
+                            e.kind,
+                            plant.model.name,
+                            plant.model.joints.join(", ")
+                        )
+                    })?;
                 plant
-                    .add_effect(Effect { kind: e.kind, joint })
-                    .map_err(|err| anyhow::anyhow!("{}: effect {}: {err}", path.display(), i + 1))?;
+                    .add_effect(Effect {
+                        kind: e.kind,
+                        joint,
+                    })
+                    .map_err(|err| {
+                        anyhow::anyhow!("{}: effect {}: {err}", path.display(), i + 1)
+                    })?;
             }
         }
         let known = plant.parameter_names();
@@ -136,7 +150,10 @@ impl Plant {
                 );
             }
             if !v.is_finite() {
-                bail!("{}: [parameters] '{k}': expected a finite number", path.display());
+                bail!(
+                    "{}: [parameters] '{k}': expected a finite number",
+                    path.display()
+                );
             }
         }
         plant.parameters = spec.parameters;
@@ -154,8 +171,13 @@ impl Plant {
             let conflict = other.kind == e.kind
                 || matches!(
                     (other.kind, e.kind),
-                    (EffectKind::AsymmetricFriction, EffectKind::Coulomb | EffectKind::Viscous)
-                        | (EffectKind::Coulomb | EffectKind::Viscous, EffectKind::AsymmetricFriction)
+                    (
+                        EffectKind::AsymmetricFriction,
+                        EffectKind::Coulomb | EffectKind::Viscous
+                    ) | (
+                        EffectKind::Coulomb | EffectKind::Viscous,
+                        EffectKind::AsymmetricFriction
+                    )
                 );
             if conflict {
                 bail!(

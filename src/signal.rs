@@ -31,7 +31,10 @@ impl C64 {
         C64::new(self.re - o.re, self.im - o.im)
     }
     fn mul(self, o: C64) -> C64 {
-        C64::new(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
+        C64::new(
+            self.re * o.re - self.im * o.im,
+            self.re * o.im + self.im * o.re,
+        )
     }
     fn div(self, o: C64) -> C64 {
         let d = o.re * o.re + o.im * o.im;
@@ -131,7 +134,10 @@ fn lowpass_from_prototype(poles: &[C64], gain: f64, wn: f64) -> Sos {
 /// Never on valid input; `order == 0` or `wn` outside (0, 1) is a programming error and
 /// asserts.
 pub fn butter_lowpass(order: usize, wn: f64) -> Sos {
-    assert!(order > 0 && wn > 0.0 && wn < 1.0, "butter: order ≥ 1, 0 < wn < 1");
+    assert!(
+        order > 0 && wn > 0.0 && wn < 1.0,
+        "butter: order ≥ 1, 0 < wn < 1"
+    );
     let poles: Vec<C64> = (0..order)
         .map(|k| {
             let th = PI * (2 * k + order + 1) as f64 / (2 * order) as f64;
@@ -157,7 +163,7 @@ pub fn cheby1_lowpass(order: usize, rp_db: f64, wn: f64) -> Sos {
         .iter()
         .fold(C64::new(1.0, 0.0), |acc, p| acc.mul(p.scale(-1.0)))
         .re;
-    if order % 2 == 0 {
+    if order.is_multiple_of(2) {
         gain /= (1.0 + eps * eps).sqrt();
     }
     lowpass_from_prototype(&poles, gain, wn)
@@ -310,19 +316,38 @@ mod tests {
     #[test]
     fn butterworth_matches_scipy() {
         let (b, a) = butter_lowpass(4, 0.2).to_tf();
-        close(&b, &[0.00482434, 0.01929737, 0.02894606, 0.01929737, 0.00482434], 1e-7);
-        close(&a, &[1.0, -2.36951301, 2.31398841, -1.05466541, 0.18737949], 1e-7);
+        close(
+            &b,
+            &[0.00482434, 0.01929737, 0.02894606, 0.01929737, 0.00482434],
+            1e-7,
+        );
+        close(
+            &a,
+            &[1.0, -2.36951301, 2.31398841, -1.05466541, 0.18737949],
+            1e-7,
+        );
     }
 
     #[test]
     fn chebyshev_matches_scipy() {
         let (b, a) = cheby1_lowpass(8, 0.05, 0.08).to_tf();
-        close(&b[..3], &[3.58632432e-09, 2.86905946e-08, 1.00417081e-07], 1e-6);
+        close(
+            &b[..3],
+            &[3.58632432e-09, 2.86905946e-08, 1.00417081e-07],
+            1e-6,
+        );
         close(
             &a,
             &[
-                1.0, -7.39772047, 24.07272776, -44.99891467, 52.84346677, -39.91591435,
-                18.93766581, -5.15917943, 0.6178695,
+                1.0,
+                -7.39772047,
+                24.07272776,
+                -44.99891467,
+                52.84346677,
+                -39.91591435,
+                18.93766581,
+                -5.15917943,
+                0.6178695,
             ],
             1e-7,
         );
@@ -331,7 +356,9 @@ mod tests {
     #[test]
     fn filtfilt_matches_scipy_with_matlab_padding() {
         // scipy.signal.filtfilt(b, a, x, padlen=12) for butter(4, 0.2): MATLAB's padding.
-        let x: Vec<f64> = (0..50).map(|i| (i as f64 * 0.3).sin() + 0.1 * i as f64).collect();
+        let x: Vec<f64> = (0..50)
+            .map(|i| (i as f64 * 0.3).sin() + 0.1 * i as f64)
+            .collect();
         let y = butter_lowpass(4, 0.2).filtfilt(&x).unwrap();
         let want = [
             (0, -8.97181987e-04),

@@ -37,8 +37,7 @@ pub fn write_atomic_with(
         let mut w = std::io::BufWriter::new(f);
         fill(&mut w)?;
         w.flush()?;
-        std::fs::rename(&tmp, path)
-            .with_context(|| format!("cannot write {}", path.display()))?;
+        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
         Ok(())
     })();
     if result.is_err() {

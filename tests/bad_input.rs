@@ -21,7 +21,12 @@ fn csv_rows(n: usize, f: impl Fn(usize) -> String) -> String {
 }
 
 fn good_row(k: usize) -> String {
-    format!("{},{},{}", k as f64 * 0.001, (k as f64).sin(), k as f64 * 1e-4)
+    format!(
+        "{},{},{}",
+        k as f64 * 0.001,
+        (k as f64).sin(),
+        k as f64 * 1e-4
+    )
 }
 
 fn read_err(path: &Path) -> String {
@@ -31,35 +36,97 @@ fn read_err(path: &Path) -> String {
 #[test]
 fn missing_file() {
     let e = read_err(Path::new("no/such/file.csv"));
-    assert!(e.contains("no/such/file.csv") && e.contains("cannot read"), "{e}");
+    assert!(
+        e.contains("no/such/file.csv") && e.contains("cannot read"),
+        "{e}"
+    );
 }
 
 #[test]
 fn missing_column_lists_the_header() {
     let d = tempfile::tempdir().unwrap();
-    let p = write(d.path(), "a.csv", &csv_rows(20, good_row).replace("tau0", "force"));
+    let p = write(
+        d.path(),
+        "a.csv",
+        &csv_rows(20, good_row).replace("tau0", "force"),
+    );
     let e = read_err(&p);
-    assert!(e.contains("a.csv") && e.contains("missing column 'tau0'") && e.contains("t, force, q0"), "{e}");
+    assert!(
+        e.contains("a.csv") && e.contains("missing column 'tau0'") && e.contains("t, force, q0"),
+        "{e}"
+    );
 }
 
 #[test]
 fn non_numeric_and_nan_cells_name_row_and_column() {
     let d = tempfile::tempdir().unwrap();
-    let p = write(d.path(), "b.csv", &csv_rows(20, |k| if k == 5 { "0.005,abc,0".into() } else { good_row(k) }));
+    let p = write(
+        d.path(),
+        "b.csv",
+        &csv_rows(20, |k| {
+            if k == 5 {
+                "0.005,abc,0".into()
+            } else {
+                good_row(k)
+            }
+        }),
+    );
     let e = read_err(&p);
-    assert!(e.contains("b.csv: row 7, column 'tau0': 'abc' is not a number"), "{e}");
-    let p = write(d.path(), "c.csv", &csv_rows(20, |k| if k == 3 { "0.003,1,NaN".into() } else { good_row(k) }));
+    assert!(
+        e.contains("b.csv: row 7, column 'tau0': 'abc' is not a number"),
+        "{e}"
+    );
+    let p = write(
+        d.path(),
+        "c.csv",
+        &csv_rows(20, |k| {
+            if k == 3 {
+                "0.003,1,NaN".into()
+            } else {
+                good_row(k)
+            }
+        }),
+    );
     let e = read_err(&p);
-    assert!(e.contains("row 5, column 'q0'") && e.contains("not a finite number"), "{e}");
+    assert!(
+        e.contains("row 5, column 'q0'") && e.contains("not a finite number"),
+        "{e}"
+    );
 }
 
 #[test]
 fn time_must_increase_evenly() {
     let d = tempfile::tempdir().unwrap();
-    let p = write(d.path(), "d.csv", &csv_rows(20, |k| if k == 8 { format!("0.001,0,0") } else { good_row(k) }));
+    let p = write(
+        d.path(),
+        "d.csv",
+        &csv_rows(20, |k| {
+            if k == 8 {
+                "0.001,0,0".to_string()
+            } else {
+                good_row(k)
+            }
+        }),
+    );
     let e = read_err(&p);
-    assert!(e.contains("d.csv") && e.contains("row 10") && e.contains("must increase"), "{e}");
-    let p = write(d.path(), "e.csv", &csv_rows(20, |k| format!("{},0,0", if k < 10 { k as f64 * 0.001 } else { k as f64 * 0.0011 })));
+    assert!(
+        e.contains("d.csv") && e.contains("row 10") && e.contains("must increase"),
+        "{e}"
+    );
+    let p = write(
+        d.path(),
+        "e.csv",
+        &csv_rows(20, |k| {
+            format!(
+                "{},0,0",
+                if k < 10 {
+                    k as f64 * 0.001
+                } else {
+                    k as f64 * 0.0011
+                }
+            )
+        }),
+    );
     let e = read_err(&p);
     assert!(e.contains("uneven sampling"), "{e}");
 }
@@ -83,16 +150,37 @@ fn malformed_side_file_is_named() {
 #[test]
 fn plant_file_errors_name_file_and_item() {
     let d = tempfile::tempdir().unwrap();
-    let p = write(d.path(), "p.toml", "model = \"emps\"\n[[effect]]\nkind = \"viscous\"\njoints = [\"q7\"]\n");
+    let p = write(
+        d.path(),
+        "p.toml",
+        "model = \"emps\"\n[[effect]]\nkind = \"viscous\"\njoints = [\"q7\"]\n",
+    );
     let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();
-    assert!(e.contains("p.toml") && e.contains("unknown joint 'q7'"), "{e}");
-    let p = write(d.path(), "p2.toml", "model = \"emps\"\n[[effect]]\nkind = \"stiction\"\njoints = [\"q0\"]\n");
+    assert!(
+        e.contains("p.toml") && e.contains("unknown joint 'q7'"),
+        "{e}"
+    );
+    let p = write(
+        d.path(),
+        "p2.toml",
+        "model = \"emps\"\n[[effect]]\nkind = \"stiction\"\njoints = [\"q0\"]\n",
+    );
     let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();
-    assert!(e.contains("p2.toml") && e.contains("line 3") && e.contains("stiction"), "{e}");
+    assert!(
+        e.contains("p2.toml") && e.contains("line 3") && e.contains("stiction"),
+        "{e}"
+    );
     let p = write(d.path(), "p3.toml", "model = \"robot9\"\n");
     let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();
-    assert!(e.contains("unknown model 'robot9'") && e.contains("emps"), "{e}");
-    let p = write(d.path(), "p4.toml", "model = \"emps\"\n[parameters]\nFc_0 = 3.0\n");
+    assert!(
+        e.contains("unknown model 'robot9'") && e.contains("emps"),
+        "{e}"
+    );
+    let p = write(
+        d.path(),
+        "p4.toml",
+        "model = \"emps\"\n[parameters]\nFc_0 = 3.0\n",
+    );
     let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();
     assert!(e.contains("'Fc_0' belongs to nothing"), "{e}");
 }
@@ -100,7 +188,17 @@ fn plant_file_errors_name_file_and_item() {
 #[test]
 fn cli_fails_with_one_line_and_leaves_no_output() {
     let d = tempfile::tempdir().unwrap();
-    let data = write(d.path(), "h.csv", &csv_rows(20, |k| if k == 11 { "0.011,1,x".into() } else { good_row(k) }));
+    let data = write(
+        d.path(),
+        "h.csv",
+        &csv_rows(20, |k| {
+            if k == 11 {
+                "0.011,1,x".into()
+            } else {
+                good_row(k)
+            }
+        }),
+    );
     let out = d.path().join("fitted.toml");
     let plant = Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants/emps_symmetric.toml");
     let o = Command::new(env!("CARGO_BIN_EXE_lockstep"))
@@ -115,7 +213,10 @@ fn cli_fails_with_one_line_and_leaves_no_output() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
-    assert!(err.contains("h.csv: row 13, column 'q0': 'x' is not a number"), "{err}");
+    assert!(
+        err.contains("h.csv: row 13, column 'q0': 'x' is not a number"),
+        "{err}"
+    );
     assert!(!out.exists());
     // Too short for the filters: a clear error, still no output.
     let data = write(d.path(), "i.csv", &csv_rows(50, good_row));
@@ -132,5 +233,16 @@ fn cli_fails_with_one_line_and_leaves_no_output() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("i.csv: too few samples (50)"), "{err}");
     assert!(!out.exists());
-    assert_eq!(std::fs::read_dir(d.path()).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with('.')).count(), 0);
+    assert_eq!(
+        std::fs::read_dir(d.path())
+            .unwrap()
+            .filter(|e| e
+                .as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with('.'))
+            .count(),
+        0
+    );
 }

@@ -7,15 +7,29 @@ use lockstep::plant::Plant;
 use std::path::Path;
 
 fn record(name: &str) -> Measurement {
-    Measurement::read_csv(&Path::new(env!("CARGO_MANIFEST_DIR")).join("data/emps").join(name), 1).unwrap()
+    Measurement::read_csv(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("data/emps")
+            .join(name),
+        1,
+    )
+    .unwrap()
 }
 
 fn plant(name: &str) -> Plant {
-    Plant::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants").join(name)).unwrap()
+    Plant::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("model/plants")
+            .join(name),
+    )
+    .unwrap()
 }
 
 fn within(x: f64, want: f64, rel_pct: f64) {
-    assert!(((x - want) / want).abs() * 100.0 <= rel_pct, "{x} is not within {rel_pct} % of {want}");
+    assert!(
+        ((x - want) / want).abs() * 100.0 <= rel_pct,
+        "{x} is not within {rel_pct} % of {want}"
+    );
 }
 
 #[test]
@@ -24,12 +38,19 @@ fn symmetric_model_reproduces_published_parameters_and_errors() {
     let p = plant("emps_symmetric.toml");
     let obs = observation(&p, "full", &[train], &IdimOptions::default()).unwrap();
     let fit = least_squares(&obs).unwrap();
-    eprintln!("{:?} {:?} err {} cond {}", fit.names, fit.theta, fit.relative_error, fit.condition);
+    eprintln!(
+        "{:?} {:?} err {} cond {}",
+        fit.names, fit.theta, fit.relative_error, fit.condition
+    );
     within(fit.get("M").unwrap(), 95.1089, 0.5);
     within(fit.get("Fv_0").unwrap(), 203.5034, 2.0);
     within(fit.get("Fc_0").unwrap(), 20.3935, 2.0);
     within(fit.get("offset_0").unwrap(), -3.1648, 5.0);
-    assert!((fit.relative_error - 4.0834).abs() <= 0.15, "training error {}", fit.relative_error);
+    assert!(
+        (fit.relative_error - 4.0834).abs() <= 0.15,
+        "training error {}",
+        fit.relative_error
+    );
     // Same parameters on the pulses record.
     let mut fitted = p.clone();
     for (n, v) in fit.names.iter().zip(&fit.theta) {
@@ -46,10 +67,36 @@ fn symmetric_model_reproduces_published_parameters_and_errors() {
 #[test]
 fn asymmetric_and_viscous_models() {
     let train = record("emps_train.csv");
-    let fit = least_squares(&observation(&plant("emps_asymmetric.toml"), "full", std::slice::from_ref(&train), &IdimOptions::default()).unwrap()).unwrap();
+    let fit = least_squares(
+        &observation(
+            &plant("emps_asymmetric.toml"),
+            "full",
+            std::slice::from_ref(&train),
+            &IdimOptions::default(),
+        )
+        .unwrap(),
+    )
+    .unwrap();
     eprintln!("{:?} {:?} err {}", fit.names, fit.theta, fit.relative_error);
-    assert!((fit.relative_error - 3.1117).abs() <= 0.15, "asymmetric error {}", fit.relative_error);
-    let fit = least_squares(&observation(&plant("emps_viscous.toml"), "full", &[train], &IdimOptions::default()).unwrap()).unwrap();
+    assert!(
+        (fit.relative_error - 3.1117).abs() <= 0.15,
+        "asymmetric error {}",
+        fit.relative_error
+    );
+    let fit = least_squares(
+        &observation(
+            &plant("emps_viscous.toml"),
+            "full",
+            &[train],
+            &IdimOptions::default(),
+        )
+        .unwrap(),
+    )
+    .unwrap();
     eprintln!("viscous err {}", fit.relative_error);
-    assert!(fit.relative_error >= 15.0, "mass + viscous error {}", fit.relative_error);
+    assert!(
+        fit.relative_error >= 15.0,
+        "mass + viscous error {}",
+        fit.relative_error
+    );
 }

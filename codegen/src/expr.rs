@@ -239,7 +239,9 @@ impl Parser<'_> {
                 self.pos += 1;
                 Ok(e)
             }
-            Some(Tok::Op(c)) => self.err(format!("expected a number, a name or '(' but found '{c}'")),
+            Some(Tok::Op(c)) => {
+                self.err(format!("expected a number, a name or '(' but found '{c}'"))
+            }
             None => self.err("expression ends too early"),
         }
     }
@@ -354,7 +356,11 @@ impl Expr {
                 Expr::Add(a, b) | Expr::Sub(a, b) => {
                     let (ca, ka) = go(a, joints, constants)?;
                     let (cb, kb) = go(b, joints, constants)?;
-                    let sgn = if matches!(e, Expr::Sub(..)) { -1.0 } else { 1.0 };
+                    let sgn = if matches!(e, Expr::Sub(..)) {
+                        -1.0
+                    } else {
+                        1.0
+                    };
                     (
                         ca.iter().zip(&cb).map(|(x, y)| x + sgn * y).collect(),
                         ka + sgn * kb,

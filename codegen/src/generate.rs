@@ -104,7 +104,13 @@ struct Inputs {
     tokens: Vec<TokenStream>,
 }
 
-fn inputs(sm: &SymbolicModel, free: &[usize], with_qd: bool, with_qdd: bool, with_p: bool) -> Inputs {
+fn inputs(
+    sm: &SymbolicModel,
+    free: &[usize],
+    with_qd: bool,
+    with_qdd: bool,
+    with_p: bool,
+) -> Inputs {
     let v = &sm.vars;
     let mut atoms = Vec::new();
     let mut tokens = Vec::new();
@@ -200,7 +206,7 @@ fn config_exprs(sm: &SymbolicModel, free: &[usize]) -> ConfigExprs {
             for b in 0..nf {
                 let mut acc = Atom::num(0);
                 for &i in free {
-                    acc = acc + christoffel(&sm.dd, j, i, free[b], free[a]) * Atom::var(v.qd[i]);
+                    acc += christoffel(&sm.dd, j, i, free[b], free[a]) * Atom::var(v.qd[i]);
                 }
                 cj[a][b] = reduce(&acc, v);
             }
@@ -285,7 +291,10 @@ fn cholesky_solve(nf: usize) -> TokenStream {
     for i in 0..nf {
         for j in 0..=i {
             let dij = {
-                let (i, j) = (proc_macro2::Literal::usize_unsuffixed(i), proc_macro2::Literal::usize_unsuffixed(j));
+                let (i, j) = (
+                    proc_macro2::Literal::usize_unsuffixed(i),
+                    proc_macro2::Literal::usize_unsuffixed(j),
+                );
                 quote!(d[#i][#j])
             };
             let sub: Vec<TokenStream> = (0..j)
@@ -333,7 +342,10 @@ fn cholesky_solve(nf: usize) -> TokenStream {
     }
 }
 
-fn config_module(sm: &SymbolicModel, conf: &Configuration) -> Result<(TokenStream, ConfigReport), EmitError> {
+fn config_module(
+    sm: &SymbolicModel,
+    conf: &Configuration,
+) -> Result<(TokenStream, ConfigReport), EmitError> {
     let t0 = Instant::now();
     let free = &conf.free;
     let nf = free.len();
@@ -371,7 +383,9 @@ fn config_module(sm: &SymbolicModel, conf: &Configuration) -> Result<(TokenStrea
     )?);
     let cqd: Vec<Atom> = (0..nf)
         .map(|a| {
-            (0..nf).fold(Atom::num(0), |acc, b| acc + &ex.c[a][b] * Atom::var(sm.vars.qd[free[b]]))
+            (0..nf).fold(Atom::num(0), |acc, b| {
+                acc + &ex.c[a][b] * Atom::var(sm.vars.qd[free[b]])
+            })
         })
         .collect();
     items.push(kernel(
@@ -400,7 +414,7 @@ fn config_module(sm: &SymbolicModel, conf: &Configuration) -> Result<(TokenStrea
         .map(|a| {
             let mut acc = &cqd[a] + &ex.phi[a];
             for b in 0..nf {
-                acc = acc + &ex.d[a][b] * Atom::var(sm.vars.qdd[free[b]]);
+                acc += &ex.d[a][b] * Atom::var(sm.vars.qdd[free[b]]);
             }
             acc
         })
@@ -452,7 +466,13 @@ fn config_module(sm: &SymbolicModel, conf: &Configuration) -> Result<(TokenStrea
     let mut d_full = Vec::new();
     for a in 0..nf {
         let row: Vec<TokenStream> = (0..nf)
-            .map(|b| if b <= a { d_rows[a][b].clone() } else { d_rows[b][a].clone() })
+            .map(|b| {
+                if b <= a {
+                    d_rows[a][b].clone()
+                } else {
+                    d_rows[b][a].clone()
+                }
+            })
             .collect();
         d_full.push(quote!([#(#row),*]));
     }
@@ -482,9 +502,20 @@ fn config_module(sm: &SymbolicModel, conf: &Configuration) -> Result<(TokenStrea
             #chol
         }
     });
-    let present: Vec<String> = ex.present.iter().map(|&j| sm.params[j].name.clone()).collect();
-    let present_idx: Vec<proc_macro2::Literal> = ex.present.iter().map(|&j| proc_macro2::Literal::usize_unsuffixed(j)).collect();
-    let free_lits: Vec<proc_macro2::Literal> = free.iter().map(|&k| proc_macro2::Literal::usize_unsuffixed(k)).collect();
+    let present: Vec<String> = ex
+        .present
+        .iter()
+        .map(|&j| sm.params[j].name.clone())
+        .collect();
+    let present_idx: Vec<proc_macro2::Literal> = ex
+        .present
+        .iter()
+        .map(|&j| proc_macro2::Literal::usize_unsuffixed(j))
+        .collect();
+    let free_lits: Vec<proc_macro2::Literal> = free
+        .iter()
+        .map(|&k| proc_macro2::Literal::usize_unsuffixed(k))
+        .collect();
     let modname = id(&conf.name);
     let cname = &conf.name;
     let free_names: Vec<String> = free.iter().map(|&k| sm.model.joints[k].clone()).collect();
@@ -572,7 +603,12 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
                 return Err(EmitError(format!(
                     "{}: unknown configuration '{n}' (configurations: {})",
                     model.file.display(),
-                    model.configurations.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", ")
+                    model
+                        .configurations
+                        .iter()
+                        .map(|c| c.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 )));
             }
         }
@@ -592,7 +628,11 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
         conf_idents.push(id(&conf.name));
     }
     // Barycentric parameters from the model file's inertial symbols.
-    let sym_atoms: Vec<Atom> = model.inertial_symbols.iter().map(|(s, _)| Atom::var(user_symbol(s))).collect();
+    let sym_atoms: Vec<Atom> = model
+        .inertial_symbols
+        .iter()
+        .map(|(s, _)| Atom::var(user_symbol(s)))
+        .collect();
     let sym_tokens: Vec<TokenStream> = (0..sym_atoms.len())
         .map(|i| {
             let i = proc_macro2::Literal::usize_unsuffixed(i);
@@ -606,11 +646,23 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
     let ni = sym_atoms.len();
     let joints = &model.joints;
     let pnames: Vec<&str> = sm.params.iter().map(|b| b.name.as_str()).collect();
-    let plinks: Vec<proc_macro2::Literal> = sm.params.iter().map(|b| proc_macro2::Literal::usize_unsuffixed(b.link)).collect();
-    let pkinds: Vec<proc_macro2::Literal> = sm.params.iter().map(|b| proc_macro2::Literal::usize_unsuffixed(b.kind)).collect();
+    let plinks: Vec<proc_macro2::Literal> = sm
+        .params
+        .iter()
+        .map(|b| proc_macro2::Literal::usize_unsuffixed(b.link))
+        .collect();
+    let pkinds: Vec<proc_macro2::Literal> = sm
+        .params
+        .iter()
+        .map(|b| proc_macro2::Literal::usize_unsuffixed(b.kind))
+        .collect();
     let lnames: Vec<&str> = model.links.iter().map(|l| l.name.as_str()).collect();
     let nl = lnames.len();
-    let snames: Vec<&str> = model.inertial_symbols.iter().map(|(s, _)| s.as_str()).collect();
+    let snames: Vec<&str> = model
+        .inertial_symbols
+        .iter()
+        .map(|(s, _)| s.as_str())
+        .collect();
     let mname = &model.name;
     let gravity: Vec<TokenStream> = model.gravity.iter().map(|&g| lit(g)).collect();
     let file = quote! {
@@ -661,15 +713,24 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
         };
     };
     let file_str = file.to_string();
-    let parsed: syn::File = syn::parse_str(&file_str).map_err(|e| EmitError(format!("emitted code does not parse: {e}")))?;
+    let parsed: syn::File = syn::parse_str(&file_str)
+        .map_err(|e| EmitError(format!("emitted code does not parse: {e}")))?;
     let body = prettyplease::unparse(&parsed);
     let mut header = String::new();
     header.push_str(&format!(
         "// Generated by lockstep-codegen {GENERATOR_VERSION} from {} (model '{}'). Do not edit.\n",
-        model.file.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
+        model
+            .file
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default(),
         model.name
     ));
-    header.push_str(&format!("// Joints: {}. Barycentric parameters: {}.\n", model.joints.join(", "), np));
+    header.push_str(&format!(
+        "// Joints: {}. Barycentric parameters: {}.\n",
+        model.joints.join(", "),
+        np
+    ));
     for r in &reports {
         let total: usize = r.ops.iter().map(|(_, o)| o.total()).sum();
         header.push_str(&format!(
@@ -677,7 +738,11 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
             r.name,
             r.free.join(", "),
             total,
-            r.ops.iter().map(|(n, o)| format!("{n} {}", o.total())).collect::<Vec<_>>().join(", ")
+            r.ops
+                .iter()
+                .map(|(n, o)| format!("{n} {}", o.total()))
+                .collect::<Vec<_>>()
+                .join(", ")
         ));
     }
     Ok(Generated {

@@ -8,6 +8,9 @@
 //! Symbolica runs restricted without a licence key: one Symbolica thread per user and
 //! machine. Call the generator from one thread only.
 
+// Index loops mirror the equations (D_ab, Γ_ijk); iterator rewrites would hide them.
+#![allow(clippy::needless_range_loop)]
+
 pub mod emit;
 pub mod expr;
 pub mod generate;
@@ -34,7 +37,12 @@ impl std::error::Error for GenError {}
 /// The directory cannot be read.
 pub fn model_files(dir: &Path) -> Result<Vec<PathBuf>, GenError> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| GenError(format!("{}: cannot read the model directory: {e}", dir.display())))?
+        .map_err(|e| {
+            GenError(format!(
+                "{}: cannot read the model directory: {e}",
+                dir.display()
+            ))
+        })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
@@ -81,7 +89,9 @@ pub fn models_index(names: &[String]) -> String {
     s.push_str("];\n");
     s.push_str("/// The emitted source of every model module (for review and snapshot tests).\npub static SOURCES: &[(&str, &str)] = &[");
     for n in names {
-        s.push_str(&format!("(\"{n}\", include_str!(concat!(env!(\"OUT_DIR\"), \"/{n}.rs\"))), "));
+        s.push_str(&format!(
+            "(\"{n}\", include_str!(concat!(env!(\"OUT_DIR\"), \"/{n}.rs\"))), "
+        ));
     }
     s.push_str("];\n");
     s

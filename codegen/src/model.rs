@@ -355,7 +355,10 @@ impl Model {
         })?;
         let joints = spec.robot.joints.clone();
         if joints.is_empty() {
-            return Err(err("[robot] field 'joints'", "expected at least one joint variable".into()));
+            return Err(err(
+                "[robot] field 'joints'",
+                "expected at least one joint variable".into(),
+            ));
         }
         let mut seen = BTreeSet::new();
         for j in &joints {
@@ -366,7 +369,10 @@ impl Model {
                 ));
             }
             if !seen.insert(j.clone()) {
-                return Err(err("[robot] field 'joints'", format!("joint '{j}' is listed twice")));
+                return Err(err(
+                    "[robot] field 'joints'",
+                    format!("joint '{j}' is listed twice"),
+                ));
             }
         }
         let mut constants = BTreeMap::new();
@@ -382,7 +388,10 @@ impl Model {
                 ConstantSpec::Detailed { value, .. } => *value,
             };
             if !value.is_finite() {
-                return Err(err(&format!("[constants] '{k}'"), "expected a finite number".into()));
+                return Err(err(
+                    &format!("[constants] '{k}'"),
+                    "expected a finite number".into(),
+                ));
             }
             constants.insert(k.clone(), value);
         }
@@ -413,9 +422,8 @@ impl Model {
         let parse = |item: &str, s: &Scalar, allow_joints: bool| -> Result<Expr, ModelError> {
             let e = match s {
                 Scalar::Num(x) => Expr::Num(*x),
-                Scalar::Text(t) => Expr::parse(t).map_err(|e| {
-                    err(item, format!("malformed expression '{t}': {e}"))
-                })?,
+                Scalar::Text(t) => Expr::parse(t)
+                    .map_err(|e| err(item, format!("malformed expression '{t}': {e}")))?,
             };
             known(&e, allow_joints).map_err(|r| err(item, r))?;
             Ok(e)
@@ -429,14 +437,15 @@ impl Model {
             .collect::<Result<_, _>>()?;
         let mut gravity = [0.0; 3];
         for (i, g) in gravity_expr.iter().enumerate() {
-            gravity[i] = g.eval(&constants).ok_or_else(|| {
-                err("[robot] field 'gravity'", "expected numbers".into())
-            })?;
+            gravity[i] = g
+                .eval(&constants)
+                .ok_or_else(|| err("[robot] field 'gravity'", "expected numbers".into()))?;
         }
 
         let angle = |item: &str, s: &Scalar| -> Result<(Vec<i64>, f64), ModelError> {
             let e = parse(item, s, true)?;
-            e.linear_angle(&joints, &constants).map_err(|r| err(item, r))
+            e.linear_angle(&joints, &constants)
+                .map_err(|r| err(item, r))
         };
         let mut frames = vec![Frame {
             name: "world".into(),
@@ -467,10 +476,18 @@ impl Model {
             let de = parse(&format!("{item} field 'd'"), d, true)?;
             let ae = parse(&format!("{item} field 'a'"), a, true)?;
             let (aj, a0) = angle(&format!("{item} field 'alpha'"), alpha)?;
-            let rz = Transform::Rot { axis: 2, joints: tj, offset: t0 };
+            let rz = Transform::Rot {
+                axis: 2,
+                joints: tj,
+                offset: t0,
+            };
             let tz = Transform::Trans { axis: 2, expr: de };
             let tx = Transform::Trans { axis: 0, expr: ae };
-            let rx = Transform::Rot { axis: 0, joints: aj, offset: a0 };
+            let rx = Transform::Rot {
+                axis: 0,
+                joints: aj,
+                offset: a0,
+            };
             Ok(match conv {
                 Convention::Standard => vec![rz, tz, tx, rx],
                 Convention::Modified => vec![rx, tx, rz, tz],
@@ -488,7 +505,10 @@ impl Model {
                 ));
             }
             if c.rows.is_empty() {
-                return Err(err(&format!("chain '{}'", c.name), "expected at least one row".into()));
+                return Err(err(
+                    &format!("chain '{}'", c.name),
+                    "expected at least one row".into(),
+                ));
             }
         }
         for f in &spec.frames {
@@ -536,10 +556,12 @@ impl Model {
                 for (t, tr) in f.transforms.iter().enumerate() {
                     let item = format!("frame '{}' transform {}", f.name, t + 1);
                     match tr {
-                        TransformSpec::Dh([th, d, a, al]) => transforms
-                            .extend(dh_block(&item, Convention::Standard, th, d, a, al)?),
-                        TransformSpec::Mdh([al, a, th, d]) => transforms
-                            .extend(dh_block(&item, Convention::Modified, th, d, a, al)?),
+                        TransformSpec::Dh([th, d, a, al]) => {
+                            transforms.extend(dh_block(&item, Convention::Standard, th, d, a, al)?)
+                        }
+                        TransformSpec::Mdh([al, a, th, d]) => {
+                            transforms.extend(dh_block(&item, Convention::Modified, th, d, a, al)?)
+                        }
                         TransformSpec::Trans(xyz) => {
                             for (axis, s) in xyz.iter().enumerate() {
                                 transforms.push(Transform::Trans {
@@ -548,14 +570,20 @@ impl Model {
                                 });
                             }
                         }
-                        TransformSpec::RotX(s) | TransformSpec::RotY(s) | TransformSpec::RotZ(s) => {
+                        TransformSpec::RotX(s)
+                        | TransformSpec::RotY(s)
+                        | TransformSpec::RotZ(s) => {
                             let axis = match tr {
                                 TransformSpec::RotX(_) => 0,
                                 TransformSpec::RotY(_) => 1,
                                 _ => 2,
                             };
                             let (joints, offset) = angle(&item, s)?;
-                            transforms.push(Transform::Rot { axis, joints, offset });
+                            transforms.push(Transform::Rot {
+                                axis,
+                                joints,
+                                offset,
+                            });
                         }
                     }
                 }
@@ -569,10 +597,16 @@ impl Model {
             pending_frames = rest;
             if pending_chains.len() + pending_frames.len() == before {
                 let (what, parent) = if let Some(c) = pending_chains.first() {
-                    (format!("chain '{}'", c.name), c.parent.clone().unwrap_or_default())
+                    (
+                        format!("chain '{}'", c.name),
+                        c.parent.clone().unwrap_or_default(),
+                    )
                 } else {
                     let f = pending_frames[0];
-                    (format!("frame '{}'", f.name), f.parent.clone().unwrap_or_default())
+                    (
+                        format!("frame '{}'", f.name),
+                        f.parent.clone().unwrap_or_default(),
+                    )
                 };
                 return Err(err(
                     &format!("{what} field 'parent'"),
@@ -693,12 +727,18 @@ impl Model {
                     )
                 })?;
                 if free.contains(&k) {
-                    return Err(err(&format!("{item} field 'free'"), format!("joint '{j}' listed twice")));
+                    return Err(err(
+                        &format!("{item} field 'free'"),
+                        format!("joint '{j}' listed twice"),
+                    ));
                 }
                 free.push(k);
             }
             if free.is_empty() {
-                return Err(err(&format!("{item} field 'free'"), "expected at least one free joint".into()));
+                return Err(err(
+                    &format!("{item} field 'free'"),
+                    "expected at least one free joint".into(),
+                ));
             }
             free.sort_unstable();
             configurations.push(Configuration {
@@ -721,9 +761,10 @@ impl Model {
                 .steps
                 .iter()
                 .map(|n| {
-                    configurations.iter().position(|c| c.name == *n).ok_or_else(|| {
-                        err(&item, format!("unknown configuration '{n}'"))
-                    })
+                    configurations
+                        .iter()
+                        .position(|c| c.name == *n)
+                        .ok_or_else(|| err(&item, format!("unknown configuration '{n}'")))
                 })
                 .collect::<Result<Vec<_>, _>>()?;
             sequences.push((s.name.clone(), steps));

@@ -57,7 +57,11 @@ impl Vars {
                 }
             }
         }
-        let mk = |p: &str| (0..n).map(|k| symbol!(&format!("lockstep::{p}{k}"))).collect();
+        let mk = |p: &str| {
+            (0..n)
+                .map(|k| symbol!(&format!("lockstep::{p}{k}")))
+                .collect()
+        };
         Vars {
             s: mk("S"),
             c: mk("C"),
@@ -73,7 +77,7 @@ impl Vars {
     pub fn dq(&self, e: &Atom, k: usize) -> Atom {
         let mut out = Atom::num(0);
         if self.prismatic[k] {
-            out = out + e.derivative(self.q[k]);
+            out += e.derivative(self.q[k]);
         }
         if self.revolute[k] {
             let ds = e.derivative(self.s[k]);
@@ -101,7 +105,7 @@ pub fn reduce(e: &Atom, v: &Vars) -> Atom {
             }
             let next = cur
                 .replace(pat.to_pattern())
-                .when(symbol!("n_").filter(|n| n >= &2))
+                .when(symbol!("n_").filter(|n| n >= 2))
                 .with(rhs.to_pattern())
                 .expand();
             if next == cur {
@@ -151,7 +155,11 @@ pub fn rational(x: f64) -> Atom {
     let (mant, exp) = {
         let bits = x.abs().to_bits();
         let e = ((bits >> 52) & 0x7ff) as i32;
-        let m = if e == 0 { (bits & ((1 << 52) - 1)) << 1 } else { (bits & ((1 << 52) - 1)) | (1 << 52) };
+        let m = if e == 0 {
+            (bits & ((1 << 52) - 1)) << 1
+        } else {
+            (bits & ((1 << 52) - 1)) | (1 << 52)
+        };
         (m as i64, e - 1075)
     };
     let sign = if x < 0.0 { -1 } else { 1 };
@@ -294,7 +302,7 @@ impl Pose {
             std::array::from_fn(|j| {
                 let mut acc = Atom::num(0);
                 for k in 0..3 {
-                    acc = acc + &self.r[i][k] * &local.r[k][j];
+                    acc += &self.r[i][k] * &local.r[k][j];
                 }
                 reduce(&acc, v)
             })
@@ -302,7 +310,7 @@ impl Pose {
         let p = std::array::from_fn(|i| {
             let mut acc = self.p[i].clone();
             for k in 0..3 {
-                acc = acc + &self.r[i][k] * &local.p[k];
+                acc += &self.r[i][k] * &local.p[k];
             }
             reduce(&acc, v)
         });
@@ -313,7 +321,11 @@ impl Pose {
 fn elementary(t: &Transform, model: &Model, v: &Vars) -> Pose {
     let mut pose = Pose::identity();
     match t {
-        Transform::Rot { axis, joints, offset } => {
+        Transform::Rot {
+            axis,
+            joints,
+            offset,
+        } => {
             let (s, c) = sincos(v, joints, *offset);
             let (i, j) = match axis {
                 0 => (1, 2),
@@ -417,7 +429,12 @@ pub struct Coefficients {
 
 /// Form D⁽ʲ⁾ and φ⁽ʲ⁾ for every barycentric parameter (thesis 3.2, 3.4) from the body-frame
 /// Jacobians of each link's frame: v_b = Rᵀ ∂p/∂q q̇, S(ω_b) = Rᵀ Ṙ.
-pub fn coefficients(model: &Model, v: &Vars, poses: &[Pose], params: &[Barycentric]) -> Coefficients {
+pub fn coefficients(
+    model: &Model,
+    v: &Vars,
+    poses: &[Pose],
+    params: &[Barycentric],
+) -> Coefficients {
     let n = model.joints.len();
     let zero = || Atom::num(0);
     let mut d = vec![vec![vec![zero(); n]; n]; params.len()];
@@ -439,7 +456,7 @@ pub fn coefficients(model: &Model, v: &Vars, poses: &[Pose], params: &[Barycentr
             for x in 0..3 {
                 let mut acc = zero();
                 for m in 0..3 {
-                    acc = acc + &pose.r[m][x] * &dp[k][m];
+                    acc += &pose.r[m][x] * &dp[k][m];
                 }
                 jv[x][k] = reduce(&acc, v);
             }
@@ -447,7 +464,7 @@ pub fn coefficients(model: &Model, v: &Vars, poses: &[Pose], params: &[Barycentr
             let s_entry = |a: usize, b: usize| {
                 let mut acc = zero();
                 for m in 0..3 {
-                    acc = acc + &pose.r[m][a] * &dr[k][m][b];
+                    acc += &pose.r[m][a] * &dr[k][m][b];
                 }
                 reduce(&acc, v)
             };

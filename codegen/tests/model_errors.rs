@@ -33,7 +33,9 @@ free = ["q1"]
 "#;
 
 fn err(text: &str) -> String {
-    Model::from_toml(Path::new("model/two.toml"), text).unwrap_err().to_string()
+    Model::from_toml(Path::new("model/two.toml"), text)
+        .unwrap_err()
+        .to_string()
 }
 
 #[test]
@@ -41,7 +43,13 @@ fn a_good_model_loads() {
     let m = Model::from_toml(Path::new("model/two.toml"), GOOD).unwrap();
     assert_eq!(m.joints, vec!["q0", "q1"]);
     assert_eq!(m.frames.len(), 3);
-    assert_eq!(m.inertial_symbols.iter().map(|s| s.0.as_str()).collect::<Vec<_>>(), vec!["m1", "x1", "m2"]);
+    assert_eq!(
+        m.inertial_symbols
+            .iter()
+            .map(|s| s.0.as_str())
+            .collect::<Vec<_>>(),
+        vec!["m1", "x1", "m2"]
+    );
     // c1 plus the automatic `full`.
     assert_eq!(m.configurations.len(), 2);
     assert_eq!(m.gravity, [0.0, 0.0, -9.81]);
@@ -49,52 +57,86 @@ fn a_good_model_loads() {
 
 #[test]
 fn unknown_field_is_named_with_its_line() {
-    let e = err(&GOOD.replace("convention = \"standard\"", "convention = \"standard\"\ncolour = 1"));
-    assert!(e.contains("model/two.toml") && e.contains("colour") && e.contains("line 11"), "{e}");
+    let e = err(&GOOD.replace(
+        "convention = \"standard\"",
+        "convention = \"standard\"\ncolour = 1",
+    ));
+    assert!(
+        e.contains("model/two.toml") && e.contains("colour") && e.contains("line 11"),
+        "{e}"
+    );
 }
 
 #[test]
 fn unknown_symbol_names_the_field_and_the_expected_names() {
     let e = err(&GOOD.replace("a = \"L1\"", "a = \"L9\""));
-    assert!(e.contains("chain 'arm' row 1 field 'a'") && e.contains("unknown symbol 'L9'") && e.contains("L1"), "{e}");
+    assert!(
+        e.contains("chain 'arm' row 1 field 'a'")
+            && e.contains("unknown symbol 'L9'")
+            && e.contains("L1"),
+        "{e}"
+    );
 }
 
 #[test]
 fn malformed_expression_names_position() {
     let e = err(&GOOD.replace("\"q1 - pi/2\"", "\"q1 - * pi\""));
-    assert!(e.contains("row 2 field 'theta'") && e.contains("malformed expression") && e.contains("character 6"), "{e}");
+    assert!(
+        e.contains("row 2 field 'theta'")
+            && e.contains("malformed expression")
+            && e.contains("character 6"),
+        "{e}"
+    );
 }
 
 #[test]
 fn nonlinear_angle_is_rejected() {
     let e = err(&GOOD.replace("\"q1 - pi/2\"", "\"q1*q0\""));
-    assert!(e.contains("field 'theta'") && e.contains("two joint variables"), "{e}");
+    assert!(
+        e.contains("field 'theta'") && e.contains("two joint variables"),
+        "{e}"
+    );
 }
 
 #[test]
 fn link_on_missing_frame_is_rejected() {
     let e = err(&GOOD.replace("frame = \"arm.e\"", "frame = \"arm.7\""));
-    assert!(e.contains("link 'l2' field 'frame'") && e.contains("'arm.7' does not exist"), "{e}");
+    assert!(
+        e.contains("link 'l2' field 'frame'") && e.contains("'arm.7' does not exist"),
+        "{e}"
+    );
 }
 
 #[test]
 fn configuration_freeing_unknown_joint_is_rejected() {
     let e = err(&GOOD.replace("free = [\"q1\"]", "free = [\"q5\"]"));
-    assert!(e.contains("configuration 'c1' field 'free'") && e.contains("unknown joint 'q5'"), "{e}");
+    assert!(
+        e.contains("configuration 'c1' field 'free'") && e.contains("unknown joint 'q5'"),
+        "{e}"
+    );
 }
 
 #[test]
 fn joint_in_no_chain_is_rejected() {
-    let e = err(&GOOD.replace("joints = [\"q0\", \"q1\"]", "joints = [\"q0\", \"q1\", \"q2\"]"));
+    let e = err(&GOOD.replace(
+        "joints = [\"q0\", \"q1\"]",
+        "joints = [\"q0\", \"q1\", \"q2\"]",
+    ));
     assert!(e.contains("joint 'q2' appears in no chain"), "{e}");
 }
 
 #[test]
 fn joint_in_inertial_field_and_shared_symbols_are_rejected() {
     let e = err(&GOOD.replace("mass = \"m2\"", "mass = \"q0\""));
-    assert!(e.contains("link 'l2' field 'mass'") && e.contains("joint variable 'q0'"), "{e}");
+    assert!(
+        e.contains("link 'l2' field 'mass'") && e.contains("joint variable 'q0'"),
+        "{e}"
+    );
     let e = err(&GOOD.replace("mass = \"m2\"", "mass = \"m1\""));
-    assert!(e.contains("already an inertial parameter of link 'l1'"), "{e}");
+    assert!(
+        e.contains("already an inertial parameter of link 'l1'"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -105,7 +147,8 @@ fn toml_syntax_error_names_the_line() {
 
 #[test]
 fn the_bundled_models_load() {
-    for f in codegen::model_files(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../model")).unwrap() {
+    for f in codegen::model_files(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../model")).unwrap()
+    {
         codegen::load(&f).unwrap();
     }
 }

@@ -7,7 +7,8 @@
 //! (off-diagonal I12 = −∫x·y dm), in the link frame.
 
 /// Names of the ten barycentric kinds (Khalil's notation).
-pub const BARYCENTRIC_KINDS: [&str; 10] = ["M", "MX", "MY", "MZ", "XX", "XY", "XZ", "YY", "YZ", "ZZ"];
+pub const BARYCENTRIC_KINDS: [&str; 10] =
+    ["M", "MX", "MY", "MZ", "XX", "XY", "XZ", "YY", "YZ", "ZZ"];
 
 /// One link in the thesis's form.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -130,7 +131,11 @@ mod tests {
 
     #[test]
     fn parallel_axis_round_trip() {
-        let l = CentroidalInertia { m: 2.0, c: [0.1, -0.2, 0.3], i_c: [0.05, 0.001, -0.002, 0.04, 0.003, 0.03] };
+        let l = CentroidalInertia {
+            m: 2.0,
+            c: [0.1, -0.2, 0.3],
+            i_c: [0.05, 0.001, -0.002, 0.04, 0.003, 0.03],
+        };
         let b = l.to_barycentric();
         // XX = Ixx + m(y² + z²) = 0.05 + 2·(0.04 + 0.09)
         assert!((b[4] - 0.31).abs() < 1e-15);
@@ -144,9 +149,20 @@ mod tests {
     #[test]
     fn flags_negative_inertia_and_triangle_violation() {
         // Appendix D coupled-method I4_33 is negative.
-        let bad = CentroidalInertia { m: 0.1, c: [0.0; 3], i_c: [1e-4, 0.0, 0.0, 1e-4, 0.0, -1.7449e-4] };
-        assert!(bad.consistency().iter().any(|s| s.contains("positive definite")));
-        let tri = CentroidalInertia { m: 0.1, c: [0.0; 3], i_c: [1e-4, 0.0, 0.0, 1e-5, 0.0, 1e-5] };
+        let bad = CentroidalInertia {
+            m: 0.1,
+            c: [0.0; 3],
+            i_c: [1e-4, 0.0, 0.0, 1e-4, 0.0, -1.7449e-4],
+        };
+        assert!(bad
+            .consistency()
+            .iter()
+            .any(|s| s.contains("positive definite")));
+        let tri = CentroidalInertia {
+            m: 0.1,
+            c: [0.0; 3],
+            i_c: [1e-4, 0.0, 0.0, 1e-5, 0.0, 1e-5],
+        };
         let f = tri.consistency();
         assert!(f.iter().any(|s| s.contains("triangle")), "{f:?}");
         assert!(CentroidalInertia { m: -1.0, ..tri }.consistency()[0].contains("mass"));
@@ -155,6 +171,8 @@ mod tests {
     #[test]
     fn eigenvalues_of_known_matrix() {
         let e = symmetric_eigenvalues([[2.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.0, 0.0, 5.0]]);
-        assert!((e[0] - 1.0).abs() < 1e-12 && (e[1] - 3.0).abs() < 1e-12 && (e[2] - 5.0).abs() < 1e-12);
+        assert!(
+            (e[0] - 1.0).abs() < 1e-12 && (e[1] - 3.0).abs() < 1e-12 && (e[2] - 5.0).abs() < 1e-12
+        );
     }
 }

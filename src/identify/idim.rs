@@ -90,15 +90,28 @@ pub fn observation(
         format!(
             "model '{}' has no configuration '{config}' (it has: {})",
             model.name,
-            model.configurations.iter().map(|c| c.name).collect::<Vec<_>>().join(", ")
+            model
+                .configurations
+                .iter()
+                .map(|c| c.name)
+                .collect::<Vec<_>>()
+                .join(", ")
         )
     })?;
     let nj = model.joints.len();
     let nf = conf.free.len();
     let np = model.params.len();
     // Columns: rigid-body parameters present in this configuration, then effects on free joints.
-    let mut names: Vec<String> = conf.params_present.iter().map(|&j| model.params[j].to_string()).collect();
-    let effects: Vec<_> = plant.effects.iter().filter(|e| conf.free.contains(&e.joint)).collect();
+    let mut names: Vec<String> = conf
+        .params_present
+        .iter()
+        .map(|&j| model.params[j].to_string())
+        .collect();
+    let effects: Vec<_> = plant
+        .effects
+        .iter()
+        .filter(|e| conf.free.contains(&e.joint))
+        .collect();
     for e in &effects {
         names.extend(e.parameter_names());
     }
@@ -108,7 +121,12 @@ pub fn observation(
     let mut rows = Vec::new();
     for (ri, m) in records.iter().enumerate() {
         if m.q.len() < nj {
-            bail!("{}: has {} joints, model '{}' needs {nj}", m.file.display(), m.q.len(), model.name);
+            bail!(
+                "{}: has {} joints, model '{}' needs {nj}",
+                m.file.display(),
+                m.q.len(),
+                model.name
+            );
         }
         let dt = m.dt();
         let fs = 1.0 / dt;
@@ -138,8 +156,14 @@ pub fn observation(
             )
         };
         // Filtered q of every joint (locked ones too: their positions enter the kernels).
-        let qf: Vec<Vec<f64>> = (0..nj).map(|j| bw.filtfilt(&m.q[j]).ok_or_else(too_short)).collect::<Result<_>>()?;
-        let qd: Vec<Vec<f64>> = conf.free.iter().map(|&j| central_difference(&qf[j], dt)).collect();
+        let qf: Vec<Vec<f64>> = (0..nj)
+            .map(|j| bw.filtfilt(&m.q[j]).ok_or_else(too_short))
+            .collect::<Result<_>>()?;
+        let qd: Vec<Vec<f64>> = conf
+            .free
+            .iter()
+            .map(|&j| central_difference(&qf[j], dt))
+            .collect();
         let qdd: Vec<Vec<f64>> = qd.iter().map(|v| central_difference(v, dt)).collect();
         // Rows of this record: for each free joint a, interior sample k ∈ [2, n − 3] (where
         // both central differences are defined; the end values are one-sided).
@@ -168,7 +192,11 @@ pub fn observation(
                     c += 1;
                 }
                 for e in &effects {
-                    let vals = if e.joint == conf.free[a] { e.kind.regressor(qd[a][k]) } else { vec![0.0; e.kind.symbols().len()] };
+                    let vals = if e.joint == conf.free[a] {
+                        e.kind.regressor(qd[a][k])
+                    } else {
+                        vec![0.0; e.kind.symbols().len()]
+                    };
                     for v in vals {
                         wr[a][c][r] = v;
                         c += 1;
@@ -177,7 +205,9 @@ pub fn observation(
             }
         }
         // Parallel decimation.
-        let idx: Vec<usize> = decimation_indices(ni, opts.decimation.max(1)).map(|i| interior[i]).collect();
+        let idx: Vec<usize> = decimation_indices(ni, opts.decimation.max(1))
+            .map(|i| interior[i])
+            .collect();
         for a in 0..nf {
             let yd = decimate(&yr[a], opts.decimation).ok_or_else(too_short)?;
             y_all.extend_from_slice(&yd);
@@ -232,7 +262,10 @@ impl Fit {
 
     /// Value by name.
     pub fn get(&self, name: &str) -> Option<f64> {
-        self.names.iter().position(|n| n == name).map(|i| self.theta[i])
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .map(|i| self.theta[i])
     }
 }
 
@@ -247,7 +280,9 @@ pub fn least_squares(obs: &Observation) -> Result<Fit> {
         bail!("{r} observation rows for {p} parameters: more data needed");
     }
     // Scale columns to unit norm for a meaningful rank test.
-    let scale: Vec<f64> = (0..p).map(|c| obs.w.column(c).norm().max(f64::MIN_POSITIVE)).collect();
+    let scale: Vec<f64> = (0..p)
+        .map(|c| obs.w.column(c).norm().max(f64::MIN_POSITIVE))
+        .collect();
     let ws = DMatrix::from_fn(r, p, |i, c| obs.w[(i, c)] / scale[c]);
     let svd = ws.clone().svd(true, true);
     let smax = svd.singular_values.max();
@@ -265,16 +300,15 @@ pub fn least_squares(obs: &Observation) -> Result<Fit> {
             dep.join(", ")
         );
     }
-    let sol = svd.solve(&obs.y, 0.0).map_err(|e| anyhow::anyhow!("least squares: {e}"))?;
+    let sol = svd
+        .solve(&obs.y, 0.0)
+        .map_err(|e| anyhow::anyhow!("least squares: {e}"))?;
     let theta: Vec<f64> = (0..p).map(|c| sol[c] / scale[c]).collect();
     let th = DVector::from_vec(theta.clone());
     let resid = &obs.y - &obs.w * &th;
     let sigma2 = resid.norm_squared() / (r - p) as f64;
     let wtw = obs.w.transpose() * &obs.w;
-    let cov = wtw
-        .try_inverse()
-        .context("WᵀW is singular")?
-        * sigma2;
+    let cov = wtw.try_inverse().context("WᵀW is singular")? * sigma2;
     let std = (0..p).map(|i| cov[(i, i)].max(0.0).sqrt()).collect();
     let condition = {
         let s = obs.w.clone().singular_values();

@@ -5,7 +5,10 @@ use crate::identify::idim::Fit;
 
 /// The parameter table of a least-squares fit: name, value, σ, relative σ.
 pub fn fit_table(fit: &Fit) -> String {
-    let mut s = format!("{:<12} {:>14} {:>12} {:>8}\n", "parameter", "value", "std dev", "rel %");
+    let mut s = format!(
+        "{:<12} {:>14} {:>12} {:>8}\n",
+        "parameter", "value", "std dev", "rel %"
+    );
     for i in 0..fit.names.len() {
         s.push_str(&format!(
             "{:<12} {:>14.6} {:>12.4e} {:>8.3}\n",

@@ -104,7 +104,11 @@ where
             .map_err(|e| anyhow!("{e:?}"))?;
         for (i, s) in panel.series.iter().enumerate() {
             let color = COLORS[i % COLORS.len()];
-            let pts = s.x.iter().copied().zip(s.y.iter().copied()).filter(|(a, b)| a.is_finite() && b.is_finite());
+            let pts =
+                s.x.iter()
+                    .copied()
+                    .zip(s.y.iter().copied())
+                    .filter(|(a, b)| a.is_finite() && b.is_finite());
             let anno = match s.style {
                 Style::Line => chart
                     .draw_series(LineSeries::new(pts, color.stroke_width(1)))
@@ -113,8 +117,9 @@ where
                     .draw_series(pts.map(|p| Circle::new(p, 1, color.filled())))
                     .map_err(|e| anyhow!("{e:?}"))?,
             };
-            anno.label(s.name.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2)));
+            anno.label(s.name.clone()).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+            });
         }
         chart
             .configure_series_labels()
@@ -137,20 +142,32 @@ pub fn figure(stem: &Path, panels: &[Panel], width: u32) -> Result<[PathBuf; 2]>
     let height = 300 * panels.len().max(1) as u32;
     let svg_path = stem.with_extension("svg");
     let mut svg = String::new();
-    draw(SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area(), panels)
-        .with_context(|| format!("drawing {}", svg_path.display()))?;
+    draw(
+        SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area(),
+        panels,
+    )
+    .with_context(|| format!("drawing {}", svg_path.display()))?;
     crate::util::write_atomic(&svg_path, svg.as_bytes())?;
     let png_path = stem.with_extension("png");
     let dir = png_path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let tmp = dir.join(format!(
         ".{}.tmp{}.png",
-        png_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
+        png_path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
         std::process::id()
     ));
-    let res = draw(BitMapBackend::new(&tmp, (width, height)).into_drawing_area(), panels)
-        .with_context(|| format!("drawing {}", png_path.display()))
-        .and_then(|_| std::fs::rename(&tmp, &png_path).with_context(|| format!("cannot write {}", png_path.display())));
+    let res = draw(
+        BitMapBackend::new(&tmp, (width, height)).into_drawing_area(),
+        panels,
+    )
+    .with_context(|| format!("drawing {}", png_path.display()))
+    .and_then(|_| {
+        std::fs::rename(&tmp, &png_path)
+            .with_context(|| format!("cannot write {}", png_path.display()))
+    });
     if res.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

@@ -33,7 +33,9 @@ enum Cmd {
 }
 
 fn main() -> Result<()> {
-    let Cli { cmd: Cmd::Gen { model, config, out } } = Cli::parse();
+    let Cli {
+        cmd: Cmd::Gen { model, config, out },
+    } = Cli::parse();
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
     let file = root.join("model").join(format!("{model}.toml"));
     if !file.exists() {
@@ -47,7 +49,9 @@ fn main() -> Result<()> {
                 Ok(i) if i >= 1 && i <= m.configurations.len() => {
                     // A number names a configuration of the first sequence, or the i-th one.
                     match m.sequences.first() {
-                        Some((_, steps)) if i <= steps.len() => m.configurations[steps[i - 1]].name.clone(),
+                        Some((_, steps)) if i <= steps.len() => {
+                            m.configurations[steps[i - 1]].name.clone()
+                        }
                         _ => m.configurations[i - 1].name.clone(),
                     }
                 }
@@ -60,15 +64,32 @@ fn main() -> Result<()> {
     let g = codegen::generate::generate(&m, only.as_deref()).map_err(|e| anyhow::anyhow!("{e}"))?;
     let secs = t0.elapsed().as_secs_f64();
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
-    let suffix = only.as_ref().map(|o| format!("_{}", o[0])).unwrap_or_default();
+    let suffix = only
+        .as_ref()
+        .map(|o| format!("_{}", o[0]))
+        .unwrap_or_default();
     let path = out.join(format!("{}{suffix}.rs", m.name));
     codegen::write_if_changed(&path, &g.source)?;
-    eprintln!("model {} ({}): symbolic model {:.2} s", m.name, file.display(), g.model_seconds);
+    eprintln!(
+        "model {} ({}): symbolic model {:.2} s",
+        m.name,
+        file.display(),
+        g.model_seconds
+    );
     for c in &g.configs {
         let total: usize = c.ops.iter().map(|(_, o)| o.total()).sum();
-        eprintln!("  configuration {} (free {}): {} operations, {:.2} s", c.name, c.free.join(", "), total, c.seconds);
+        eprintln!(
+            "  configuration {} (free {}): {} operations, {:.2} s",
+            c.name,
+            c.free.join(", "),
+            total,
+            c.seconds
+        );
         for (k, o) in &c.ops {
-            eprintln!("    {k:<20} {:>6} add {:>6} mul {:>4} other", o.add, o.mul, o.other);
+            eprintln!(
+                "    {k:<20} {:>6} add {:>6} mul {:>4} other",
+                o.add, o.mul, o.other
+            );
         }
     }
     eprintln!("wrote {} in {secs:.2} s", path.display());
