@@ -190,7 +190,7 @@ fn sincos_multiple(v: &Vars, k: usize, n: i64) -> (Atom, Atom) {
 }
 
 /// sin and cos of a number, snapped to exact 0, ±1, ±1/2 where the angle is a multiple of
-/// π/6 (so that π/2 offsets cancel exactly).
+/// π/6 (so that π/2 offsets cancel exactly; ±√3/2 to f64 precision).
 fn sincos_const(a: f64) -> (Atom, Atom) {
     let unit = std::f64::consts::PI / 6.0;
     let m = a / unit;
@@ -213,7 +213,8 @@ fn sincos_const(a: f64) -> (Atom, Atom) {
         ];
         let val = |(h, r3): (i64, bool)| -> Atom {
             if r3 {
-                Atom::num((h, 2)) * Atom::num(3).sqrt()
+                // √3/2 as a number: a symbolic root would reach the evaluator as a power.
+                rational(h as f64 * 3f64.sqrt() / 2.0)
             } else {
                 Atom::num((h, 2))
             }

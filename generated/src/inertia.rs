@@ -68,7 +68,7 @@ impl CentroidalInertia {
     /// (each ≤ the sum of the other two). Tolerance 1e-12 relative to the trace.
     pub fn consistency(&self) -> Vec<String> {
         let mut out = Vec::new();
-        if !(self.m > 0.0) {
+        if self.m.is_nan() || self.m <= 0.0 {
             out.push(format!("mass {} kg is not positive", self.m));
         }
         let i = self.i_c;

@@ -22,10 +22,16 @@
 //! The [`Model`] table gives the same kernels behind slices for code that picks a model and a
 //! configuration at run time.
 
-#![allow(clippy::all, clippy::pedantic)]
-#![allow(unused_variables, unused_mut, non_snake_case)]
-
 pub mod inertia;
+
+/// A kernel `(q[NJ], p[NP], out)`.
+pub type PositionKernel = fn(&[f64], &[f64], &mut [f64]);
+/// A kernel `(q[NJ], v[NF], p[NP], out)`.
+pub type VelocityKernel = fn(&[f64], &[f64], &[f64], &mut [f64]);
+/// A kernel `(q[NJ], v[NF], w[NF], p[NP], out)`.
+pub type StateKernel = fn(&[f64], &[f64], &[f64], &[f64], &mut [f64]);
+/// The regressor kernel `(q[NJ], qd[NF], qdd[NF], out[NF·NP])`.
+pub type RegressorKernel = fn(&[f64], &[f64], &[f64], &mut [f64]);
 
 /// Kernels of one configuration behind slices (row-major matrices).
 #[derive(Debug, Clone, Copy)]
@@ -37,17 +43,17 @@ pub struct Configuration {
     /// Indices of the barycentric parameters that appear in this configuration's equations.
     pub params_present: &'static [usize],
     /// D_FF: `(q[NJ], p[NP], out[NF·NF])`.
-    pub mass_matrix: fn(&[f64], &[f64], &mut [f64]),
+    pub mass_matrix: PositionKernel,
     /// C_FF: `(q[NJ], qd[NF], p[NP], out[NF·NF])`.
-    pub christoffel_matrix: fn(&[f64], &[f64], &[f64], &mut [f64]),
+    pub christoffel_matrix: VelocityKernel,
     /// φ_F: `(q[NJ], p[NP], out[NF])`.
-    pub gravity: fn(&[f64], &[f64], &mut [f64]),
+    pub gravity: PositionKernel,
     /// τ_F: `(q[NJ], qd[NF], qdd[NF], p[NP], out[NF])`.
-    pub inverse_dynamics: fn(&[f64], &[f64], &[f64], &[f64], &mut [f64]),
+    pub inverse_dynamics: StateKernel,
     /// q̈_F: `(q[NJ], qd[NF], tau[NF], p[NP], out[NF])`.
-    pub forward_dynamics: fn(&[f64], &[f64], &[f64], &[f64], &mut [f64]),
+    pub forward_dynamics: StateKernel,
     /// Y_F: `(q[NJ], qd[NF], qdd[NF], out[NF·NP])`.
-    pub regressor: fn(&[f64], &[f64], &[f64], &mut [f64]),
+    pub regressor: RegressorKernel,
 }
 
 /// A generated model.
