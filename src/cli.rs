@@ -121,9 +121,7 @@ pub fn run(cli: Cli) -> Result<()> {
             );
             print!("{}", fit_table(&fit));
             if let Some(out) = out {
-                for (n, v) in fit.names.iter().zip(&fit.theta) {
-                    plant.parameters.insert(n.clone(), *v);
-                }
+                fit.apply(&mut plant);
                 plant.save(&out)?;
                 println!("wrote {}", out.display());
             }

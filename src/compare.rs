@@ -2,7 +2,7 @@
 //! the model's W θ on the same prepared (filtered, differentiated, decimated) data, with the
 //! residual e = y − Wθ, error figures, a residual CSV and plots.
 
-use crate::identify::idim::{observation, predict, IdimOptions};
+use crate::identify::idim::{observation, predict, IdimOptions, Observation};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::plot::{figure, Panel, Series, Style};
@@ -60,40 +60,52 @@ pub fn compare_torque(
     let mut out = Vec::new();
     for m in records {
         let obs = observation(plant, config, std::slice::from_ref(m), opts)?;
-        let yhat = predict(plant, &obs)?;
-        let joints: Vec<usize> = {
-            let mut v: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
-            v.dedup();
-            v
-        };
-        for j in joints {
-            let idx: Vec<usize> = (0..obs.rows.len())
-                .filter(|&i| obs.rows[i].joint == j)
-                .collect();
-            let y: Vec<f64> = idx.iter().map(|&i| obs.y[i]).collect();
-            let yh: Vec<f64> = idx.iter().map(|&i| yhat[i]).collect();
-            let t: Vec<f64> = idx.iter().map(|&i| obs.rows[i].t).collect();
-            let qd: Vec<f64> = idx.iter().map(|&i| obs.rows[i].qd).collect();
-            let q: Vec<f64> = idx.iter().map(|&i| obs.rows[i].q).collect();
-            let e: Vec<f64> = y.iter().zip(&yh).map(|(a, b)| a - b).collect();
-            let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-            let imax = (0..e.len())
-                .max_by(|&a, &b| e[a].abs().total_cmp(&e[b].abs()))
-                .unwrap_or(0);
-            out.push(Comparison {
-                file: m.file.clone(),
-                joint: plant.model.joints[j].to_string(),
-                relative_error: 100.0 * norm(&e) / norm(&y),
-                rmse: norm(&e) / (e.len() as f64).sqrt(),
-                max_error: (e[imax], t[imax], qd[imax]),
-                sign_step: sign_fit(&e, &qd),
-                t,
-                q,
-                qd,
-                y,
-                yhat: yh,
-            });
-        }
+        out.extend(compare_observation(plant, &obs, &m.file)?);
+    }
+    Ok(out)
+}
+
+/// Compare the plant with an already prepared observation of one record (`file` names it),
+/// one [`Comparison`] per joint.
+///
+/// # Errors
+/// As [`predict`]: a parameter without value.
+pub fn compare_observation(
+    plant: &Plant,
+    obs: &Observation,
+    file: &Path,
+) -> Result<Vec<Comparison>> {
+    let yhat = predict(plant, obs)?;
+    let mut joints: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
+    joints.dedup();
+    let mut out = Vec::new();
+    for j in joints {
+        let idx: Vec<usize> = (0..obs.rows.len())
+            .filter(|&i| obs.rows[i].joint == j)
+            .collect();
+        let y: Vec<f64> = idx.iter().map(|&i| obs.y[i]).collect();
+        let yh: Vec<f64> = idx.iter().map(|&i| yhat[i]).collect();
+        let t: Vec<f64> = idx.iter().map(|&i| obs.rows[i].t).collect();
+        let qd: Vec<f64> = idx.iter().map(|&i| obs.rows[i].qd).collect();
+        let q: Vec<f64> = idx.iter().map(|&i| obs.rows[i].q).collect();
+        let e: Vec<f64> = y.iter().zip(&yh).map(|(a, b)| a - b).collect();
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let imax = (0..e.len())
+            .max_by(|&a, &b| e[a].abs().total_cmp(&e[b].abs()))
+            .unwrap_or(0);
+        out.push(Comparison {
+            file: file.to_path_buf(),
+            joint: plant.model.joints[j].to_string(),
+            relative_error: 100.0 * norm(&e) / norm(&y),
+            rmse: norm(&e) / (e.len() as f64).sqrt(),
+            max_error: (e[imax], t[imax], qd[imax]),
+            sign_step: sign_fit(&e, &qd),
+            t,
+            q,
+            qd,
+            y,
+            yhat: yh,
+        });
     }
     Ok(out)
 }

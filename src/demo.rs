@@ -8,7 +8,7 @@
 //!
 //! Everything is written under the output directory, which is named at the end.
 
-use crate::compare::{compare_torque, plot, write_residual_csv, Comparison};
+use crate::compare::{compare_observation, compare_torque, plot, write_residual_csv, Comparison};
 use crate::effects::{Effect, EffectKind};
 use crate::identify::idim::{least_squares, observation, Fit, IdimOptions};
 use crate::measurement::Measurement;
@@ -66,18 +66,13 @@ fn fit_and_compare(
     tag: &str,
 ) -> Result<Step> {
     let opts = IdimOptions::default();
-    let fit = least_squares(&observation(
-        plant,
-        "full",
-        std::slice::from_ref(train),
-        &opts,
-    )?)?;
-    for (n, v) in fit.names.iter().zip(&fit.theta) {
-        plant.parameters.insert(n.clone(), *v);
-    }
+    // One observation of the training record serves the fit and the comparison.
+    let obs = observation(plant, "full", std::slice::from_ref(train), &opts)?;
+    let fit = least_squares(&obs)?;
+    fit.apply(plant);
     plant.description = format!("{label} (IDIM-LS on emps_train.csv)");
     plant.save(&out.join(format!("{tag}.toml")))?;
-    let t = compare_torque(plant, "full", std::slice::from_ref(train), &opts)?.remove(0);
+    let t = compare_observation(plant, &obs, &train.file)?.remove(0);
     let v = compare_torque(plant, "full", std::slice::from_ref(pulses), &opts)?.remove(0);
     write_residual_csv(&out.join(format!("{tag}_train_residual.csv")), &t)?;
     write_residual_csv(&out.join(format!("{tag}_pulses_residual.csv")), &v)?;

@@ -53,9 +53,7 @@ fn symmetric_model_reproduces_published_parameters_and_errors() {
     );
     // Same parameters on the pulses record.
     let mut fitted = p.clone();
-    for (n, v) in fit.names.iter().zip(&fit.theta) {
-        fitted.parameters.insert(n.clone(), *v);
-    }
+    fit.apply(&mut fitted);
     let pulses = record("emps_test_pulses.csv");
     let obs2 = observation(&fitted, "full", &[pulses], &IdimOptions::default()).unwrap();
     let yhat = predict(&fitted, &obs2).unwrap();

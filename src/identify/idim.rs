@@ -140,21 +140,19 @@ pub fn observation(
         }
         let bw = butter_lowpass(opts.filter_order, opts.cutoff_hz / (fs / 2.0));
         let n = m.len();
-        if n <= 2 * EDGE + 3 * 8 * opts.decimation.max(1) {
-            bail!(
-                "{}: too few samples ({n}) for the filters and decimation ×{} (need more than {})",
-                m.file.display(),
-                opts.decimation,
-                2 * EDGE + 3 * 8 * opts.decimation.max(1)
-            );
-        }
+        // Central differences drop EDGE samples at each end; filtfilt pads 3·order samples;
+        // decimate's 8th-order Chebyshev pads 3·8 samples at the decimated rate.
+        let min_len = 2 * EDGE + 3 * 8 * opts.decimation.max(1);
         let too_short = || {
             anyhow::anyhow!(
-                "{}: too few samples ({n}) for the filters (need more than {})",
+                "{}: too few samples ({n}) for the filters and decimation ×{} (need more than {min_len})",
                 m.file.display(),
-                3 * 8 * opts.decimation.max(1)
+                opts.decimation,
             )
         };
+        if n <= min_len {
+            return Err(too_short());
+        }
         // Filtered q of every joint (locked ones too: their positions enter the kernels).
         let qf: Vec<Vec<f64>> = (0..nj)
             .map(|j| bw.filtfilt(&m.q[j]).ok_or_else(too_short))
@@ -255,6 +253,13 @@ pub struct Fit {
 }
 
 impl Fit {
+    /// Store the estimates as the plant's parameter values.
+    pub fn apply(&self, plant: &mut Plant) {
+        for (n, v) in self.names.iter().zip(&self.theta) {
+            plant.parameters.insert(n.clone(), *v);
+        }
+    }
+
     /// Relative standard deviation 100·σ/|θ| (%).
     pub fn relative_std(&self, i: usize) -> f64 {
         100.0 * self.std[i] / self.theta[i].abs()
