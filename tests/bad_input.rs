@@ -29,6 +29,25 @@ fn good_row(k: usize) -> String {
     )
 }
 
+/// A good record of `n` rows with row `k` (0-based data row) replaced by `bad`.
+fn csv_with_bad_row(n: usize, k: usize, bad: &str) -> String {
+    csv_rows(n, |i| if i == k { bad.to_string() } else { good_row(i) })
+}
+
+/// `lockstep identify` on `data` with the bundled symmetric EMPS plant, writing to `out`.
+fn run_identify(data: &Path, out: &Path) -> std::process::Output {
+    let plant = Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants/emps_symmetric.toml");
+    Command::new(env!("CARGO_BIN_EXE_lockstep"))
+        .args(["identify", "--plant"])
+        .arg(&plant)
+        .arg("--data")
+        .arg(data)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 fn read_err(path: &Path) -> String {
     Measurement::read_csv(path, 1).unwrap_err().to_string()
 }
@@ -60,33 +79,13 @@ fn missing_column_lists_the_header() {
 #[test]
 fn non_numeric_and_nan_cells_name_row_and_column() {
     let d = tempfile::tempdir().unwrap();
-    let p = write(
-        d.path(),
-        "b.csv",
-        &csv_rows(20, |k| {
-            if k == 5 {
-                "0.005,abc,0".into()
-            } else {
-                good_row(k)
-            }
-        }),
-    );
+    let p = write(d.path(), "b.csv", &csv_with_bad_row(20, 5, "0.005,abc,0"));
     let e = read_err(&p);
     assert!(
         e.contains("b.csv: row 7, column 'tau0': 'abc' is not a number"),
         "{e}"
     );
-    let p = write(
-        d.path(),
-        "c.csv",
-        &csv_rows(20, |k| {
-            if k == 3 {
-                "0.003,1,NaN".into()
-            } else {
-                good_row(k)
-            }
-        }),
-    );
+    let p = write(d.path(), "c.csv", &csv_with_bad_row(20, 3, "0.003,1,NaN"));
     let e = read_err(&p);
     assert!(
         e.contains("row 5, column 'q0'") && e.contains("not a finite number"),
@@ -97,17 +96,7 @@ fn non_numeric_and_nan_cells_name_row_and_column() {
 #[test]
 fn time_must_increase_evenly() {
     let d = tempfile::tempdir().unwrap();
-    let p = write(
-        d.path(),
-        "d.csv",
-        &csv_rows(20, |k| {
-            if k == 8 {
-                "0.001,0,0".to_string()
-            } else {
-                good_row(k)
-            }
-        }),
-    );
+    let p = write(d.path(), "d.csv", &csv_with_bad_row(20, 8, "0.001,0,0"));
     let e = read_err(&p);
     assert!(
         e.contains("d.csv") && e.contains("row 10") && e.contains("must increase"),
@@ -188,28 +177,9 @@ fn plant_file_errors_name_file_and_item() {
 #[test]
 fn cli_fails_with_one_line_and_leaves_no_output() {
     let d = tempfile::tempdir().unwrap();
-    let data = write(
-        d.path(),
-        "h.csv",
-        &csv_rows(20, |k| {
-            if k == 11 {
-                "0.011,1,x".into()
-            } else {
-                good_row(k)
-            }
-        }),
-    );
+    let data = write(d.path(), "h.csv", &csv_with_bad_row(20, 11, "0.011,1,x"));
     let out = d.path().join("fitted.toml");
-    let plant = Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants/emps_symmetric.toml");
-    let o = Command::new(env!("CARGO_BIN_EXE_lockstep"))
-        .args(["identify", "--plant"])
-        .arg(&plant)
-        .arg("--data")
-        .arg(&data)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = run_identify(&data, &out);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
@@ -220,15 +190,7 @@ fn cli_fails_with_one_line_and_leaves_no_output() {
     assert!(!out.exists());
     // Too short for the filters: a clear error, still no output.
     let data = write(d.path(), "i.csv", &csv_rows(50, good_row));
-    let o = Command::new(env!("CARGO_BIN_EXE_lockstep"))
-        .args(["identify", "--plant"])
-        .arg(&plant)
-        .arg("--data")
-        .arg(&data)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = run_identify(&data, &out);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("i.csv: too few samples (50)"), "{err}");
