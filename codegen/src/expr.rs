@@ -329,11 +329,39 @@ impl Expr {
         joints: &[String],
         constants: &BTreeMap<String, f64>,
     ) -> Result<(Vec<i64>, f64), String> {
+        let (c, k) = self.linear(joints, constants, "an angle")?;
+        let mut ints = Vec::with_capacity(c.len());
+        for (j, x) in c.iter().enumerate() {
+            if (x - x.round()).abs() > 1e-12 {
+                return Err(format!(
+                    "joint '{}' has the non-integer coefficient {x} in an angle",
+                    joints[j]
+                ));
+            }
+            ints.push(x.round() as i64);
+        }
+        Ok((ints, k))
+    }
+
+    /// Write `self` as `Σ c_k·q_k + x0` with real coefficients `c_k` and a number `x0`
+    /// (constants substituted): the form of a translation (DH d or a, `trans` entries), so
+    /// that a prismatic joint's velocity is `Σ c_k q̇_k`. `what` names the quantity in errors
+    /// ("an angle", "a translation").
+    ///
+    /// # Errors
+    /// A message when the expression is not of that form.
+    pub fn linear(
+        &self,
+        joints: &[String],
+        constants: &BTreeMap<String, f64>,
+        what: &str,
+    ) -> Result<(Vec<f64>, f64), String> {
         // Each sub-expression becomes (coefficients as f64, constant).
         fn go(
             e: &Expr,
             joints: &[String],
             constants: &BTreeMap<String, f64>,
+            what: &str,
         ) -> Result<(Vec<f64>, f64), String> {
             let n = joints.len();
             let is_const = |c: &Vec<f64>| c.iter().all(|&x| x == 0.0);
@@ -349,13 +377,13 @@ impl Expr {
                         (vec![0.0; n], *v)
                     } else {
                         return Err(format!(
-                            "'{s}' in an angle must be a joint variable or a numeric constant"
+                            "'{s}' in {what} must be a joint variable or a numeric constant"
                         ));
                     }
                 }
                 Expr::Add(a, b) | Expr::Sub(a, b) => {
-                    let (ca, ka) = go(a, joints, constants)?;
-                    let (cb, kb) = go(b, joints, constants)?;
+                    let (ca, ka) = go(a, joints, constants, what)?;
+                    let (cb, kb) = go(b, joints, constants, what)?;
                     let sgn = if matches!(e, Expr::Sub(..)) {
                         -1.0
                     } else {
@@ -367,36 +395,36 @@ impl Expr {
                     )
                 }
                 Expr::Neg(a) => {
-                    let (c, k) = go(a, joints, constants)?;
+                    let (c, k) = go(a, joints, constants, what)?;
                     (c.iter().map(|x| -x).collect(), -k)
                 }
                 Expr::Mul(a, b) => {
-                    let (ca, ka) = go(a, joints, constants)?;
-                    let (cb, kb) = go(b, joints, constants)?;
+                    let (ca, ka) = go(a, joints, constants, what)?;
+                    let (cb, kb) = go(b, joints, constants, what)?;
                     if is_const(&ca) {
                         (cb.iter().map(|x| x * ka).collect(), ka * kb)
                     } else if is_const(&cb) {
                         (ca.iter().map(|x| x * kb).collect(), ka * kb)
                     } else {
-                        return Err("an angle may not multiply two joint variables".into());
+                        return Err(format!("{what} may not multiply two joint variables"));
                     }
                 }
                 Expr::Div(a, b) => {
-                    let (ca, ka) = go(a, joints, constants)?;
-                    let (cb, kb) = go(b, joints, constants)?;
+                    let (ca, ka) = go(a, joints, constants, what)?;
+                    let (cb, kb) = go(b, joints, constants, what)?;
                     if !is_const(&cb) {
-                        return Err("an angle may not divide by a joint variable".into());
+                        return Err(format!("{what} may not divide by a joint variable"));
                     }
                     (ca.iter().map(|x| x / kb).collect(), ka / kb)
                 }
                 Expr::Pow(..) | Expr::Fun(..) => {
                     let (c, k) = match e {
                         Expr::Pow(a, p) => {
-                            let (c, k) = go(a, joints, constants)?;
+                            let (c, k) = go(a, joints, constants, what)?;
                             (c, k.powi(*p))
                         }
                         Expr::Fun(f, a) => {
-                            let (c, k) = go(a, joints, constants)?;
+                            let (c, k) = go(a, joints, constants, what)?;
                             let v = match f {
                                 Func::Sin => k.sin(),
                                 Func::Cos => k.cos(),
@@ -407,27 +435,15 @@ impl Expr {
                         _ => unreachable!(),
                     };
                     if !is_const(&c) {
-                        return Err(
-                            "a joint variable in an angle may appear only linearly (no powers or functions of it)"
-                                .into(),
-                        );
+                        return Err(format!(
+                            "a joint variable in {what} may appear only linearly (no powers or functions of it)"
+                        ));
                     }
                     (c, k)
                 }
             })
         }
-        let (c, k) = go(self, joints, constants)?;
-        let mut ints = Vec::with_capacity(c.len());
-        for (j, x) in c.iter().enumerate() {
-            if (x - x.round()).abs() > 1e-12 {
-                return Err(format!(
-                    "joint '{}' has the non-integer coefficient {x} in an angle",
-                    joints[j]
-                ));
-            }
-            ints.push(x.round() as i64);
-        }
-        Ok((ints, k))
+        go(self, joints, constants, what)
     }
 }
 

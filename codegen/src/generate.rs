@@ -1,12 +1,15 @@
 //! From a validated model to the Rust source of its kernels module.
 
-use crate::emit::{lit, straight_line, EmitError, Ops};
+use crate::dynamics::{config_dynamics, ConfigDynamics, Tree};
+use crate::emit::{lit, EmitError, Ops};
+use crate::graph::{Graph, Inputs};
 use crate::model::{Configuration, Model};
-use crate::symbolic::{self, christoffel, reduce, user_symbol, Vars};
+use crate::symbolic::{self, user_symbol, Vars};
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::quote;
+use std::collections::HashMap;
 use std::time::Instant;
-use symbolica::atom::{Atom, AtomCore};
+use symbolica::atom::{Atom, Symbol};
 
 /// The generator's version, written into every emitted header.
 pub const GENERATOR_VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -46,199 +49,84 @@ pub struct SymbolicModel<'m> {
     pub model: &'m Model,
     /// Its symbols.
     pub vars: Vars,
+    /// The kinematic tree of elementary motions.
+    pub tree: Tree,
     /// Barycentric parameters.
     pub params: Vec<symbolic::Barycentric>,
     /// `p_sym[j]`: the parameter's symbol `P{j}`.
-    pub p_sym: Vec<Atom>,
-    /// D and φ coefficients.
-    pub coef: symbolic::Coefficients,
-    /// ∂d⁽ʲ⁾_ab/∂q_i, `[j][a][b][i]`.
-    pub dd: Vec<Vec<Vec<Vec<Atom>>>>,
+    pub p_sym: Vec<Symbol>,
 }
 
 impl<'m> SymbolicModel<'m> {
-    /// Form the full model symbolically.
+    /// Symbols, tree and parameters of `model`.
     pub fn new(model: &'m Model) -> SymbolicModel<'m> {
         let vars = Vars::new(model);
-        let poses = symbolic::frame_poses(model, &vars);
+        let tree = Tree::new(model);
         let params = symbolic::barycentric(model, &vars);
-        let coef = symbolic::coefficients(model, &vars, &poses, &params);
-        let n = model.joints.len();
-        let dd = coef
-            .d
-            .iter()
-            .map(|dj| {
-                let mut m = vec![vec![vec![Atom::num(0); n]; n]; n];
-                for a in 0..n {
-                    for b in a..n {
-                        if dj[a][b].is_zero() {
-                            continue;
-                        }
-                        for i in 0..n {
-                            let e = vars.dq(&dj[a][b], i);
-                            m[a][b][i] = e.clone();
-                            m[b][a][i] = e;
-                        }
-                    }
-                }
-                m
-            })
-            .collect();
         let p_sym = (0..params.len())
-            .map(|j| Atom::var(symbolica::symbol!(&format!("lockstep::P{j}"))))
+            .map(|j| symbolica::symbol!(&format!("lockstep::P{j}")))
             .collect();
         SymbolicModel {
             model,
             vars,
+            tree,
             params,
             p_sym,
-            coef,
-            dd,
         }
+    }
+
+    /// Rust spelling of an input symbol in a kernel of the configuration `free`.
+    fn spelling(&self, free: &[usize], s: Symbol) -> Option<TokenStream> {
+        let v = &self.vars;
+        let lit = proc_macro2::Literal::usize_unsuffixed;
+        for k in 0..self.model.joints.len() {
+            if s == v.s[k] {
+                let i = id(&format!("s{k}"));
+                return Some(quote!(#i));
+            }
+            if s == v.c[k] {
+                let i = id(&format!("c{k}"));
+                return Some(quote!(#i));
+            }
+            if s == v.q[k] {
+                let k = lit(k);
+                return Some(quote!(q[#k]));
+            }
+        }
+        for (a, &k) in free.iter().enumerate() {
+            let a = lit(a);
+            if s == v.qd[k] {
+                return Some(quote!(qd[#a]));
+            }
+            if s == v.qdd[k] {
+                return Some(quote!(qdd[#a]));
+            }
+        }
+        let j = self.p_sym.iter().position(|&p| p == s)?;
+        let j = lit(j);
+        Some(quote!(p[#j]))
     }
 }
 
-/// Inputs of a configuration's evaluators and their Rust spellings.
-struct Inputs {
-    atoms: Vec<Atom>,
-    tokens: Vec<TokenStream>,
-}
-
-fn inputs(
-    sm: &SymbolicModel,
-    free: &[usize],
-    with_qd: bool,
-    with_qdd: bool,
-    with_p: bool,
-) -> Inputs {
+/// `let (s{k}, c{k}) = q[k].sin_cos();` for the joints whose sine or cosine `outputs` use.
+fn trig_prelude(sm: &SymbolicModel, g: &Graph, outputs: &[Atom]) -> Vec<TokenStream> {
     let v = &sm.vars;
-    let mut atoms = Vec::new();
-    let mut tokens = Vec::new();
-    for k in 0..sm.model.joints.len() {
-        if v.revolute[k] {
-            let (s, c) = (id(&format!("s{k}")), id(&format!("c{k}")));
-            atoms.push(Atom::var(v.s[k]));
-            tokens.push(quote!(#s));
-            atoms.push(Atom::var(v.c[k]));
-            tokens.push(quote!(#c));
-        }
-        if v.prismatic[k] {
-            atoms.push(Atom::var(v.q[k]));
-            let k = proc_macro2::Literal::usize_unsuffixed(k);
-            tokens.push(quote!(q[#k]));
-        }
-    }
-    for (a, &k) in free.iter().enumerate() {
-        let a = proc_macro2::Literal::usize_unsuffixed(a);
-        if with_qd {
-            atoms.push(Atom::var(v.qd[k]));
-            tokens.push(quote!(qd[#a]));
-        }
-        if with_qdd {
-            atoms.push(Atom::var(v.qdd[k]));
-            tokens.push(quote!(qdd[#a]));
-        }
-    }
-    if with_p {
-        for (j, p) in sm.p_sym.iter().enumerate() {
-            atoms.push(p.clone());
-            let j = proc_macro2::Literal::usize_unsuffixed(j);
-            tokens.push(quote!(p[#j]));
-        }
-    }
-    Inputs { atoms, tokens }
-}
-
-/// `let s{k} = q[k].sin(); let c{k} = q[k].cos();` for revolute joints used by `outputs`.
-fn trig_prelude(sm: &SymbolicModel, outputs: &[Atom]) -> Vec<TokenStream> {
-    let v = &sm.vars;
+    let used = g.inputs_used(outputs);
     let mut out = Vec::new();
     for k in 0..sm.model.joints.len() {
-        if !v.revolute[k] {
-            continue;
-        }
-        let used_s = outputs.iter().any(|o| o.contains_symbol(v.s[k]));
-        let used_c = outputs.iter().any(|o| o.contains_symbol(v.c[k]));
+        let used_s = used.contains(&v.s[k]);
+        let used_c = used.contains(&v.c[k]);
         let kk = proc_macro2::Literal::usize_unsuffixed(k);
+        let (s, c) = (id(&format!("s{k}")), id(&format!("c{k}")));
         if used_s && used_c {
-            let (s, c) = (id(&format!("s{k}")), id(&format!("c{k}")));
             out.push(quote!(let (#s, #c) = q[#kk].sin_cos();));
         } else if used_s {
-            let s = id(&format!("s{k}"));
             out.push(quote!(let #s = q[#kk].sin();));
         } else if used_c {
-            let c = id(&format!("c{k}"));
             out.push(quote!(let #c = q[#kk].cos();));
         }
     }
     out
-}
-
-/// Per-configuration symbolic outputs.
-struct ConfigExprs {
-    /// D_FF, NF × NF.
-    d: Vec<Vec<Atom>>,
-    /// C_FF, NF × NF.
-    c: Vec<Vec<Atom>>,
-    /// φ_F.
-    phi: Vec<Atom>,
-    /// Y_F, NF × NP.
-    y: Vec<Vec<Atom>>,
-    /// Parameters present.
-    present: Vec<usize>,
-}
-
-fn config_exprs(sm: &SymbolicModel, free: &[usize]) -> ConfigExprs {
-    let v = &sm.vars;
-    let nf = free.len();
-    let np = sm.params.len();
-    let mut d = vec![vec![Atom::num(0); nf]; nf];
-    let mut c = vec![vec![Atom::num(0); nf]; nf];
-    let mut phi = vec![Atom::num(0); nf];
-    let mut y = vec![vec![Atom::num(0); np]; nf];
-    let mut present = Vec::new();
-    for j in 0..np {
-        let pj = &sm.p_sym[j];
-        let mut used = false;
-        // C⁽ʲ⁾_ab = Σ_{i∈F} Γ_{i, F[b], F[a]} q̇_i.
-        let mut cj = vec![vec![Atom::num(0); nf]; nf];
-        for a in 0..nf {
-            for b in 0..nf {
-                let mut acc = Atom::num(0);
-                for &i in free {
-                    acc += christoffel(&sm.dd, j, i, free[b], free[a]) * Atom::var(v.qd[i]);
-                }
-                cj[a][b] = reduce(&acc, v);
-            }
-        }
-        for a in 0..nf {
-            let mut ya = sm.coef.phi[j][free[a]].clone();
-            if !ya.is_zero() {
-                used = true;
-            }
-            phi[a] = &phi[a] + pj * &sm.coef.phi[j][free[a]];
-            for b in 0..nf {
-                let dab = &sm.coef.d[j][free[a]][free[b]];
-                if !dab.is_zero() {
-                    used = true;
-                }
-                d[a][b] = &d[a][b] + pj * dab;
-                c[a][b] = &c[a][b] + pj * &cj[a][b];
-                ya = ya + dab * Atom::var(v.qdd[free[b]]) + &cj[a][b] * Atom::var(v.qd[free[b]]);
-            }
-            y[a][j] = reduce(&ya, v);
-        }
-        if used {
-            present.push(j);
-        }
-    }
-    ConfigExprs {
-        d,
-        c,
-        phi,
-        y,
-        present,
-    }
 }
 
 fn nested(results: &[TokenStream], rows: usize, cols: usize) -> TokenStream {
@@ -251,37 +139,168 @@ fn nested(results: &[TokenStream], rows: usize, cols: usize) -> TokenStream {
     quote!([#(#rows_ts),*])
 }
 
+/// Straight-line body computing `outputs`: trig prelude, intermediates, results.
+struct Body {
+    pre: Vec<TokenStream>,
+    stmts: Vec<TokenStream>,
+    results: Vec<TokenStream>,
+    ops: Ops,
+}
+
+fn body(sm: &SymbolicModel, cd: &ConfigDynamics, free: &[usize], outputs: &[Atom]) -> Body {
+    let g = &cd.graph;
+    let (stmts, results, mut ops) = g.emit(outputs, &|s| sm.spelling(free, s));
+    let pre = trig_prelude(sm, g, outputs);
+    ops.other += pre.len();
+    Body {
+        pre,
+        stmts,
+        results,
+        ops,
+    }
+}
+
 /// Emit one kernel function and count its operations.
 #[allow(clippy::too_many_arguments)]
 fn kernel(
     sm: &SymbolicModel,
+    cd: &ConfigDynamics,
+    free: &[usize],
     name: &str,
     doc: &str,
     args: TokenStream,
     ret: TokenStream,
     outputs: &[Atom],
-    inp: &Inputs,
     shape: (usize, usize),
     ops: &mut Vec<(String, Ops)>,
-) -> Result<TokenStream, EmitError> {
-    let (stmts, results, o) = straight_line(outputs, &inp.atoms, &inp.tokens, "")?;
+) -> TokenStream {
+    let Body {
+        pre,
+        stmts,
+        results,
+        ops: o,
+    } = body(sm, cd, free, outputs);
     ops.push((name.to_string(), o));
-    let pre = trig_prelude(sm, outputs);
-    let body = if shape.1 == 0 {
+    let value = if shape.1 == 0 {
         quote!([#(#results),*])
     } else {
         nested(&results, shape.0, shape.1)
     };
     let f = id(name);
-    Ok(quote! {
+    quote! {
         #[doc = #doc]
         #[inline]
         pub fn #f(#args) -> #ret {
             #(#pre)*
             #(#stmts)*
-            #body
+            #value
         }
-    })
+    }
+}
+
+/// A small deterministic generator for the generation-time checks (xorshift64*).
+struct Rng(u64);
+
+impl Rng {
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let x = (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64;
+        lo + (hi - lo) * x
+    }
+}
+
+/// Check a configuration numerically at random states with random physically consistent
+/// inertial parameters: D_FF must be positive definite (else the configuration frees a joint
+/// that moves no inertia, or two joints that move the same way). Returns the barycentric
+/// parameters whose regressor column is not zero (the parameters that appear).
+fn check_configuration(
+    sm: &SymbolicModel,
+    cd: &ConfigDynamics,
+    conf: &Configuration,
+) -> Result<Vec<usize>, EmitError> {
+    let v = &sm.vars;
+    let nf = conf.free.len();
+    let np = sm.params.len();
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let mut col_norm = vec![0.0f64; np];
+    let mut y_max = 0.0f64;
+    for _ in 0..3 {
+        let mut vals: HashMap<Symbol, f64> = HashMap::new();
+        for k in 0..sm.model.joints.len() {
+            let q = rng.uniform(-3.0, 3.0);
+            vals.insert(v.s[k], q.sin());
+            vals.insert(v.c[k], q.cos());
+            vals.insert(v.q[k], q * 0.1);
+            vals.insert(v.qd[k], rng.uniform(-1.0, 1.0));
+            vals.insert(v.qdd[k], rng.uniform(-1.0, 1.0));
+        }
+        // Per link: m, centroid, centroidal inertia diag + small products → barycentric.
+        for l in 0..sm.model.links.len() {
+            let m = rng.uniform(1.0, 2.0);
+            let c: [f64; 3] = std::array::from_fn(|_| rng.uniform(-0.1, 0.1));
+            let ic = [
+                rng.uniform(0.05, 0.1),
+                rng.uniform(-0.01, 0.01),
+                rng.uniform(-0.01, 0.01),
+                rng.uniform(0.05, 0.1),
+                rng.uniform(-0.01, 0.01),
+                rng.uniform(0.05, 0.1),
+            ];
+            let b = [
+                m,
+                m * c[0],
+                m * c[1],
+                m * c[2],
+                ic[0] + m * (c[1] * c[1] + c[2] * c[2]),
+                ic[1] - m * c[0] * c[1],
+                ic[2] - m * c[0] * c[2],
+                ic[3] + m * (c[0] * c[0] + c[2] * c[2]),
+                ic[4] - m * c[1] * c[2],
+                ic[5] + m * (c[0] * c[0] + c[1] * c[1]),
+            ];
+            for (j, par) in sm.params.iter().enumerate() {
+                if par.link == l {
+                    vals.insert(sm.p_sym[j], b[par.kind]);
+                }
+            }
+        }
+        let d: Vec<f64> = cd.graph.evaluate(&cd.d.concat(), &vals);
+        // Cholesky with a relative pivot test.
+        let scale = (0..nf).map(|a| d[a * nf + a].abs()).fold(0.0, f64::max);
+        let mut l = vec![0.0; nf * nf];
+        for i in 0..nf {
+            for j in 0..=i {
+                let mut x = d[i * nf + j];
+                for k in 0..j {
+                    x -= l[i * nf + k] * l[j * nf + k];
+                }
+                if i == j {
+                    if x.is_nan() || x <= 1e-9 * scale {
+                        return Err(EmitError(format!(
+                            "{}: configuration '{}': the inertia matrix D_FF is singular (joint '{}' moves no inertia independently of the joints before it in {:?})",
+                            sm.model.file.display(),
+                            conf.name,
+                            sm.model.joints[conf.free[i]],
+                            conf.free.iter().map(|&k| sm.model.joints[k].as_str()).collect::<Vec<_>>()
+                        )));
+                    }
+                    l[i * nf + i] = x.sqrt();
+                } else {
+                    l[i * nf + j] = x / l[j * nf + j];
+                }
+            }
+        }
+        let y = cd.graph.evaluate(&cd.y.concat(), &vals);
+        for (i, x) in y.iter().enumerate() {
+            col_norm[i % np] += x * x;
+            y_max = y_max.max(x.abs());
+        }
+    }
+    Ok((0..np)
+        .filter(|&j| col_norm[j].sqrt() > 1e-12 * y_max.max(1.0))
+        .collect())
 }
 
 /// Unrolled Cholesky solve of `D x = b` (D symmetric positive definite, NF × NF).
@@ -349,110 +368,99 @@ fn config_module(
     let t0 = Instant::now();
     let free = &conf.free;
     let nf = free.len();
-    let ex = config_exprs(sm, free);
+    let cd = config_dynamics(sm.model, &sm.vars, &sm.tree, &sm.params, &sm.p_sym, free);
+    let present = check_configuration(sm, &cd, conf)?;
     let mut ops = Vec::new();
     let flat = |m: &Vec<Vec<Atom>>| -> Vec<Atom> { m.iter().flatten().cloned().collect() };
     let nj_ts = quote!(super::NJ);
     let np_ts = quote!(super::NP);
-    let full_inp = inputs(sm, free, true, true, true);
-    let qp_inp = inputs(sm, free, false, false, true);
-    let qqdp_inp = inputs(sm, free, true, false, true);
-    let y_inp = inputs(sm, free, true, true, false);
     let mut items = Vec::new();
     items.push(kernel(
         sm,
+        &cd,
+        free,
         "mass_matrix",
         "Inertia matrix D_FF(q) (thesis 3.2), NF × NF, kg·m² (kg for prismatic rows).",
         quote!(q: &[f64; #nj_ts], p: &[f64; #np_ts]),
         quote!([[f64; NF]; NF]),
-        &flat(&ex.d),
-        &qp_inp,
+        &flat(&cd.d),
         (nf, nf),
         &mut ops,
-    )?);
+    ));
     items.push(kernel(
         sm,
+        &cd,
+        free,
         "christoffel_matrix",
         "Christoffel matrix C_FF(q, q̇) (thesis 3.3): C_kj = Σ_i Γ_ijk q̇_i, NF × NF.",
         quote!(q: &[f64; #nj_ts], qd: &[f64; NF], p: &[f64; #np_ts]),
         quote!([[f64; NF]; NF]),
-        &flat(&ex.c),
-        &qqdp_inp,
+        &flat(&cd.c),
         (nf, nf),
         &mut ops,
-    )?);
-    let cqd: Vec<Atom> = (0..nf)
-        .map(|a| {
-            (0..nf).fold(Atom::num(0), |acc, b| {
-                acc + &ex.c[a][b] * Atom::var(sm.vars.qd[free[b]])
-            })
-        })
-        .collect();
+    ));
     items.push(kernel(
         sm,
+        &cd,
+        free,
         "coriolis",
         "Coriolis and centrifugal torques C_FF(q, q̇) q̇_F, NF (N·m or N).",
         quote!(q: &[f64; #nj_ts], qd: &[f64; NF], p: &[f64; #np_ts]),
         quote!([f64; NF]),
-        &cqd,
-        &qqdp_inp,
+        &cd.cqd,
         (nf, 0),
         &mut ops,
-    )?);
+    ));
     items.push(kernel(
         sm,
+        &cd,
+        free,
         "gravity",
         "Gravity torques φ_F(q) (thesis 3.4), NF (N·m or N).",
         quote!(q: &[f64; #nj_ts], p: &[f64; #np_ts]),
         quote!([f64; NF]),
-        &ex.phi,
-        &qp_inp,
+        &cd.phi,
         (nf, 0),
         &mut ops,
-    )?);
-    let tau: Vec<Atom> = (0..nf)
-        .map(|a| {
-            let mut acc = &cqd[a] + &ex.phi[a];
-            for b in 0..nf {
-                acc += &ex.d[a][b] * Atom::var(sm.vars.qdd[free[b]]);
-            }
-            acc
-        })
-        .collect();
+    ));
     items.push(kernel(
         sm,
+        &cd,
+        free,
         "inverse_dynamics",
         "Inverse dynamics τ_F = D q̈ + C q̇ + φ (thesis 3.5), NF (N·m or N).",
         quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF], p: &[f64; #np_ts]),
         quote!([f64; NF]),
-        &tau,
-        &full_inp,
+        &cd.tau,
         (nf, 0),
         &mut ops,
-    )?);
+    ));
     items.push(kernel(
         sm,
+        &cd,
+        free,
         "regressor",
         "Regressor Y_F(q, q̇, q̈) with τ_F = Y_F p, NF × NP.",
         quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF]),
         quote!([[f64; #np_ts]; NF]),
-        &flat(&ex.y),
-        &y_inp,
+        &flat(&cd.y),
         (nf, sm.params.len()),
         &mut ops,
-    )?);
-    // Forward dynamics: D and h = C q̇ + φ in one evaluator, then Cholesky.
+    ));
+    // Forward dynamics: D (lower triangle) and h = C q̇ + φ in one body, then Cholesky.
     let mut dh: Vec<Atom> = Vec::new();
     for a in 0..nf {
         for b in 0..=a {
-            dh.push(ex.d[a][b].clone());
+            dh.push(cd.d[a][b].clone());
         }
     }
-    for a in 0..nf {
-        dh.push(&cqd[a] + &ex.phi[a]);
-    }
-    let (stmts, results, o) = straight_line(&dh, &qqdp_inp.atoms, &qqdp_inp.tokens, "")?;
-    let pre = trig_prelude(sm, &dh);
+    dh.extend(cd.h.iter().cloned());
+    let Body {
+        pre,
+        stmts,
+        results,
+        ops: o,
+    } = body(sm, &cd, free, &dh);
     let mut k = 0;
     let mut d_rows = Vec::new();
     for a in 0..nf {
@@ -486,9 +494,10 @@ fn config_module(
         .collect();
     let chol = cholesky_solve(nf);
     let mut fo = o;
-    fo.add += nf * nf * (nf + 1) / 2 + nf; // Cholesky + solves, approximately
-    fo.mul += nf * nf * (nf + 1) / 2;
-    fo.other += nf * 3;
+    // Cholesky (n³/6 multiply-adds, n square roots) and two triangular solves.
+    fo.add += nf + (nf * nf * nf - nf) / 6 + nf * (nf - 1);
+    fo.mul += (nf * nf * nf - nf) / 6 + nf * (nf - 1);
+    fo.other += nf + nf * (nf - 1) / 2 + 2 * nf;
     ops.push(("forward_dynamics".into(), fo));
     items.push(quote! {
         /// Forward dynamics q̈_F = D_FF⁻¹ (τ_F − C q̇ − φ) by an unrolled Cholesky
@@ -502,13 +511,8 @@ fn config_module(
             #chol
         }
     });
-    let present: Vec<String> = ex
-        .present
-        .iter()
-        .map(|&j| sm.params[j].name.clone())
-        .collect();
-    let present_idx: Vec<proc_macro2::Literal> = ex
-        .present
+    let present_names: Vec<String> = present.iter().map(|&j| sm.params[j].name.clone()).collect();
+    let present_idx: Vec<proc_macro2::Literal> = present
         .iter()
         .map(|&j| proc_macro2::Literal::usize_unsuffixed(j))
         .collect();
@@ -552,6 +556,9 @@ fn config_module(
                 let m = christoffel_matrix(q.try_into().unwrap(), qd.try_into().unwrap(), p.try_into().unwrap());
                 out.copy_from_slice(m.as_flattened());
             }
+            pub(crate) fn coriolis_dyn(q: &[f64], qd: &[f64], p: &[f64], out: &mut [f64]) {
+                out.copy_from_slice(&coriolis(q.try_into().unwrap(), qd.try_into().unwrap(), p.try_into().unwrap()));
+            }
             pub(crate) fn gravity_dyn(q: &[f64], p: &[f64], out: &mut [f64]) {
                 out.copy_from_slice(&gravity(q.try_into().unwrap(), p.try_into().unwrap()));
             }
@@ -571,6 +578,7 @@ fn config_module(
                 params_present: PARAMS_PRESENT,
                 mass_matrix: mass_matrix_dyn,
                 christoffel_matrix: christoffel_matrix_dyn,
+                coriolis: coriolis_dyn,
                 gravity: gravity_dyn,
                 inverse_dynamics: inverse_dynamics_dyn,
                 forward_dynamics: forward_dynamics_dyn,
@@ -581,7 +589,7 @@ fn config_module(
     let report = ConfigReport {
         name: conf.name.clone(),
         free: free_names,
-        params_present: present,
+        params_present: present_names,
         ops,
         seconds: t0.elapsed().as_secs_f64(),
     };
@@ -628,22 +636,20 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
         conf_idents.push(id(&conf.name));
     }
     // Barycentric parameters from the model file's inertial symbols.
-    let sym_atoms: Vec<Atom> = model
+    let sym_list: Vec<Symbol> = model
         .inertial_symbols
         .iter()
-        .map(|(s, _)| Atom::var(user_symbol(s)))
-        .collect();
-    let sym_tokens: Vec<TokenStream> = (0..sym_atoms.len())
-        .map(|i| {
-            let i = proc_macro2::Literal::usize_unsuffixed(i);
-            quote!(u[#i])
-        })
+        .map(|(s, _)| user_symbol(s))
         .collect();
     let bary_exprs: Vec<Atom> = sm.params.iter().map(|b| b.expr.clone()).collect();
-    let (bstmts, bres, _) = straight_line(&bary_exprs, &sym_atoms, &sym_tokens, "")?;
+    let (bstmts, bres, _) = Graph::new(Inputs::default(), "").emit(&bary_exprs, &|s| {
+        let i = sym_list.iter().position(|&x| x == s)?;
+        let i = proc_macro2::Literal::usize_unsuffixed(i);
+        Some(quote!(u[#i]))
+    });
     let nj = model.joints.len();
     let np = sm.params.len();
-    let ni = sym_atoms.len();
+    let ni = sym_list.len();
     let joints = &model.joints;
     let pnames: Vec<&str> = sm.params.iter().map(|b| b.name.as_str()).collect();
     let plinks: Vec<proc_macro2::Literal> = sm

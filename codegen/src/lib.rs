@@ -11,9 +11,11 @@
 // Index loops mirror the equations (D_ab, Γ_ijk); iterator rewrites would hide them.
 #![allow(clippy::needless_range_loop)]
 
+pub mod dynamics;
 pub mod emit;
 pub mod expr;
 pub mod generate;
+pub mod graph;
 pub mod model;
 pub mod symbolic;
 

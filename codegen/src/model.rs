@@ -243,12 +243,15 @@ pub enum Transform {
         /// Constant part (rad).
         offset: f64,
     },
-    /// Translation along an axis by an expression (prismatic when it holds a joint).
+    /// Translation along an axis by `Σ c_k q_k + offset` (prismatic when a coefficient is
+    /// not zero).
     Trans {
         /// 0, 1 or 2.
         axis: usize,
-        /// Displacement (m).
-        expr: Expr,
+        /// Real coefficients of the joint variables (m per unit of q_k).
+        joints: Vec<f64>,
+        /// Constant part (m).
+        offset: f64,
     },
 }
 
@@ -447,6 +450,17 @@ impl Model {
             e.linear_angle(&joints, &constants)
                 .map_err(|r| err(item, r))
         };
+        let translation = |item: &str, axis: usize, s: &Scalar| -> Result<Transform, ModelError> {
+            let e = parse(item, s, true)?;
+            let (joints, offset) = e
+                .linear(&joints, &constants, "a translation")
+                .map_err(|r| err(item, r))?;
+            Ok(Transform::Trans {
+                axis,
+                joints,
+                offset,
+            })
+        };
         let mut frames = vec![Frame {
             name: "world".into(),
             parent: None,
@@ -473,16 +487,14 @@ impl Model {
                         alpha: &Scalar|
          -> Result<Vec<Transform>, ModelError> {
             let (tj, t0) = angle(&format!("{item} field 'theta'"), theta)?;
-            let de = parse(&format!("{item} field 'd'"), d, true)?;
-            let ae = parse(&format!("{item} field 'a'"), a, true)?;
+            let tz = translation(&format!("{item} field 'd'"), 2, d)?;
+            let tx = translation(&format!("{item} field 'a'"), 0, a)?;
             let (aj, a0) = angle(&format!("{item} field 'alpha'"), alpha)?;
             let rz = Transform::Rot {
                 axis: 2,
                 joints: tj,
                 offset: t0,
             };
-            let tz = Transform::Trans { axis: 2, expr: de };
-            let tx = Transform::Trans { axis: 0, expr: ae };
             let rx = Transform::Rot {
                 axis: 0,
                 joints: aj,
@@ -564,10 +576,11 @@ impl Model {
                         }
                         TransformSpec::Trans(xyz) => {
                             for (axis, s) in xyz.iter().enumerate() {
-                                transforms.push(Transform::Trans {
+                                transforms.push(translation(
+                                    &format!("{item} 'trans'[{axis}]"),
                                     axis,
-                                    expr: parse(&format!("{item} 'trans'[{axis}]"), s, true)?,
-                                });
+                                    s,
+                                )?);
                             }
                         }
                         TransformSpec::RotX(s)
@@ -694,11 +707,9 @@ impl Model {
                             used[k] |= n != 0;
                         }
                     }
-                    Transform::Trans { expr, .. } => {
-                        for s in expr.symbols() {
-                            if let Some(k) = joints.iter().position(|j| *j == s) {
-                                used[k] = true;
-                            }
+                    Transform::Trans { joints: c, .. } => {
+                        for (k, &x) in c.iter().enumerate() {
+                            used[k] |= x != 0.0;
                         }
                     }
                 }

@@ -1,14 +1,9 @@
-//! The symbolic Lagrangian pipeline (thesis Chapter 3) on Symbolica atoms.
+//! Symbols and exact trigonometry of the symbolic model (Symbolica atoms).
 //!
 //! Variables: for each joint k that appears in a rotation, `S{k} = sin q_k`, `C{k} = cos q_k`;
 //! for each joint in a translation, `Q{k} = q_k`; velocities `QD{k}`, accelerations `QDD{k}`;
-//! barycentric parameters `P{j}`. Every kinematic quantity is then a polynomial, reduced to a
-//! canonical form modulo `S_k² + C_k² = 1` (no `S_k` power above one). Derivatives follow the
-//! chain rule `∂/∂q_k = ∂/∂Q_k + C_k ∂/∂S_k − S_k ∂/∂C_k`.
-//!
-//! The inertia matrix (3.2), gravity (3.4) and Christoffel symbols (3.3) are formed per
-//! barycentric parameter: D = Σ_j p_j D⁽ʲ⁾(q), φ = Σ_j p_j φ⁽ʲ⁾(q), so the regressor
-//! (τ = Y p) is their coefficient matrices and no expansion ever mixes parameters.
+//! barycentric parameters `P{j}`. The sine and cosine of an angle `Σ n_k q_k + θ0` are exact
+//! polynomials in S_k, C_k (angle addition, reduced modulo `S_k² + C_k² = 1`).
 
 use crate::expr::{Expr, Func};
 use crate::model::{Model, Transform};
@@ -47,11 +42,9 @@ impl Vars {
                             revolute[k] |= c != 0;
                         }
                     }
-                    Transform::Trans { expr, .. } => {
-                        for s in expr.symbols() {
-                            if let Some(k) = model.joints.iter().position(|j| *j == s) {
-                                prismatic[k] = true;
-                            }
+                    Transform::Trans { joints, .. } => {
+                        for (k, &c) in joints.iter().enumerate() {
+                            prismatic[k] |= c != 0.0;
                         }
                     }
                 }
@@ -71,20 +64,6 @@ impl Vars {
             revolute,
             prismatic,
         }
-    }
-
-    /// Total derivative ∂e/∂q_k by the chain rule.
-    pub fn dq(&self, e: &Atom, k: usize) -> Atom {
-        let mut out = Atom::num(0);
-        if self.prismatic[k] {
-            out += e.derivative(self.q[k]);
-        }
-        if self.revolute[k] {
-            let ds = e.derivative(self.s[k]);
-            let dc = e.derivative(self.c[k]);
-            out = out + ds * Atom::var(self.c[k]) - dc * Atom::var(self.s[k]);
-        }
-        reduce(&out, self)
     }
 }
 
@@ -279,88 +258,6 @@ pub fn user_symbol(name: &str) -> Symbol {
     symbol!(&format!("lockstep::u_{name}"))
 }
 
-/// Pose of a frame in frame 0: rotation R (3×3) and origin p (3), reduced polynomials.
-#[derive(Clone)]
-pub struct Pose {
-    /// Rotation matrix, `r[row][col]`.
-    pub r: [[Atom; 3]; 3],
-    /// Origin (m).
-    pub p: [Atom; 3],
-}
-
-impl Pose {
-    fn identity() -> Pose {
-        let one = |i: usize, j: usize| if i == j { Atom::num(1) } else { Atom::num(0) };
-        Pose {
-            r: std::array::from_fn(|i| std::array::from_fn(|j| one(i, j))),
-            p: std::array::from_fn(|_| Atom::num(0)),
-        }
-    }
-
-    /// `self · local`, reduced.
-    fn compose(&self, local: &Pose, v: &Vars) -> Pose {
-        let r = std::array::from_fn(|i| {
-            std::array::from_fn(|j| {
-                let mut acc = Atom::num(0);
-                for k in 0..3 {
-                    acc += &self.r[i][k] * &local.r[k][j];
-                }
-                reduce(&acc, v)
-            })
-        });
-        let p = std::array::from_fn(|i| {
-            let mut acc = self.p[i].clone();
-            for k in 0..3 {
-                acc += &self.r[i][k] * &local.p[k];
-            }
-            reduce(&acc, v)
-        });
-        Pose { r, p }
-    }
-}
-
-fn elementary(t: &Transform, model: &Model, v: &Vars) -> Pose {
-    let mut pose = Pose::identity();
-    match t {
-        Transform::Rot {
-            axis,
-            joints,
-            offset,
-        } => {
-            let (s, c) = sincos(v, joints, *offset);
-            let (i, j) = match axis {
-                0 => (1, 2),
-                1 => (2, 0),
-                _ => (0, 1),
-            };
-            pose.r[i][i] = c.clone();
-            pose.r[j][j] = c;
-            pose.r[i][j] = -s.clone();
-            pose.r[j][i] = s;
-        }
-        Transform::Trans { axis, expr } => {
-            pose.p[*axis] = reduce(&atom_of(expr, model, v), v);
-        }
-    }
-    pose
-}
-
-/// Poses of every frame of the model in frame 0 (index as [`Model::frames`]).
-pub fn frame_poses(model: &Model, v: &Vars) -> Vec<Pose> {
-    let mut poses: Vec<Pose> = Vec::with_capacity(model.frames.len());
-    for f in &model.frames {
-        let mut pose = match f.parent {
-            None => Pose::identity(),
-            Some(p) => poses[p].clone(),
-        };
-        for t in &f.transforms {
-            pose = pose.compose(&elementary(t, model, v), v);
-        }
-        poses.push(pose);
-    }
-    poses
-}
-
 /// The barycentric parameters of the model: name, link, kind (0..10) and the expression in
 /// the model file's inertial symbols. Structurally zero ones are left out.
 pub struct Barycentric {
@@ -417,124 +314,4 @@ pub fn barycentric(model: &Model, v: &Vars) -> Vec<Barycentric> {
         }
     }
     out
-}
-
-/// Per-parameter coefficient matrices of the full model:
-/// `d[j][a][b]` = ∂D_ab/∂p_j, `phi[j][a]` = ∂φ_a/∂p_j (reduced polynomials in S, C, Q).
-pub struct Coefficients {
-    /// Inertia-matrix coefficients, `NP × NJ × NJ`.
-    pub d: Vec<Vec<Vec<Atom>>>,
-    /// Gravity coefficients, `NP × NJ`.
-    pub phi: Vec<Vec<Atom>>,
-}
-
-/// Form D⁽ʲ⁾ and φ⁽ʲ⁾ for every barycentric parameter (thesis 3.2, 3.4) from the body-frame
-/// Jacobians of each link's frame: v_b = Rᵀ ∂p/∂q q̇, S(ω_b) = Rᵀ Ṙ.
-pub fn coefficients(
-    model: &Model,
-    v: &Vars,
-    poses: &[Pose],
-    params: &[Barycentric],
-) -> Coefficients {
-    let n = model.joints.len();
-    let zero = || Atom::num(0);
-    let mut d = vec![vec![vec![zero(); n]; n]; params.len()];
-    let mut phi = vec![vec![zero(); n]; params.len()];
-    let g: Vec<Atom> = model.gravity.iter().map(|&x| rational(x)).collect();
-    for (li, _) in model.links.iter().enumerate() {
-        let pose = &poses[model.links[li].frame];
-        // Derivatives of R and p by each joint.
-        let dr: Vec<[[Atom; 3]; 3]> = (0..n)
-            .map(|k| std::array::from_fn(|i| std::array::from_fn(|j| v.dq(&pose.r[i][j], k))))
-            .collect();
-        let dp: Vec<[Atom; 3]> = (0..n)
-            .map(|k| std::array::from_fn(|i| v.dq(&pose.p[i], k)))
-            .collect();
-        // Body-frame Jacobians: jv[x][k], jw[x][k].
-        let mut jv = vec![vec![zero(); n]; 3];
-        let mut jw = vec![vec![zero(); n]; 3];
-        for k in 0..n {
-            for x in 0..3 {
-                let mut acc = zero();
-                for m in 0..3 {
-                    acc += &pose.r[m][x] * &dp[k][m];
-                }
-                jv[x][k] = reduce(&acc, v);
-            }
-            // S = Rᵀ dR; ω = (S21, S02, S10).
-            let s_entry = |a: usize, b: usize| {
-                let mut acc = zero();
-                for m in 0..3 {
-                    acc += &pose.r[m][a] * &dr[k][m][b];
-                }
-                reduce(&acc, v)
-            };
-            jw[0][k] = s_entry(2, 1);
-            jw[1][k] = s_entry(0, 2);
-            jw[2][k] = s_entry(1, 0);
-        }
-        let cross = |a: &[Atom; 3], b: &[Atom; 3]| -> [Atom; 3] {
-            [
-                &a[1] * &b[2] - &a[2] * &b[1],
-                &a[2] * &b[0] - &a[0] * &b[2],
-                &a[0] * &b[1] - &a[1] * &b[0],
-            ]
-        };
-        let col = |j: &Vec<Vec<Atom>>, k: usize| -> [Atom; 3] {
-            [j[0][k].clone(), j[1][k].clone(), j[2][k].clone()]
-        };
-        for (pi, par) in params.iter().enumerate().filter(|(_, p)| p.link == li) {
-            for a in 0..n {
-                for b in a..n {
-                    let e = match par.kind {
-                        0 => (0..3).fold(zero(), |acc, x| acc + &jv[x][a] * &jv[x][b]),
-                        1..=3 => {
-                            let x = par.kind - 1;
-                            let c1 = cross(&col(&jv, a), &col(&jw, b));
-                            let c2 = cross(&col(&jv, b), &col(&jw, a));
-                            &c1[x] + &c2[x]
-                        }
-                        _ => {
-                            // Inertia entry (r, c) of the symmetric tensor.
-                            let (r, c) = match par.kind {
-                                4 => (0, 0),
-                                5 => (0, 1),
-                                6 => (0, 2),
-                                7 => (1, 1),
-                                8 => (1, 2),
-                                _ => (2, 2),
-                            };
-                            if r == c {
-                                &jw[r][a] * &jw[r][b]
-                            } else {
-                                &jw[r][a] * &jw[c][b] + &jw[c][a] * &jw[r][b]
-                            }
-                        }
-                    };
-                    let e = reduce(&e, v);
-                    d[pi][a][b] = e.clone();
-                    d[pi][b][a] = e;
-                }
-            }
-            // Potential V = −g·(m p + R h): φ_k = ∂V/∂q_k.
-            for k in 0..n {
-                let e = match par.kind {
-                    0 => (0..3).fold(zero(), |acc, x| acc - &g[x] * &dp[k][x]),
-                    1..=3 => {
-                        let x = par.kind - 1;
-                        (0..3).fold(zero(), |acc, m| acc - &g[m] * &dr[k][m][x])
-                    }
-                    _ => zero(),
-                };
-                phi[pi][k] = reduce(&e, v);
-            }
-        }
-    }
-    Coefficients { d, phi }
-}
-
-/// Christoffel coefficient Γ⁽ʲ⁾_{i,jj,k} = ½(∂d_kjj/∂q_i + ∂d_ki/∂q_jj − ∂d_ijj/∂q_k)
-/// for parameter `p` (thesis 3.3), with the derivatives memoised in `dd[p][a][b][i]`.
-pub fn christoffel(dd: &[Vec<Vec<Vec<Atom>>>], p: usize, i: usize, jj: usize, k: usize) -> Atom {
-    (&dd[p][k][jj][i] + &dd[p][k][i][jj] - &dd[p][i][jj][k]) * Atom::num((1, 2))
 }

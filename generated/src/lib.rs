@@ -46,6 +46,8 @@ pub struct Configuration {
     pub mass_matrix: PositionKernel,
     /// C_FF: `(q[NJ], qd[NF], p[NP], out[NF·NF])`.
     pub christoffel_matrix: VelocityKernel,
+    /// C_FF q̇_F: `(q[NJ], qd[NF], p[NP], out[NF])`.
+    pub coriolis: VelocityKernel,
     /// φ_F: `(q[NJ], p[NP], out[NF])`.
     pub gravity: PositionKernel,
     /// τ_F: `(q[NJ], qd[NF], qdd[NF], p[NP], out[NF])`.
