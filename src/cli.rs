@@ -1,10 +1,12 @@
 //! The `lockstep` command line.
 
 use crate::compare::{compare_torque, plot, write_residual_csv};
+use crate::identify::identifiability::{base_parameters, markdown, occurrence};
 use crate::identify::idim::{least_squares, observation, IdimOptions};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::fit_table;
+use crate::util::write_atomic;
 use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -47,6 +49,17 @@ pub enum Command {
     },
     /// List the generated models, their joints, parameters and configurations.
     Models,
+    /// Parameter occurrence per configuration and along each locking sequence (thesis
+    /// Figure 4.2), and the base (identifiable) parameters of every configuration; writes
+    /// parameters.md and parameters.json.
+    Params {
+        /// Model name (see `lockstep models`).
+        #[arg(long)]
+        model: String,
+        /// Output directory.
+        #[arg(long, default_value = "lockstep-out/params")]
+        out: PathBuf,
+    },
 }
 
 /// Options shared by identify and compare.
@@ -156,6 +169,57 @@ pub fn run(cli: Cli) -> Result<()> {
                 println!("    residual ~ a*sign(qd) + b + c*qd: a = {a:.4}, b = {b:.4} (a step of 2a at qd = 0 means missing Coulomb friction; b, an offset)");
             }
             println!("residual CSVs and plots (PNG, SVG) in {}", out.display());
+        }
+        Command::Params { model, out } => {
+            let Some(m) = generated::model(&model) else {
+                bail!(
+                    "--model: unknown model '{model}' (generated models: {})",
+                    generated::MODELS
+                        .iter()
+                        .map(|m| m.name)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                );
+            };
+            let occ = occurrence(m);
+            let bases: Vec<_> = m
+                .configurations
+                .iter()
+                .map(|c| base_parameters(m, c))
+                .collect();
+            for seq in &occ.sequences {
+                println!(
+                    "sequence {}: {} first identified per step",
+                    seq.name, occ.quantity
+                );
+                for (c, first) in &seq.steps {
+                    println!("  {c:<6} {:>3}  {}", first.len(), first.join(", "));
+                }
+                println!(
+                    "  nowhere {:>2}  {}",
+                    seq.nowhere.len(),
+                    seq.nowhere.join(", ")
+                );
+            }
+            for b in &bases {
+                println!(
+                    "configuration {}: {} barycentric parameters appear, {} base parameters",
+                    b.configuration, b.appearing, b.rank
+                );
+            }
+            let md = markdown(&occ, &bases);
+            let json = serde_json::to_string_pretty(&serde_json::json!({
+                "occurrence": occ,
+                "base_parameters": bases,
+            }))?;
+            std::fs::create_dir_all(&out)
+                .map_err(|e| anyhow::anyhow!("{}: cannot create: {e}", out.display()))?;
+            write_atomic(&out.join("parameters.md"), md.as_bytes())?;
+            write_atomic(&out.join("parameters.json"), json.as_bytes())?;
+            println!(
+                "wrote {0}/parameters.md and {0}/parameters.json",
+                out.display()
+            );
         }
         Command::Models => {
             for m in generated::MODELS {

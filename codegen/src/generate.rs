@@ -670,6 +670,25 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
         .map(|(s, _)| s.as_str())
         .collect();
     let mname = &model.name;
+    // Locking sequences whose steps were all generated.
+    let seqs: Vec<TokenStream> = model
+        .sequences
+        .iter()
+        .filter(|(_, steps)| {
+            steps.iter().all(|&i| {
+                conf_idents
+                    .iter()
+                    .any(|c| *c == model.configurations[i].name)
+            })
+        })
+        .map(|(name, steps)| {
+            let names: Vec<&str> = steps
+                .iter()
+                .map(|&i| model.configurations[i].name.as_str())
+                .collect();
+            quote!((#name, &[#(#names),*]))
+        })
+        .collect();
     let gravity: Vec<TokenStream> = model.gravity.iter().map(|&g| lit(g)).collect();
     let file = quote! {
         /// Number of joints.
@@ -716,6 +735,7 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
             inertial_symbols: &INERTIAL_SYMBOLS,
             barycentric_from_symbols: barycentric_from_symbols_dyn,
             configurations: &[#(#conf_idents::CONFIGURATION),*],
+            sequences: &[#(#seqs),*],
         };
     };
     let file_str = file.to_string();

@@ -81,6 +81,9 @@ pub struct Model {
     pub barycentric_from_symbols: fn(&[f64], &mut [f64]),
     /// Configurations.
     pub configurations: &'static [Configuration],
+    /// Locking sequences of the model file (thesis Tables 4.2, 4.6): name and the
+    /// configuration names in order.
+    pub sequences: &'static [(&'static str, &'static [&'static str])],
 }
 
 impl Model {

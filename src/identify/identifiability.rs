@@ -1,0 +1,372 @@
+//! Which inertial parameters a configuration's equations contain, where a locking sequence
+//! identifies each one first (thesis Figure 4.2), and the base (identifiable) parameters of a
+//! configuration (Gautier 1990: the independent columns of the stacked regressor and the
+//! linear combinations that the dependent ones fold into).
+//!
+//! Both are computed numerically from the generated regressor at random states, so they
+//! hold for the equations as emitted, whatever their symbolic form.
+
+use generated::{Configuration, Model};
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// A small deterministic generator (xorshift64*), so that reports are reproducible.
+struct Rng(u64);
+
+impl Rng {
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let x = (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64;
+        lo + (hi - lo) * x
+    }
+}
+
+/// The regressor of `conf` stacked over `samples` random states, `(samples·NF) × NP`.
+fn stacked_regressor(
+    model: &Model,
+    conf: &Configuration,
+    samples: usize,
+    rng: &mut Rng,
+) -> DMatrix<f64> {
+    let nf = conf.free.len();
+    let np = model.params.len();
+    let mut w = DMatrix::zeros(samples * nf, np);
+    let mut y = vec![0.0; nf * np];
+    for s in 0..samples {
+        let q: Vec<f64> = (0..model.joints.len())
+            .map(|_| rng.uniform(-3.0, 3.0))
+            .collect();
+        let qd: Vec<f64> = (0..nf).map(|_| rng.uniform(-2.0, 2.0)).collect();
+        let qdd: Vec<f64> = (0..nf).map(|_| rng.uniform(-5.0, 5.0)).collect();
+        (conf.regressor)(&q, &qd, &qdd, &mut y);
+        for a in 0..nf {
+            for j in 0..np {
+                w[(s * nf + a, j)] = y[a * np + j];
+            }
+        }
+    }
+    w
+}
+
+/// Occurrence of inertial quantities in configurations.
+#[derive(Debug, Clone, Serialize)]
+pub struct Occurrence {
+    /// Model name.
+    pub model: String,
+    /// What the rows name: "inertial symbols" (the model file's m, centroid, centroidal
+    /// inertia, as in the thesis) or "barycentric parameters".
+    pub quantity: String,
+    /// Row names.
+    pub names: Vec<String>,
+    /// Configuration names (columns).
+    pub configurations: Vec<String>,
+    /// `appears[i][c]`: quantity i appears in configuration c's equations.
+    pub appears: Vec<Vec<bool>>,
+    /// Per locking sequence: name, and for each step the quantities that appear there first.
+    pub sequences: Vec<SequenceOccurrence>,
+}
+
+/// First appearances along one locking sequence.
+#[derive(Debug, Clone, Serialize)]
+pub struct SequenceOccurrence {
+    /// Sequence name.
+    pub name: String,
+    /// Steps: configuration name and the quantities first identified there.
+    pub steps: Vec<(String, Vec<String>)>,
+    /// Quantities that appear in no step of the sequence.
+    pub nowhere: Vec<String>,
+}
+
+impl SequenceOccurrence {
+    /// Number of quantities first identified at each step.
+    pub fn counts(&self) -> Vec<usize> {
+        self.steps.iter().map(|(_, v)| v.len()).collect()
+    }
+}
+
+/// Which quantities appear in which configuration (∂τ_F/∂u ≠ 0 at random states), for the
+/// model file's inertial symbols when it has them, else for the barycentric parameters.
+pub fn occurrence(model: &Model) -> Occurrence {
+    let mut rng = Rng(0x5eed_0cc0_7265_6e63);
+    let np = model.params.len();
+    let ni = model.inertial_symbols.len();
+    let by_symbol = ni > 0;
+    // ∂p/∂u at a random u (p is a polynomial of degree ≤ 3 in u; a central difference is
+    // nonzero exactly where the derivative is).
+    let dp_du: Vec<Vec<f64>> = if by_symbol {
+        let u0: Vec<f64> = (0..ni).map(|_| rng.uniform(0.5, 1.5)).collect();
+        let mut pp = vec![0.0; np];
+        let mut pm = vec![0.0; np];
+        (0..ni)
+            .map(|i| {
+                let h = 1e-4;
+                let mut u = u0.clone();
+                u[i] += h;
+                (model.barycentric_from_symbols)(&u, &mut pp);
+                u[i] -= 2.0 * h;
+                (model.barycentric_from_symbols)(&u, &mut pm);
+                (0..np).map(|j| (pp[j] - pm[j]) / (2.0 * h)).collect()
+            })
+            .collect()
+    } else {
+        (0..np)
+            .map(|i| (0..np).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
+            .collect()
+    };
+    let names: Vec<String> = if by_symbol {
+        model
+            .inertial_symbols
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    } else {
+        model.params.iter().map(|s| s.to_string()).collect()
+    };
+    let nq = names.len();
+    let mut appears = vec![vec![false; model.configurations.len()]; nq];
+    for (c, conf) in model.configurations.iter().enumerate() {
+        let w = stacked_regressor(model, conf, 4, &mut rng);
+        let scale = w.amax().max(1e-300);
+        for (i, row) in appears.iter_mut().enumerate() {
+            // Column of W times ∂p/∂u_i.
+            let mut norm = 0.0f64;
+            for r in 0..w.nrows() {
+                let v: f64 = (0..np).map(|j| w[(r, j)] * dp_du[i][j]).sum();
+                norm = norm.max(v.abs());
+            }
+            row[c] = norm > 1e-9 * scale;
+        }
+    }
+    let configurations: Vec<String> = model
+        .configurations
+        .iter()
+        .map(|c| c.name.to_string())
+        .collect();
+    let sequences = model
+        .sequences
+        .iter()
+        .map(|(name, steps)| {
+            let mut seen = vec![false; nq];
+            let steps = steps
+                .iter()
+                .map(|s| {
+                    let c = configurations
+                        .iter()
+                        .position(|n| n == s)
+                        .unwrap_or(usize::MAX);
+                    let mut first = Vec::new();
+                    for i in 0..nq {
+                        if c != usize::MAX && appears[i][c] && !seen[i] {
+                            seen[i] = true;
+                            first.push(names[i].clone());
+                        }
+                    }
+                    (s.to_string(), first)
+                })
+                .collect();
+            let nowhere = (0..nq)
+                .filter(|&i| !seen[i])
+                .map(|i| names[i].clone())
+                .collect();
+            SequenceOccurrence {
+                name: name.to_string(),
+                steps,
+                nowhere,
+            }
+        })
+        .collect();
+    Occurrence {
+        model: model.name.to_string(),
+        quantity: if by_symbol {
+            "inertial symbols".into()
+        } else {
+            "barycentric parameters".into()
+        },
+        names,
+        configurations,
+        appears,
+        sequences,
+    }
+}
+
+/// One base parameter: an independent barycentric parameter plus the dependent ones that
+/// fold into it.
+#[derive(Debug, Clone, Serialize)]
+pub struct BaseParameter {
+    /// The independent parameter.
+    pub name: String,
+    /// `(coefficient, dependent parameter)` terms added to it.
+    pub terms: Vec<(f64, String)>,
+}
+
+impl std::fmt::Display for BaseParameter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.name)?;
+        for (c, n) in &self.terms {
+            let sign = if *c < 0.0 { '−' } else { '+' };
+            if (c.abs() - 1.0).abs() < 1e-9 {
+                write!(f, " {sign} {n}")?;
+            } else {
+                write!(f, " {sign} {} {n}", fmt_coeff(c.abs()))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A coefficient with at most 6 decimals and no trailing zeros.
+fn fmt_coeff(c: f64) -> String {
+    let s = format!("{c:.6}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// Base parameters of one configuration.
+#[derive(Debug, Clone, Serialize)]
+pub struct BaseParameters {
+    /// Configuration name.
+    pub configuration: String,
+    /// Number of barycentric parameters that appear.
+    pub appearing: usize,
+    /// Rank of the stacked regressor (the number of base parameters).
+    pub rank: usize,
+    /// The base parameters.
+    pub base: Vec<BaseParameter>,
+    /// Parameters that appear only through the base parameters above.
+    pub dependent: Vec<String>,
+}
+
+/// Base parameters of `conf` by the numeric method: stack the regressor at random states,
+/// take the columns inertia first, then first moments, then masses, keep a column when it is independent of
+/// the kept ones (relative residual above 1e-8), and express each dropped column as a
+/// combination of the kept ones (least squares; exact for a structural dependence).
+pub fn base_parameters(model: &Model, conf: &Configuration) -> BaseParameters {
+    let mut rng = Rng(0xba5e_ba5e_0000_0001);
+    let np = model.params.len();
+    let samples = (2 * np / conf.free.len().max(1)).max(10);
+    let w = stacked_regressor(model, conf, samples, &mut rng);
+    let scale = w.amax().max(1e-300);
+    let mut kept: Vec<usize> = Vec::new();
+    let mut dependent: Vec<usize> = Vec::new();
+    let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
+    let mut appearing = 0;
+    // Column order (Khalil & Gautier's grouping): inertia entries first, then first moments,
+    // then masses, each from the base to the tip; dependent columns fold into earlier ones,
+    // so masses and first moments regroup into inertias (e.g. ZZ1 + a1² M2).
+    let group = |j: usize| match model.param_kind[j] {
+        0 => 2,
+        1..=3 => 1,
+        _ => 0,
+    };
+    let mut order: Vec<usize> = (0..np).collect();
+    order.sort_by_key(|&j| (group(j), model.param_link[j], model.param_kind[j]));
+    for j in order {
+        let col = w.column(j).into_owned();
+        let norm = col.norm();
+        if norm <= 1e-10 * scale {
+            continue;
+        }
+        appearing += 1;
+        // Modified Gram–Schmidt, twice for stability.
+        let mut r = col.clone();
+        for _ in 0..2 {
+            for b in &basis {
+                let d = b.dot(&r);
+                r -= b * d;
+            }
+        }
+        let rn = r.norm();
+        if rn > 1e-8 * norm {
+            basis.push(r / rn);
+            kept.push(j);
+        } else {
+            dependent.push(j);
+        }
+    }
+    let w1 = DMatrix::from_columns(&kept.iter().map(|&j| w.column(j)).collect::<Vec<_>>());
+    let mut terms: Vec<Vec<(f64, String)>> = vec![Vec::new(); kept.len()];
+    if !kept.is_empty() {
+        let svd = w1.clone().svd(true, true);
+        for &d in &dependent {
+            let beta = svd
+                .solve(&w.column(d).into_owned(), 1e-12)
+                .unwrap_or_else(|_| nalgebra::DVector::zeros(kept.len()));
+            for (i, &b) in beta.iter().enumerate() {
+                if b.abs() > 1e-9 {
+                    terms[i].push((b, model.params[d].to_string()));
+                }
+            }
+        }
+    }
+    BaseParameters {
+        configuration: conf.name.to_string(),
+        appearing,
+        rank: kept.len(),
+        base: kept
+            .iter()
+            .zip(terms)
+            .map(|(&j, t)| BaseParameter {
+                name: model.params[j].to_string(),
+                terms: t,
+            })
+            .collect(),
+        dependent: dependent
+            .iter()
+            .map(|&j| model.params[j].to_string())
+            .collect(),
+    }
+}
+
+/// The occurrence table and base parameters as Markdown.
+pub fn markdown(occ: &Occurrence, bases: &[BaseParameters]) -> String {
+    let mut s = format!("# Parameters of model `{}`\n\n", occ.model);
+    s.push_str(&format!(
+        "## Occurrence of the {} per configuration\n\n`x`: appears in the configuration's equations (∂τ_F/∂u ≠ 0 at random states).\n\n| | {} |\n|---|{}\n",
+        occ.quantity,
+        occ.configurations.join(" | "),
+        "---|".repeat(occ.configurations.len())
+    ));
+    for (i, n) in occ.names.iter().enumerate() {
+        let cells: Vec<&str> = occ.appears[i]
+            .iter()
+            .map(|&a| if a { "x" } else { "" })
+            .collect();
+        s.push_str(&format!("| {n} | {} |\n", cells.join(" | ")));
+    }
+    for seq in &occ.sequences {
+        s.push_str(&format!(
+            "\n## Sequence `{}`: where each of the {} is identified first\n\n| step | count | first identified |\n|---|---|---|\n",
+            seq.name, occ.quantity
+        ));
+        for (c, first) in &seq.steps {
+            s.push_str(&format!(
+                "| {c} | {} | {} |\n",
+                first.len(),
+                first.join(", ")
+            ));
+        }
+        s.push_str(&format!(
+            "| nowhere | {} | {} |\n",
+            seq.nowhere.len(),
+            seq.nowhere.join(", ")
+        ));
+    }
+    s.push_str("\n## Base parameters per configuration (barycentric form)\n");
+    for b in bases {
+        s.push_str(&format!(
+            "\n### `{}`: {} appear, {} identifiable\n\n",
+            b.configuration, b.appearing, b.rank
+        ));
+        for p in &b.base {
+            s.push_str(&format!("- {p}\n"));
+        }
+        if !b.dependent.is_empty() {
+            s.push_str(&format!(
+                "\nNot separately identifiable (folded into the above): {}.\n",
+                b.dependent.join(", ")
+            ));
+        }
+    }
+    s
+}
