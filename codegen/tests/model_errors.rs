@@ -152,3 +152,16 @@ fn the_bundled_models_load() {
         codegen::load(&f).unwrap();
     }
 }
+
+#[test]
+fn nonlinear_translation_is_rejected() {
+    let e = err(&GOOD.replace(r#"a = "L1""#, r#"a = "L1 * sin(q0)""#));
+    assert!(
+        e.contains("row 1 field 'a'") || e.contains("field 'a'"),
+        "{e}"
+    );
+    assert!(
+        e.contains("a joint variable in a translation may appear only linearly"),
+        "{e}"
+    );
+}
