@@ -198,7 +198,8 @@ fn kernel(
     }
 }
 
-/// A small deterministic generator for the generation-time checks (xorshift64*).
+/// A small deterministic generator for the generation-time checks (xorshift64*; the same
+/// as `generated::inertia::Xorshift`, which the generator cannot use: it builds that crate).
 struct Rng(u64);
 
 impl Rng {

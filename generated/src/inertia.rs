@@ -10,6 +10,22 @@
 pub const BARYCENTRIC_KINDS: [&str; 10] =
     ["M", "MX", "MY", "MZ", "XX", "XY", "XZ", "YY", "YZ", "ZZ"];
 
+/// A small deterministic random generator (xorshift64*), so that checks and reports that
+/// sample random states and parameters are reproducible.
+#[derive(Debug, Clone)]
+pub struct Xorshift(pub u64);
+
+impl Xorshift {
+    /// A uniform sample in `[lo, hi)`.
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        let x = (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64;
+        lo + (hi - lo) * x
+    }
+}
+
 /// One link in the thesis's form.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CentroidalInertia {
@@ -41,6 +57,23 @@ impl CentroidalInertia {
             i[4] - m * y * z,
             i[5] + m * (x * x + y * y),
         ]
+    }
+
+    /// A random physically consistent link: m ∈ [0.5, 2] kg, centroid within ±0.1 m,
+    /// centroidal inertia diagonal in [0.02, 0.05] kg·m² with products within ±0.005
+    /// (diagonally dominant, so positive definite and satisfying the triangle inequality).
+    pub fn random(rng: &mut Xorshift) -> CentroidalInertia {
+        let m = rng.uniform(0.5, 2.0);
+        let c = std::array::from_fn(|_| rng.uniform(-0.1, 0.1));
+        let i_c = [
+            rng.uniform(0.02, 0.05),
+            rng.uniform(-0.005, 0.005),
+            rng.uniform(-0.005, 0.005),
+            rng.uniform(0.02, 0.05),
+            rng.uniform(-0.005, 0.005),
+            rng.uniform(0.02, 0.05),
+        ];
+        CentroidalInertia { m, c, i_c }
     }
 
     /// Inverse of [`CentroidalInertia::to_barycentric`]. Returns `None` when m = 0 (the

@@ -6,22 +6,10 @@
 //! Both are computed numerically from the generated regressor at random states, so they
 //! hold for the equations as emitted, whatever their symbolic form.
 
+use generated::inertia::Xorshift as Rng;
 use generated::{Configuration, Model};
 use nalgebra::DMatrix;
 use serde::Serialize;
-
-/// A small deterministic generator (xorshift64*), so that reports are reproducible.
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let x = (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64;
-        lo + (hi - lo) * x
-    }
-}
 
 /// The regressor of `conf` stacked over `samples` random states, `(samples·NF) × NP`.
 fn stacked_regressor(

@@ -318,47 +318,12 @@ pub fn reference(
     }
 }
 
-/// A small deterministic generator (xorshift64*).
-pub struct Rng(pub u64);
+pub use generated::inertia::Xorshift as Rng;
 
-impl Rng {
-    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let x = (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64;
-        lo + (hi - lo) * x
-    }
-}
-
-/// Random physically consistent barycentric parameters for the model's parameter vector
-/// (per link: mass, centroid, centroidal inertia, then the parallel-axis theorem).
+/// Random physically consistent barycentric parameters for the model's parameter vector.
 pub fn random_params(gm: &generated::Model, rng: &mut Rng) -> Vec<f64> {
     let per_link: Vec<[f64; 10]> = (0..gm.links.len())
-        .map(|_| {
-            let m = rng.uniform(0.5, 2.0);
-            let c: [f64; 3] = std::array::from_fn(|_| rng.uniform(-0.1, 0.1));
-            let ic = [
-                rng.uniform(0.02, 0.05),
-                rng.uniform(-0.005, 0.005),
-                rng.uniform(-0.005, 0.005),
-                rng.uniform(0.02, 0.05),
-                rng.uniform(-0.005, 0.005),
-                rng.uniform(0.02, 0.05),
-            ];
-            [
-                m,
-                m * c[0],
-                m * c[1],
-                m * c[2],
-                ic[0] + m * (c[1] * c[1] + c[2] * c[2]),
-                ic[1] - m * c[0] * c[1],
-                ic[2] - m * c[0] * c[2],
-                ic[3] + m * (c[0] * c[0] + c[2] * c[2]),
-                ic[4] - m * c[1] * c[2],
-                ic[5] + m * (c[0] * c[0] + c[1] * c[1]),
-            ]
-        })
+        .map(|_| generated::inertia::CentroidalInertia::random(rng).to_barycentric())
         .collect();
     (0..gm.params.len())
         .map(|j| per_link[gm.param_link[j]][gm.param_kind[j]])
