@@ -52,7 +52,13 @@ fn puma(c: &mut Criterion) {
 
 fn freedom(c: &mut Criterion) {
     use freedom6s::k5;
-    let p: [f64; freedom6s::NP] = std::array::from_fn(|j| 0.01 + 0.001 * j as f64);
+    // A physically consistent parameter vector (the Freedom 6S file has symbols, no values).
+    let mut rng = generated::inertia::Xorshift(42);
+    let links: Vec<[f64; 10]> = (0..freedom6s::LINKS.len())
+        .map(|_| generated::inertia::CentroidalInertia::random(&mut rng).to_barycentric())
+        .collect();
+    let p: [f64; freedom6s::NP] =
+        std::array::from_fn(|j| links[freedom6s::PARAM_LINK[j]][freedom6s::PARAM_KIND[j]]);
     let q = [0.1, -0.4, 0.7, 0.3, -0.2, 0.5];
     let qd = [0.5, -1.0, 0.8, 1.2, -0.7, 0.9];
     let qdd = [0.3, 0.2, -0.4, 1.0, 0.5, -0.6];
