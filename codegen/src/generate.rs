@@ -160,6 +160,17 @@ fn body(sm: &SymbolicModel, cd: &ConfigDynamics, free: &[usize], outputs: &[Atom
     }
 }
 
+/// One kernel of a configuration: name, doc line, arguments, return type, outputs and shape
+/// (rows, cols; cols 0 for a vector).
+type KernelSpec = (
+    &'static str,
+    &'static str,
+    TokenStream,
+    TokenStream,
+    Vec<Atom>,
+    (usize, usize),
+);
+
 /// Emit one kernel function and count its operations.
 #[allow(clippy::too_many_arguments)]
 fn kernel(
@@ -375,79 +386,73 @@ fn config_module(
     let flat = |m: &Vec<Vec<Atom>>| -> Vec<Atom> { m.iter().flatten().cloned().collect() };
     let nj_ts = quote!(super::NJ);
     let np_ts = quote!(super::NP);
-    let mut items = Vec::new();
-    items.push(kernel(
-        sm,
-        &cd,
-        free,
-        "mass_matrix",
-        "Inertia matrix D_FF(q) (thesis 3.2), NF × NF, kg·m² (kg for prismatic rows).",
-        quote!(q: &[f64; #nj_ts], p: &[f64; #np_ts]),
-        quote!([[f64; NF]; NF]),
-        &flat(&cd.d),
-        (nf, nf),
-        &mut ops,
-    ));
-    items.push(kernel(
-        sm,
-        &cd,
-        free,
-        "christoffel_matrix",
-        "Christoffel matrix C_FF(q, q̇) (thesis 3.3): C_kj = Σ_i Γ_ijk q̇_i, NF × NF.",
-        quote!(q: &[f64; #nj_ts], qd: &[f64; NF], p: &[f64; #np_ts]),
-        quote!([[f64; NF]; NF]),
-        &flat(&cd.c),
-        (nf, nf),
-        &mut ops,
-    ));
-    items.push(kernel(
-        sm,
-        &cd,
-        free,
-        "coriolis",
-        "Coriolis and centrifugal torques C_FF(q, q̇) q̇_F, NF (N·m or N).",
-        quote!(q: &[f64; #nj_ts], qd: &[f64; NF], p: &[f64; #np_ts]),
-        quote!([f64; NF]),
-        &cd.cqd,
-        (nf, 0),
-        &mut ops,
-    ));
-    items.push(kernel(
-        sm,
-        &cd,
-        free,
-        "gravity",
-        "Gravity torques φ_F(q) (thesis 3.4), NF (N·m or N).",
-        quote!(q: &[f64; #nj_ts], p: &[f64; #np_ts]),
-        quote!([f64; NF]),
-        &cd.phi,
-        (nf, 0),
-        &mut ops,
-    ));
-    items.push(kernel(
-        sm,
-        &cd,
-        free,
-        "inverse_dynamics",
-        "Inverse dynamics τ_F = D q̈ + C q̇ + φ (thesis 3.5), NF (N·m or N).",
-        quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF], p: &[f64; #np_ts]),
-        quote!([f64; NF]),
-        &cd.tau,
-        (nf, 0),
-        &mut ops,
-    ));
-    items.push(kernel(
-        sm,
-        &cd,
-        free,
-        "regressor",
-        "Regressor Y_F(q, q̇, q̈) with τ_F = Y_F p, NF × NP.",
-        quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF]),
-        quote!([[f64; #np_ts]; NF]),
-        &flat(&cd.y),
-        (nf, sm.params.len()),
-        &mut ops,
-    ));
+    let table: Vec<KernelSpec> = vec![
+        (
+            "mass_matrix",
+            "Inertia matrix D_FF(q) (thesis 3.2), NF × NF, kg·m² (kg for prismatic rows).",
+            quote!(q: &[f64; #nj_ts], p: &[f64; #np_ts]),
+            quote!([[f64; NF]; NF]),
+            flat(&cd.d),
+            (nf, nf),
+        ),
+        (
+            "christoffel_matrix",
+            "Christoffel matrix C_FF(q, q̇) (thesis 3.3): C_kj = Σ_i Γ_ijk q̇_i, NF × NF.",
+            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], p: &[f64; #np_ts]),
+            quote!([[f64; NF]; NF]),
+            flat(&cd.c),
+            (nf, nf),
+        ),
+        (
+            "coriolis",
+            "Coriolis and centrifugal torques C_FF(q, q̇) q̇_F, NF (N·m or N).",
+            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], p: &[f64; #np_ts]),
+            quote!([f64; NF]),
+            cd.cqd.clone(),
+            (nf, 0),
+        ),
+        (
+            "gravity",
+            "Gravity torques φ_F(q) (thesis 3.4), NF (N·m or N).",
+            quote!(q: &[f64; #nj_ts], p: &[f64; #np_ts]),
+            quote!([f64; NF]),
+            cd.phi.clone(),
+            (nf, 0),
+        ),
+        (
+            "inverse_dynamics",
+            "Inverse dynamics τ_F = D q̈ + C q̇ + φ (thesis 3.5), NF (N·m or N).",
+            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF], p: &[f64; #np_ts]),
+            quote!([f64; NF]),
+            cd.tau.clone(),
+            (nf, 0),
+        ),
+        (
+            "regressor",
+            "Regressor Y_F(q, q̇, q̈) with τ_F = Y_F p, NF × NP.",
+            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF]),
+            quote!([[f64; #np_ts]; NF]),
+            flat(&cd.y),
+            (nf, sm.params.len()),
+        ),
+    ];
+    let mut items: Vec<TokenStream> = table
+        .iter()
+        .map(|(name, doc, args, ret, outputs, shape)| {
+            kernel(
+                sm,
+                &cd,
+                free,
+                name,
+                doc,
+                args.clone(),
+                ret.clone(),
+                outputs,
+                *shape,
+                &mut ops,
+            )
+        })
+        .collect();
     // Forward dynamics: D (lower triangle) and h = C q̇ + φ in one body, then Cholesky.
     let mut dh: Vec<Atom> = Vec::new();
     for a in 0..nf {
