@@ -14,4 +14,5 @@ pub mod measurement;
 pub mod plant;
 pub mod report;
 pub mod signal;
+pub mod simulation;
 pub mod util;
