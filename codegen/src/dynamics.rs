@@ -184,6 +184,10 @@ fn cross(a: &V3, b: &V3) -> V3 {
     ]
 }
 
+fn dot3(a: &V3, b: &V3) -> Atom {
+    (0..3).fold(Atom::num(0), |acc, x| acc + &a[x] * &b[x])
+}
+
 fn add3(a: &V3, b: &V3) -> V3 {
     [&a[0] + &b[0], &a[1] + &b[1], &a[2] + &b[2]]
 }
@@ -262,11 +266,7 @@ pub fn config_dynamics(
 ) -> ConfigDynamics {
     let nf = free.len();
     let inputs = Inputs {
-        s: vars.s.clone(),
-        c: vars.c.clone(),
-        q: vars.q.clone(),
-        qd: vars.qd.clone(),
-        qdd: vars.qdd.clone(),
+        vars: vars.clone(),
         p: p_sym.to_vec(),
         free: free.to_vec(),
     };
@@ -401,8 +401,8 @@ fn rnea(
     acc: bool,
     grav: bool,
 ) -> Vec<Atom> {
-    let qd = g.inputs.qd.clone();
-    let qdd = g.inputs.qdd.clone();
+    let qd = g.inputs.vars.qd.clone();
+    let qdd = g.inputs.vars.qdd.clone();
     let n = nodes.len();
     let mut w: Vec<V3> = vec![zero3(); n];
     let mut wd: Vec<V3> = vec![zero3(); n];
@@ -525,35 +525,17 @@ fn rnea(
         }
         let fi = g.values(f[i].clone());
         let ni_ = g.values(nn[i].clone());
-        let pi = nodes[i].parent;
-        match &nodes[i].motion {
-            Motion::Rot { axis, joints, .. } => {
-                for (a, &k) in free.iter().enumerate() {
-                    if joints[k] != 0 {
-                        tau[a] = &tau[a] + Atom::num(joints[k]) * &ni_[*axis];
-                    }
-                }
-                let (s, c) = kin.sc[i].clone().expect("rotation node has sin/cos");
-                let fr = g.values(rot(*axis, &s, &c, &fi));
-                let nr = g.values(rot(*axis, &s, &c, &ni_));
-                f[pi] = add3(&f[pi], &fr);
-                nn[pi] = add3(&nn[pi], &nr);
+        // Generalised forces: the wrench across node i projected on each free joint's
+        // motion (virtual work), then the wrench moved to the parent.
+        for (a, &k) in free.iter().enumerate() {
+            if let Some((angular, s)) = joint_columns(&nodes[i], k) {
+                tau[a] = &tau[a] + dot3(&s, if angular { &ni_ } else { &fi });
             }
-            Motion::Trans { u, .. } => {
-                for (a, &k) in free.iter().enumerate() {
-                    for x in 0..3 {
-                        if u[k][x] != 0.0 {
-                            tau[a] = &tau[a] + rational(u[k][x]) * &fi[x];
-                        }
-                    }
-                }
-                let p = kin.p[i].clone().expect("translation node has p");
-                let pf = g.values(cross(&p, &fi));
-                f[pi] = add3(&f[pi], &fi);
-                nn[pi] = add3(&nn[pi], &add3(&ni_, &pf));
-            }
-            Motion::World => {}
         }
+        let pi = nodes[i].parent;
+        let (fp, np) = transport(g, &nodes[i], kin, i, &fi, &ni_);
+        f[pi] = add3(&f[pi], &fp);
+        nn[pi] = add3(&nn[pi], &np);
     }
     tau.into_iter().map(|t| g.value(t)).collect()
 }
@@ -670,8 +652,7 @@ fn crba(
                         continue;
                     };
                     let w = if ang_l { &nw } else { &fw };
-                    let val = (0..3).fold(Atom::num(0), |acc, a| acc + &sl[a] * &w[a]);
-                    let val = g.value(val);
+                    let val = g.value(dot3(&sl, w));
                     d[lf][kf] = &d[lf][kf] + &val;
                     if x != e {
                         d[kf][lf] = &d[kf][lf] + &val;

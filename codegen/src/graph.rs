@@ -12,6 +12,7 @@
 //!   `let` per intermediate, branch-free and allocation-free.
 
 use crate::emit::{lit, Ops};
+use crate::symbolic::Vars;
 use proc_macro2::{Ident, Span, TokenStream};
 use quote::quote;
 use std::collections::HashMap;
@@ -23,16 +24,8 @@ use symbolica::symbol;
 /// The input symbols of a graph and how they differentiate.
 #[derive(Clone, Default)]
 pub struct Inputs {
-    /// `S{k}` = sin q_k.
-    pub s: Vec<Symbol>,
-    /// `C{k}` = cos q_k.
-    pub c: Vec<Symbol>,
-    /// `Q{k}` = q_k (prismatic joints).
-    pub q: Vec<Symbol>,
-    /// `QD{k}` = q̇_k.
-    pub qd: Vec<Symbol>,
-    /// `QDD{k}` = q̈_k.
-    pub qdd: Vec<Symbol>,
+    /// Joint symbols S, C, Q, QD, QDD.
+    pub vars: Vars,
     /// `P{j}`: barycentric inertial parameters.
     pub p: Vec<Symbol>,
     /// Joints that move (q̇ ≠ 0) in this graph's configuration, for d/dt.
@@ -128,14 +121,8 @@ impl Graph {
     /// An empty graph over `inputs`; intermediates are named `{prefix}T{n}`.
     pub fn new(inputs: Inputs, prefix: &str) -> Graph {
         let mut base = HashMap::new();
-        let all = [
-            &inputs.s,
-            &inputs.c,
-            &inputs.q,
-            &inputs.qd,
-            &inputs.qdd,
-            &inputs.p,
-        ];
+        let v = &inputs.vars;
+        let all = [&v.s, &v.c, &v.q, &v.qd, &v.qdd, &inputs.p];
         for v in all {
             for &s in v {
                 let n = base.len();
@@ -154,16 +141,6 @@ impl Graph {
             memo: HashMap::new(),
             prefix: prefix.to_string(),
         }
-    }
-
-    /// Number of intermediates.
-    pub fn len(&self) -> usize {
-        self.defs.len()
-    }
-
-    /// Whether the graph has no intermediates.
-    pub fn is_empty(&self) -> bool {
-        self.defs.is_empty()
     }
 
     /// Input dependencies and referenced intermediates of an expression.
@@ -222,7 +199,7 @@ impl Graph {
 
     fn direction_bits(&self, dir: Direction) -> Bits {
         let mut b = Bits::default();
-        let i = &self.inputs;
+        let (i, v) = (&self.inputs, &self.inputs.vars);
         let mut add = |s: Symbol| {
             if let Some(&k) = self.base.get(&s) {
                 b.set(k);
@@ -230,17 +207,17 @@ impl Graph {
         };
         match dir {
             Direction::Joint(k) => {
-                add(i.s[k]);
-                add(i.c[k]);
-                add(i.q[k]);
+                add(v.s[k]);
+                add(v.c[k]);
+                add(v.q[k]);
             }
             Direction::Param(j) => add(i.p[j]),
             Direction::Time => {
                 for &k in &i.free {
-                    add(i.s[k]);
-                    add(i.c[k]);
-                    add(i.q[k]);
-                    add(i.qd[k]);
+                    add(v.s[k]);
+                    add(v.c[k]);
+                    add(v.q[k]);
+                    add(v.qd[k]);
                 }
             }
         }
@@ -249,10 +226,10 @@ impl Graph {
 
     /// Derivative of an input symbol.
     fn input_derivative(&self, s: Symbol, dir: Direction) -> Atom {
-        let i = &self.inputs;
+        let (i, v) = (&self.inputs, &self.inputs.vars);
         let zero = Atom::num(0);
-        let Some(k) = (0..i.s.len())
-            .find(|&k| s == i.s[k] || s == i.c[k] || s == i.q[k] || s == i.qd[k] || s == i.qdd[k])
+        let Some(k) = (0..v.s.len())
+            .find(|&k| s == v.s[k] || s == v.c[k] || s == v.q[k] || s == v.qd[k] || s == v.qdd[k])
         else {
             return match dir {
                 Direction::Param(j) if s == i.p[j] => Atom::num(1),
@@ -262,18 +239,18 @@ impl Graph {
         let rate = match dir {
             Direction::Joint(j) if j == k => Atom::num(1),
             Direction::Time if i.free.contains(&k) => {
-                if s == i.qd[k] {
-                    return Atom::var(i.qdd[k]);
+                if s == v.qd[k] {
+                    return Atom::var(v.qdd[k]);
                 }
-                Atom::var(i.qd[k])
+                Atom::var(v.qd[k])
             }
             _ => return zero,
         };
-        if s == i.s[k] {
-            Atom::var(i.c[k]) * rate
-        } else if s == i.c[k] {
-            -Atom::var(i.s[k]) * rate
-        } else if s == i.q[k] {
+        if s == v.s[k] {
+            Atom::var(v.c[k]) * rate
+        } else if s == v.c[k] {
+            -Atom::var(v.s[k]) * rate
+        } else if s == v.q[k] {
             rate
         } else {
             zero

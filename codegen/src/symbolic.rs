@@ -6,50 +6,30 @@
 //! polynomials in S_k, C_k (angle addition, reduced modulo `S_k² + C_k² = 1`).
 
 use crate::expr::{Expr, Func};
-use crate::model::{Model, Transform};
+use crate::model::Model;
 use symbolica::atom::{Atom, AtomCore, Symbol};
 use symbolica::{parse, symbol};
 
-/// Symbols of one model's symbolic work.
+/// Joint symbols of one model's symbolic work (one set per joint; a kernel uses those it
+/// needs: S, C for joints in angles, Q for joints in translations).
+#[derive(Clone, Default)]
 pub struct Vars {
-    /// `S{k}` per joint.
+    /// `S{k}` = sin q_k.
     pub s: Vec<Symbol>,
-    /// `C{k}` per joint.
+    /// `C{k}` = cos q_k.
     pub c: Vec<Symbol>,
-    /// `Q{k}` per joint.
+    /// `Q{k}` = q_k.
     pub q: Vec<Symbol>,
-    /// `QD{k}` per joint.
+    /// `QD{k}` = q̇_k.
     pub qd: Vec<Symbol>,
-    /// `QDD{k}` per joint.
+    /// `QDD{k}` = q̈_k.
     pub qdd: Vec<Symbol>,
-    /// Whether joint k appears in a rotation (needs S, C) / in a translation (needs Q).
-    pub revolute: Vec<bool>,
-    /// See `revolute`.
-    pub prismatic: Vec<bool>,
 }
 
 impl Vars {
-    /// Symbols for `n` joints; the joint kinds are read from the model's transforms.
+    /// Symbols for the model's joints.
     pub fn new(model: &Model) -> Vars {
         let n = model.joints.len();
-        let mut revolute = vec![false; n];
-        let mut prismatic = vec![false; n];
-        for f in &model.frames {
-            for t in &f.transforms {
-                match t {
-                    Transform::Rot { joints, .. } => {
-                        for (k, &c) in joints.iter().enumerate() {
-                            revolute[k] |= c != 0;
-                        }
-                    }
-                    Transform::Trans { joints, .. } => {
-                        for (k, &c) in joints.iter().enumerate() {
-                            prismatic[k] |= c != 0.0;
-                        }
-                    }
-                }
-            }
-        }
         let mk = |p: &str| {
             (0..n)
                 .map(|k| symbol!(&format!("lockstep::{p}{k}")))
@@ -61,8 +41,6 @@ impl Vars {
             q: mk("Q"),
             qd: mk("QD"),
             qdd: mk("QDD"),
-            revolute,
-            prismatic,
         }
     }
 }
@@ -71,9 +49,6 @@ impl Vars {
 pub fn reduce(e: &Atom, v: &Vars) -> Atom {
     let mut cur = e.expand();
     for k in 0..v.s.len() {
-        if !v.revolute[k] {
-            continue;
-        }
         let sk = v.s[k].get_name().to_string();
         let ck = v.c[k].get_name().to_string();
         let pat = parse!(&format!("{sk}^n_"));
