@@ -140,14 +140,8 @@ pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
 
     // Step 2: add the effects the residual points to.
     bar.set_message("adding Coulomb friction and offset, refitting");
-    plant.add_effect(Effect {
-        kind: EffectKind::Coulomb,
-        joint: 0,
-    })?;
-    plant.add_effect(Effect {
-        kind: EffectKind::Offset,
-        joint: 0,
-    })?;
+    plant.add_effect(Effect::on(EffectKind::Coulomb, 0))?;
+    plant.add_effect(Effect::on(EffectKind::Offset, 0))?;
     let s2 = fit_and_compare(
         &mut plant,
         "mass + viscous + Coulomb + offset",

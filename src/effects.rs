@@ -3,13 +3,18 @@
 //!
 //! Each effect is listed in a plant file (see [`crate::plant`]) with the joints it acts on;
 //! its parameters get names `<symbol>_<joint index>` (thesis Appendix D style, e.g. `Fv_0`).
-//! The effects here are linear in their parameters, so each contributes regressor columns
-//! for inverse-dynamic identification (IDIM-LS).
+//! Effects that are linear in their parameters contribute regressor columns for
+//! inverse-dynamic identification (IDIM-LS); the others (plant gain, Stribeck, LuGre, spring,
+//! friction bias, input coupling) act in the simulator (`crate::simulation`).
 
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
-/// The kinds of effect lockstep knows.
+/// The kinds of effect lockstep knows (thesis 3.3–3.4, 4.3.4–4.3.5, Figure 3.5; DESIGN.md §2).
+///
+/// The first four are linear in their parameters and give regressor columns for
+/// inverse-dynamic identification ([`EffectKind::regressor`]); the others enter the
+/// simulator ([`crate::simulation`]) and output-error identification.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EffectKind {
@@ -22,15 +27,38 @@ pub enum EffectKind {
     AsymmetricFriction,
     /// A constant torque or force offset (N·m or N), e.g. an amplifier or sensor bias.
     Offset,
+    /// Plant gain `Kp` (amplifier × gearing): the joint receives `Kp·τ'` for a command `τ'`.
+    Gain,
+    /// Static friction with the Stribeck effect (thesis 3.3.1):
+    /// `g(q̇)·sign(q̇)`, `g(v) = Fc + (Fs − Fc) e^{−(v/vs)²}`.
+    Stribeck,
+    /// LuGre friction (thesis 3.6–3.8): `σ0 z + σ1 ż + σ2 q̇`, `ż = q̇ − σ0 |q̇| z / g(q̇)`,
+    /// with the bristle deflection z as a state (z(0) = 0).
+    Lugre,
+    /// Cable-drag spring (thesis 3.9): `Ks (q − qeq)`.
+    Spring,
+    /// Friction position bias (thesis 4.3.5): the joint's friction is multiplied by
+    /// `FrictionBias` where `q < qeq` (the spring's qeq when the joint has one).
+    FrictionBias,
+    /// Tendon input coupling (thesis 4.5–4.6): the command of joint `from` reaches this joint,
+    /// `τ'_to = τ_to + G·τ_from`. The thesis's τ'_4 = τ_4 − G54 τ_5, τ'_5 = τ_5 + G45 τ_4 are
+    /// two of these: `G_5to4 = −G54`, `G_4to5 = G45`.
+    InputCoupling,
 }
 
 impl EffectKind {
     /// Every kind, in catalogue order.
-    pub const ALL: [EffectKind; 4] = [
+    pub const ALL: [EffectKind; 10] = [
         EffectKind::Viscous,
         EffectKind::Coulomb,
         EffectKind::AsymmetricFriction,
         EffectKind::Offset,
+        EffectKind::Gain,
+        EffectKind::Stribeck,
+        EffectKind::Lugre,
+        EffectKind::Spring,
+        EffectKind::FrictionBias,
+        EffectKind::InputCoupling,
     ];
 
     /// Parameter symbols of the kind (without the joint suffix).
@@ -40,6 +68,12 @@ impl EffectKind {
             EffectKind::Coulomb => &["Fc"],
             EffectKind::AsymmetricFriction => &["Fv_pos", "Fc_pos", "Fv_neg", "Fc_neg"],
             EffectKind::Offset => &["offset"],
+            EffectKind::Gain => &["Kp"],
+            EffectKind::Stribeck => &["Fc", "Fs", "vs"],
+            EffectKind::Lugre => &["sigma0", "sigma1", "sigma2", "Fc", "Fs", "vs"],
+            EffectKind::Spring => &["Ks", "qeq"],
+            EffectKind::FrictionBias => &["FrictionBias", "qeq"],
+            EffectKind::InputCoupling => &["G"],
         }
     }
 
@@ -52,11 +86,53 @@ impl EffectKind {
                 "Coulomb + viscous friction with different coefficients in each direction"
             }
             EffectKind::Offset => "constant torque offset (amplifier or sensor bias)",
+            EffectKind::Gain => "plant gain: amplifier and gearing scale the commanded torque",
+            EffectKind::Stribeck => {
+                "static friction with stiction: friction falls from Fs to Fc as speed rises (Stribeck)"
+            }
+            EffectKind::Lugre => {
+                "LuGre dynamic friction: bristle deflection gives pre-sliding, stiction, Stribeck and viscous friction"
+            }
+            EffectKind::Spring => "cable drag: a spring pulling the joint toward an equilibrium position",
+            EffectKind::FrictionBias => {
+                "friction depends on position: scaled on one side of the equilibrium position"
+            }
+            EffectKind::InputCoupling => {
+                "tendon input coupling: part of another joint's command reaches this joint"
+            }
         }
     }
 
-    /// The regressor entries `∂τ/∂θ` of this kind at velocity `qd` (one per symbol).
-    pub fn regressor(self, qd: f64) -> Vec<f64> {
+    /// True when τ is linear in the kind's parameters, so that it has regressor columns.
+    pub fn is_linear(self) -> bool {
+        matches!(
+            self,
+            EffectKind::Viscous
+                | EffectKind::Coulomb
+                | EffectKind::AsymmetricFriction
+                | EffectKind::Offset
+        )
+    }
+
+    /// True when the kind acts between two joints (`from` → `joint`).
+    pub fn is_pairwise(self) -> bool {
+        self == EffectKind::InputCoupling
+    }
+
+    /// True when the kind is a friction law (at most one per joint).
+    pub fn is_friction_law(self) -> bool {
+        matches!(
+            self,
+            EffectKind::Coulomb
+                | EffectKind::AsymmetricFriction
+                | EffectKind::Stribeck
+                | EffectKind::Lugre
+        )
+    }
+
+    /// The regressor entries `∂τ/∂θ` of a linear kind at velocity `qd` (one per symbol);
+    /// `None` for kinds that are not linear in their parameters ([`EffectKind::is_linear`]).
+    pub fn regressor(self, qd: f64) -> Option<Vec<f64>> {
         let sign = if qd > 0.0 {
             1.0
         } else if qd < 0.0 {
@@ -67,10 +143,11 @@ impl EffectKind {
         let pos = if qd > 0.0 { 1.0 } else { 0.0 };
         let neg = if qd < 0.0 { 1.0 } else { 0.0 };
         match self {
-            EffectKind::Viscous => vec![qd],
-            EffectKind::Coulomb => vec![sign],
-            EffectKind::AsymmetricFriction => vec![pos * qd, pos, neg * qd, -neg],
-            EffectKind::Offset => vec![1.0],
+            EffectKind::Viscous => Some(vec![qd]),
+            EffectKind::Coulomb => Some(vec![sign]),
+            EffectKind::AsymmetricFriction => Some(vec![pos * qd, pos, neg * qd, -neg]),
+            EffectKind::Offset => Some(vec![1.0]),
+            _ => None,
         }
     }
 }
@@ -82,6 +159,12 @@ impl fmt::Display for EffectKind {
             EffectKind::Coulomb => "coulomb",
             EffectKind::AsymmetricFriction => "asymmetric_friction",
             EffectKind::Offset => "offset",
+            EffectKind::Gain => "gain",
+            EffectKind::Stribeck => "stribeck",
+            EffectKind::Lugre => "lugre",
+            EffectKind::Spring => "spring",
+            EffectKind::FrictionBias => "friction_bias",
+            EffectKind::InputCoupling => "input_coupling",
         };
         f.write_str(s)
     }
@@ -92,18 +175,42 @@ impl fmt::Display for EffectKind {
 pub struct Effect {
     /// What it is.
     pub kind: EffectKind,
-    /// Joint index in the model.
+    /// Joint index in the model (for an input coupling: the joint that receives).
     pub joint: usize,
+    /// For an input coupling: the joint whose command is passed on; `None` otherwise.
+    pub from: Option<usize>,
 }
 
 impl Effect {
-    /// Parameter names, e.g. `["Fv_0"]`.
+    /// An effect of `kind` on `joint` (not an input coupling).
+    pub fn on(kind: EffectKind, joint: usize) -> Effect {
+        Effect {
+            kind,
+            joint,
+            from: None,
+        }
+    }
+
+    /// An input coupling from joint `from` to joint `to`.
+    pub fn coupling(from: usize, to: usize) -> Effect {
+        Effect {
+            kind: EffectKind::InputCoupling,
+            joint: to,
+            from: Some(from),
+        }
+    }
+
+    /// Parameter names, e.g. `["Fv_0"]`; an input coupling from 5 to 4 has `["G_5to4"]`.
     pub fn parameter_names(&self) -> Vec<String> {
-        self.kind
-            .symbols()
-            .iter()
-            .map(|s| format!("{s}_{}", self.joint))
-            .collect()
+        match self.from {
+            Some(from) => vec![format!("G_{from}to{}", self.joint)],
+            None => self
+                .kind
+                .symbols()
+                .iter()
+                .map(|s| format!("{s}_{}", self.joint))
+                .collect(),
+        }
     }
 }
 
@@ -113,14 +220,16 @@ mod tests {
 
     #[test]
     fn regressor_rows_match_the_friction_laws() {
-        assert_eq!(EffectKind::Coulomb.regressor(-0.2), vec![-1.0]);
-        assert_eq!(EffectKind::Coulomb.regressor(0.0), vec![0.0]);
-        assert_eq!(EffectKind::Viscous.regressor(0.5), vec![0.5]);
+        assert_eq!(EffectKind::Coulomb.regressor(-0.2), Some(vec![-1.0]));
+        assert_eq!(EffectKind::Coulomb.regressor(0.0), Some(vec![0.0]));
+        assert_eq!(EffectKind::Viscous.regressor(0.5), Some(vec![0.5]));
+        assert_eq!(EffectKind::Lugre.regressor(0.5), None);
         // τ = Fv_pos q̇ + Fc_pos for q̇ > 0, Fv_neg q̇ − Fc_neg for q̇ < 0.
         let th = [2.0, 3.0, 5.0, 7.0];
         let tau = |qd: f64| -> f64 {
             EffectKind::AsymmetricFriction
                 .regressor(qd)
+                .unwrap()
                 .iter()
                 .zip(th)
                 .map(|(a, b)| a * b)
@@ -129,12 +238,9 @@ mod tests {
         assert_eq!(tau(0.5), 2.0 * 0.5 + 3.0);
         assert_eq!(tau(-0.5), 5.0 * -0.5 - 7.0);
         assert_eq!(
-            Effect {
-                kind: EffectKind::AsymmetricFriction,
-                joint: 3
-            }
-            .parameter_names(),
+            Effect::on(EffectKind::AsymmetricFriction, 3).parameter_names(),
             vec!["Fv_pos_3", "Fc_pos_3", "Fv_neg_3", "Fc_neg_3"]
         );
+        assert_eq!(Effect::coupling(5, 4).parameter_names(), vec!["G_5to4"]);
     }
 }

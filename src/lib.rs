@@ -9,6 +9,7 @@ pub mod cli;
 pub mod compare;
 pub mod demo;
 pub mod effects;
+pub mod excitation;
 pub mod identify;
 pub mod measurement;
 pub mod plant;

@@ -33,13 +33,13 @@ pub enum DataError {
         reason: String,
     },
     /// A required column is absent.
-    #[error("{file}: missing column '{column}' (the header has: {available})")]
+    #[error("{file}: missing column '{column}' ({available})")]
     MissingColumn {
         /// File.
         file: PathBuf,
         /// Column name looked for.
         column: String,
-        /// Header names present.
+        /// What the file has instead.
         available: String,
     },
     /// A cell is not a finite number.
@@ -64,19 +64,245 @@ pub enum DataError {
     },
 }
 
-/// Column mapping from the side file.
-#[derive(Debug, Default, Clone, Deserialize)]
+/// The side file of a measurement (`<stem>.toml` beside it): provenance, the column
+/// mapping, and for data of a locked-joint configuration, which one and where the locked
+/// joints stand.
+#[derive(Debug, Default, Clone, Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SideFile {
     /// Free text.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     pub description: String,
     /// Where the data come from.
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     pub source: String,
-    /// Standard name → column name in the CSV.
-    #[serde(default)]
+    /// Configuration of the model the record was taken in (`k1`, `c6`, …).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub configuration: Option<String>,
+    /// Positions of the locked joints (rad or m) by joint name.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub locked: BTreeMap<String, f64>,
+    /// Standard name → column name in the file.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub columns: BTreeMap<String, String>,
+}
+
+/// Named numeric columns of a CSV or MAT file, with the side file's mapping applied
+/// (columns carry their standard names). A CSV cell that is not a finite number is reported
+/// when its column is asked for.
+#[derive(Debug, Clone)]
+pub struct Table {
+    /// The file.
+    pub file: PathBuf,
+    /// Its side file (empty when there is none).
+    pub side: SideFile,
+    names: Vec<String>,
+    columns: Vec<Result<Vec<f64>, (usize, String)>>,
+    /// "column" (CSV) or "variable" (MAT), for messages.
+    what: &'static str,
+}
+
+impl Table {
+    /// Read a `.mat` (MATLAB v5/v7) or any other extension as CSV with a header.
+    ///
+    /// # Errors
+    /// [`DataError`]: unreadable file, malformed side file, CSV syntax, unreadable MAT file
+    /// (v7.3/HDF5 is named as such), MAT variables of different lengths.
+    pub fn read(path: &Path) -> Result<Table, DataError> {
+        let side = read_side_file(path)?;
+        let is_mat = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
+        let mut t = if is_mat {
+            read_mat(path)?
+        } else {
+            read_csv_table(path)?
+        };
+        for (std, own) in &side.columns {
+            if let Some(i) = t.names.iter().position(|n| n == own) {
+                t.names[i] = std.clone();
+            }
+        }
+        t.side = side;
+        Ok(t)
+    }
+
+    /// The column names (standard names where the side file maps them).
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// A column by name, `None` when absent.
+    ///
+    /// # Errors
+    /// [`DataError::BadCell`] when it holds a cell that is not a finite number.
+    pub fn get(&self, name: &str) -> Result<Option<Vec<f64>>, DataError> {
+        let Some(i) = self.names.iter().position(|n| n == name) else {
+            return Ok(None);
+        };
+        match &self.columns[i] {
+            Ok(v) => Ok(Some(v.clone())),
+            Err((row, reason)) => Err(DataError::BadCell {
+                file: self.file.clone(),
+                row: *row,
+                column: self.own_name(name),
+                reason: reason.clone(),
+            }),
+        }
+    }
+
+    /// A required column.
+    ///
+    /// # Errors
+    /// [`DataError::MissingColumn`] naming the columns present, or as [`Table::get`].
+    pub fn need(&self, name: &str) -> Result<Vec<f64>, DataError> {
+        self.get(name)?.ok_or_else(|| DataError::MissingColumn {
+            file: self.file.clone(),
+            column: self.own_name(name),
+            available: format!(
+                "{}: {}",
+                if self.what == "column" {
+                    "the header has"
+                } else {
+                    "the file's variables are"
+                },
+                self.names
+                    .iter()
+                    .map(|n| self.own_name(n))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        })
+    }
+
+    fn own_name(&self, std: &str) -> String {
+        self.side.columns.get(std).cloned().unwrap_or_else(|| std.to_string())
+    }
+}
+
+fn read_csv_table(path: &Path) -> Result<Table, DataError> {
+    let file = path.to_path_buf();
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_path(path)
+        .map_err(|e| DataError::Io {
+            file: file.clone(),
+            reason: io_reason(&e),
+        })?;
+    let headers = rdr
+        .headers()
+        .map_err(|e| DataError::Io {
+            file: file.clone(),
+            reason: e.to_string(),
+        })?
+        .clone();
+    let names: Vec<String> = headers.iter().map(str::to_string).collect();
+    let mut columns: Vec<Result<Vec<f64>, (usize, String)>> = vec![Ok(Vec::new()); names.len()];
+    for (r, rec) in rdr.records().enumerate() {
+        let row = r + 2;
+        let rec = rec.map_err(|e| DataError::Record {
+            file: file.clone(),
+            reason: format!("row {row}: {e}"),
+        })?;
+        for (i, col) in columns.iter_mut().enumerate() {
+            let Ok(v) = col else { continue };
+            let text = rec.get(i).unwrap_or("");
+            match text.parse::<f64>() {
+                Ok(x) if x.is_finite() => v.push(x),
+                Ok(_) => *col = Err((row, format!("'{text}' is not a finite number"))),
+                Err(_) => *col = Err((row, format!("'{text}' is not a number"))),
+            }
+        }
+    }
+    Ok(Table {
+        file,
+        side: SideFile::default(),
+        names,
+        columns,
+        what: "column",
+    })
+}
+
+/// MATLAB's descriptive header must begin "MATLAB 5.0 MAT-file, " for the reader; files
+/// written by other tools (SciPy: "MATLAB 5.0 MAT-file Platform: …") are accepted by
+/// rewriting the descriptive text, which carries no data.
+fn normalise_mat_header(bytes: &mut [u8]) {
+    const PREFIX: &[u8] = b"MATLAB 5.0 MAT-file";
+    if bytes.len() >= 128 && bytes.starts_with(PREFIX) && &bytes[19..21] != b", " {
+        let text = b"MATLAB 5.0 MAT-file, read by lockstep";
+        bytes[..116].fill(b' ');
+        bytes[..text.len()].copy_from_slice(text);
+    }
+}
+
+fn read_mat(path: &Path) -> Result<Table, DataError> {
+    let file = path.to_path_buf();
+    let mut bytes = std::fs::read(path).map_err(|e| DataError::Io {
+        file: file.clone(),
+        reason: e.to_string(),
+    })?;
+    if bytes.starts_with(b"MATLAB 7.3 MAT-file") {
+        return Err(DataError::Record {
+            file,
+            reason: "MATLAB v7.3 (HDF5) files are not read; save with save(..., '-v7')".into(),
+        });
+    }
+    normalise_mat_header(&mut bytes);
+    let mat = matrw::load_matfile_from_u8(&bytes).map_err(|e| DataError::Record {
+        file: file.clone(),
+        reason: format!("not a readable MATLAB v5/v7 MAT file ({e})"),
+    })?;
+    let mut names = Vec::new();
+    let mut columns: Vec<Result<Vec<f64>, (usize, String)>> = Vec::new();
+    for (name, var) in mat.iter() {
+        let dim = var.dim();
+        let Some(data) = var.to_vec::<f64>() else {
+            continue; // structs, cells, text, integer arrays: not signals
+        };
+        if dim.len() != 2 || data.len() <= 1 {
+            continue; // scalars and higher-dimensional arrays
+        }
+        let (rows, cols) = (dim[0], dim[1]);
+        let check = |v: Vec<f64>| -> Result<Vec<f64>, (usize, String)> {
+            match v.iter().position(|x| !x.is_finite()) {
+                Some(k) => Err((k + 1, format!("element {} is {}", k + 1, v[k]))),
+                None => Ok(v),
+            }
+        };
+        if rows == 1 || cols == 1 {
+            names.push(name.clone());
+            columns.push(check(data));
+        } else {
+            // A matrix `q` (samples × joints) gives columns q0, q1, …; column-major data.
+            for c in 0..cols {
+                names.push(format!("{name}{c}"));
+                columns.push(check(data[c * rows..(c + 1) * rows].to_vec()));
+            }
+        }
+    }
+    let len = |c: &Result<Vec<f64>, (usize, String)>| c.as_ref().map_or(0, Vec::len);
+    if let Some(first) = columns.first() {
+        let n = len(first);
+        for (nm, c) in names.iter().zip(&columns) {
+            if c.is_ok() && len(c) != n {
+                return Err(DataError::Record {
+                    file,
+                    reason: format!(
+                        "variable '{nm}' has {} samples where '{}' has {n}",
+                        len(c),
+                        names[0]
+                    ),
+                });
+            }
+        }
+    }
+    Ok(Table {
+        file,
+        side: SideFile::default(),
+        names,
+        columns,
+        what: "variable",
+    })
 }
 
 /// One record: evenly sampled time series of one or more joints.
@@ -115,95 +341,45 @@ impl Measurement {
         self.t.is_empty()
     }
 
-    /// Read a CSV record with `joints` joints.
+    /// Read a record with `joints` joints from a CSV file or, for a `.mat` extension, a
+    /// MATLAB v5/v7 MAT file (one variable per column name, or a matrix `q`/`tau`/… with a
+    /// column per joint).
     ///
     /// # Errors
     /// [`DataError`]: missing or unreadable file, malformed side file, missing column,
     /// non-numeric or non-finite cell, fewer than [`MIN_SAMPLES`] rows, time not strictly
     /// increasing or not evenly spaced (relative deviation of a step above 1e-3).
+    pub fn read(path: &Path, joints: usize) -> Result<Measurement, DataError> {
+        let table = Table::read(path)?;
+        Measurement::from_table(&table, joints)
+    }
+
+    /// [`Measurement::read`] under its former name.
+    ///
+    /// # Errors
+    /// As [`Measurement::read`].
     pub fn read_csv(path: &Path, joints: usize) -> Result<Measurement, DataError> {
-        let side = read_side_file(path)?;
-        let col = |std: &str| -> String {
-            side.columns
-                .get(std)
-                .cloned()
-                .unwrap_or_else(|| std.to_string())
-        };
-        let file = path.to_path_buf();
-        let mut rdr = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
-            .from_path(path)
-            .map_err(|e| DataError::Io {
-                file: file.clone(),
-                reason: io_reason(&e),
-            })?;
-        let headers = rdr
-            .headers()
-            .map_err(|e| DataError::Io {
-                file: file.clone(),
-                reason: e.to_string(),
-            })?
-            .clone();
-        let find = |name: &str| headers.iter().position(|h| h == name);
-        let need = |name: String| -> Result<usize, DataError> {
-            find(&name).ok_or_else(|| DataError::MissingColumn {
-                file: file.clone(),
-                column: name,
-                available: headers.iter().collect::<Vec<_>>().join(", "),
-            })
-        };
-        let ti = need(col("t"))?;
-        let mut tau_i = Vec::new();
-        let mut q_i = Vec::new();
-        let mut qd_i = Vec::new();
-        let mut tm_i = Vec::new();
+        Measurement::read(path, joints)
+    }
+
+    /// A record from a table: `t`, `tau{j}` and `q{j}` required, `qd{j}`, `tauM{j}` optional.
+    ///
+    /// # Errors
+    /// As [`Measurement::read`].
+    pub fn from_table(table: &Table, joints: usize) -> Result<Measurement, DataError> {
+        let t = table.need("t")?;
+        let mut tau = Vec::new();
+        let mut q = Vec::new();
+        let mut qd = Vec::new();
+        let mut tau_m = Vec::new();
         for j in 0..joints {
-            tau_i.push(need(col(&format!("tau{j}")))?);
-            q_i.push(need(col(&format!("q{j}")))?);
-            qd_i.push(find(&col(&format!("qd{j}"))));
-            tm_i.push(find(&col(&format!("tauM{j}"))));
-        }
-        let mut t = Vec::new();
-        let mut tau = vec![Vec::new(); joints];
-        let mut q = vec![Vec::new(); joints];
-        let mut qd: Vec<Option<Vec<f64>>> = qd_i.iter().map(|i| i.map(|_| Vec::new())).collect();
-        let mut tau_m: Vec<Option<Vec<f64>>> = tm_i.iter().map(|i| i.map(|_| Vec::new())).collect();
-        for (r, rec) in rdr.records().enumerate() {
-            let row = r + 2;
-            let rec = rec.map_err(|e| DataError::Record {
-                file: file.clone(),
-                reason: format!("row {row}: {e}"),
-            })?;
-            let cell = |i: usize| -> Result<f64, DataError> {
-                let text = rec.get(i).unwrap_or("");
-                let bad = |reason: String| DataError::BadCell {
-                    file: file.clone(),
-                    row,
-                    column: headers.get(i).unwrap_or("?").to_string(),
-                    reason,
-                };
-                let v: f64 = text
-                    .parse()
-                    .map_err(|_| bad(format!("'{text}' is not a number")))?;
-                if !v.is_finite() {
-                    return Err(bad(format!("'{text}' is not a finite number")));
-                }
-                Ok(v)
-            };
-            t.push(cell(ti)?);
-            for j in 0..joints {
-                tau[j].push(cell(tau_i[j])?);
-                q[j].push(cell(q_i[j])?);
-                if let (Some(i), Some(v)) = (qd_i[j], qd[j].as_mut()) {
-                    v.push(cell(i)?);
-                }
-                if let (Some(i), Some(v)) = (tm_i[j], tau_m[j].as_mut()) {
-                    v.push(cell(i)?);
-                }
-            }
+            tau.push(table.need(&format!("tau{j}"))?);
+            q.push(table.need(&format!("q{j}"))?);
+            qd.push(table.get(&format!("qd{j}"))?);
+            tau_m.push(table.get(&format!("tauM{j}"))?);
         }
         let m = Measurement {
-            file,
+            file: table.file.clone(),
             t,
             tau,
             q,
@@ -212,6 +388,32 @@ impl Measurement {
         };
         m.check_time()?;
         Ok(m)
+    }
+
+    /// Write the record as CSV, or as a MATLAB v7 MAT file for a `.mat` extension (one
+    /// N×1 double variable per column), atomically: a temporary file renamed into place.
+    /// Columns: `t`, then per joint `tau{j}`, `q{j}`, and `qd{j}`, `tauM{j}` where present.
+    ///
+    /// # Errors
+    /// I/O errors, with the path.
+    pub fn write(&self, path: &Path) -> anyhow::Result<()> {
+        let mut names = vec!["t".to_string()];
+        let mut cols: Vec<&[f64]> = vec![&self.t];
+        for j in 0..self.q.len() {
+            names.push(format!("tau{j}"));
+            cols.push(&self.tau[j]);
+            names.push(format!("q{j}"));
+            cols.push(&self.q[j]);
+            if let Some(v) = &self.qd[j] {
+                names.push(format!("qd{j}"));
+                cols.push(v);
+            }
+            if let Some(v) = &self.tau_m[j] {
+                names.push(format!("tauM{j}"));
+                cols.push(v);
+            }
+        }
+        write_columns(path, &names, &cols)
     }
 
     fn check_time(&self) -> Result<(), DataError> {
@@ -274,4 +476,68 @@ pub fn read_side_file(path: &Path) -> Result<SideFile, DataError> {
         file: side.clone(),
         reason: e.message().replace('`', "'"),
     })
+}
+
+/// Write named columns of equal length as CSV (17 significant digits, exact round trip) or,
+/// for a `.mat` extension, as a MATLAB v7 MAT file, atomically.
+///
+/// # Errors
+/// I/O errors, with the path; columns of different lengths.
+pub fn write_columns(path: &Path, names: &[String], cols: &[&[f64]]) -> anyhow::Result<()> {
+    let n = cols.first().map_or(0, |c| c.len());
+    if let Some((name, c)) = names.iter().zip(cols).find(|(_, c)| c.len() != n) {
+        anyhow::bail!(
+            "{}: column '{name}' has {} samples, expected {n}",
+            path.display(),
+            c.len()
+        );
+    }
+    let is_mat = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
+    if is_mat {
+        let mut mat = matrw::MatFile::new();
+        for (name, c) in names.iter().zip(cols) {
+            let arr = matrw::NumericArray::new(vec![n, 1], matrw::MatlabType::from(c.to_vec()), None)
+                .map_err(|e| anyhow::anyhow!("{}: variable '{name}': {e}", path.display()))?;
+            mat.insert(name, matrw::MatVariable::NumericArray(arr));
+        }
+        // matrw writes to a path; write beside the target, check it reads back, rename.
+        let tmp = path.with_extension(format!("mat.tmp{}", std::process::id()));
+        let result = (|| -> anyhow::Result<()> {
+            let tmp_str = tmp
+                .to_str()
+                .ok_or_else(|| anyhow::anyhow!("path is not valid UTF-8"))?;
+            matrw::save_matfile_v7(tmp_str, mat, true).map_err(|e| anyhow::anyhow!("{e}"))?;
+            let back = matrw::load_matfile(tmp_str).map_err(|e| anyhow::anyhow!("{e}"))?;
+            if back.iter().count() != names.len() {
+                anyhow::bail!("the written file does not read back");
+            }
+            std::fs::rename(&tmp, path)?;
+            Ok(())
+        })();
+        if let Err(e) = result {
+            let _ = std::fs::remove_file(&tmp);
+            anyhow::bail!("{}: cannot write: {e}", path.display());
+        }
+        return Ok(());
+    }
+    crate::util::write_atomic_with(path, |w| {
+        use std::io::Write;
+        writeln!(w, "{}", names.join(","))?;
+        for k in 0..n {
+            let row: Vec<String> = cols.iter().map(|c| format!("{:e}", c[k])).collect();
+            writeln!(w, "{}", row.join(","))?;
+        }
+        Ok(())
+    })
+}
+
+/// Write a measurement's side file (`<stem>.toml` beside `data`), atomically.
+///
+/// # Errors
+/// I/O errors, with the path.
+pub fn write_side_file(data: &Path, side: &SideFile) -> anyhow::Result<()> {
+    let text = toml::to_string_pretty(side)?;
+    crate::util::write_atomic(&data.with_extension("toml"), text.as_bytes())
 }

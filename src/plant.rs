@@ -1,24 +1,37 @@
-//! Plant files: a generated robot model plus the effects acting on its joints and the
-//! parameter values, in a TOML file the user edits.
+//! Plant files: a generated robot model plus the effects acting on its joints, the parameter
+//! values and their bounds, in a TOML file the user edits.
 //!
 //! ```toml
-//! model = "emps"                       # a model of model/*.toml (generated kernels)
-//! description = "mass, viscous and Coulomb friction, offset"
+//! model = "freedom6s"                  # a model of model/*.toml (generated kernels)
+//! description = "Appendix D, coupled method"
 //!
 //! [[effect]]
-//! kind = "viscous"                     # viscous | coulomb | asymmetric_friction | offset
-//! joints = ["q0"]
+//! kind = "lugre"                       # see `EffectKind`: viscous, coulomb, asymmetric_friction,
+//! joints = ["q4", "q5"]                # offset, gain, stribeck, lugre, spring, friction_bias
 //!
-//! [parameters]                         # optional; written by `lockstep identify`
-//! M = 95.1089
-//! Fv_0 = 203.5034
+//! [[effect]]
+//! kind = "input_coupling"              # pairwise: the command of `from` reaches `to`
+//! from = "q5"
+//! to = "q4"
+//!
+//! [parameters]                         # SI; rigid body in the model file's symbols
+//! m4 = 0.0679                          # (m, centroid, inertia about it) or barycentric
+//! sigma0_4 = 0.17618                   # names, one form per link
+//! G_5to4 = -0.20362
+//!
+//! [bounds]                             # [lower, upper], used by identification
+//! m4 = [0.03395, 0.10185]
 //! ```
 //!
 //! Adding or removing an effect is an edit of the `[[effect]]` list (or [`Plant::add_effect`]).
+//! Before any simulation, [`Plant::simulator`] checks the physical consistency of the rigid
+//! body (mass > 0, inertia positive definite, triangle inequality) and reports by link.
 
 use crate::effects::{Effect, EffectKind};
+use crate::simulation::{InputCoupling, JointTerms, LuGre, PlantModel, Stribeck};
 use crate::util::write_atomic;
 use anyhow::{bail, Context, Result};
+use generated::inertia::{CentroidalInertia, InconsistencyKind};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -29,8 +42,15 @@ use std::path::{Path, PathBuf};
 pub struct EffectSpec {
     /// Which effect.
     pub kind: EffectKind,
-    /// Joint variables it acts on.
+    /// Joint variables it acts on (every kind but `input_coupling`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub joints: Vec<String>,
+    /// For `input_coupling`: the joint whose command is passed on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<String>,
+    /// For `input_coupling`: the joint that receives it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to: Option<String>,
 }
 
 /// The plant file as written.
@@ -48,6 +68,9 @@ pub struct PlantFile {
     /// Parameter values (SI).
     #[serde(default)]
     pub parameters: BTreeMap<String, f64>,
+    /// Parameter bounds `[lower, upper]` (SI).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub bounds: BTreeMap<String, [f64; 2]>,
 }
 
 /// A validated plant: model kernels, effects resolved to joint indices, parameter values.
@@ -61,8 +84,61 @@ pub struct Plant {
     pub description: String,
     /// Effects in file order.
     pub effects: Vec<Effect>,
-    /// Parameter values by name (rigid-body barycentric parameters and effect parameters).
+    /// Parameter values by name: rigid body (the model file's inertial symbols or
+    /// barycentric parameters) and effect parameters.
     pub parameters: BTreeMap<String, f64>,
+    /// Bounds `(lower, upper)` by parameter name.
+    pub bounds: BTreeMap<String, (f64, f64)>,
+}
+
+/// One physical-consistency finding of a link of a plant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Finding {
+    /// Link name.
+    pub link: String,
+    /// Which condition fails.
+    pub kind: InconsistencyKind,
+    /// What is wrong, with the numbers.
+    pub message: String,
+}
+
+impl Finding {
+    /// True for what no body can have and a simulation should not accept by default
+    /// (mass ≤ 0, inertia not positive definite); false for a triangle-inequality violation,
+    /// which leaves the equations of motion well posed (every Appendix D link has one).
+    pub fn is_blocking(&self) -> bool {
+        self.kind != InconsistencyKind::TriangleInequality
+    }
+}
+
+impl std::fmt::Display for Finding {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "link '{}': {}", self.link, self.message)
+    }
+}
+
+/// What to do with physically inconsistent rigid-body parameters before a simulation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ConsistencyPolicy {
+    /// Refuse on blocking findings ([`Finding::is_blocking`]); report the others.
+    Refuse,
+    /// Report every finding and simulate anyway.
+    Warn,
+}
+
+/// A plant configured for simulation, with the consistency findings it was built with.
+#[derive(Debug, Clone)]
+pub struct Configured {
+    /// The simulator.
+    pub model: PlantModel,
+    /// Non-blocking (or, under [`ConsistencyPolicy::Warn`], all) findings, for the user.
+    pub findings: Vec<Finding>,
+}
+
+fn plant_name(file: &Option<PathBuf>) -> String {
+    file.as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|| "plant".into())
 }
 
 impl Plant {
@@ -87,14 +163,31 @@ impl Plant {
             description: String::new(),
             effects,
             parameters: BTreeMap::new(),
+            bounds: BTreeMap::new(),
         })
+    }
+
+    fn joint_index(&self, name: &str, item: &str) -> Result<usize> {
+        self.model
+            .joints
+            .iter()
+            .position(|x| *x == name)
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "{item}: unknown joint '{name}' (model '{}' has {})",
+                    self.model.name,
+                    self.model.joints.join(", ")
+                )
+            })
     }
 
     /// Read and validate a plant file.
     ///
     /// # Errors
     /// Unreadable file, TOML error (with line), unknown field, unknown model, unknown joint,
-    /// the same effect twice on a joint, a parameter that belongs to nothing in the plant.
+    /// conflicting effects on a joint, a parameter or bound that belongs to nothing in the
+    /// plant, a non-finite value, a link given in both rigid-body forms or with some of its
+    /// symbols missing, a bound with lower > upper or a value outside its bounds.
     pub fn load(path: &Path) -> Result<Plant> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("{}: cannot read the plant file", path.display()))?;
@@ -109,81 +202,119 @@ impl Plant {
                 e.message().replace('`', "'")
             )
         })?;
-        let mut plant = Plant::new(&spec.model, vec![])
-            .map_err(|e| anyhow::anyhow!("{}: field 'model': {e}", path.display()))?;
-        plant.file = Some(path.to_path_buf());
+        Plant::from_file(spec, Some(path))
+            .map_err(|e| anyhow::anyhow!("{}: {e:#}", path.display()))
+    }
+
+    /// Validate a parsed plant file (`path` for messages and [`Plant::file`]).
+    ///
+    /// # Errors
+    /// As [`Plant::load`], without the file name.
+    pub fn from_file(spec: PlantFile, path: Option<&Path>) -> Result<Plant> {
+        let mut plant =
+            Plant::new(&spec.model, vec![]).map_err(|e| anyhow::anyhow!("field 'model': {e}"))?;
+        plant.file = path.map(Path::to_path_buf);
         plant.description = spec.description.clone();
         for (i, e) in spec.effects.iter().enumerate() {
-            for j in &e.joints {
-                let joint = plant
-                    .model
-                    .joints
-                    .iter()
-                    .position(|x| x == j)
-                    .ok_or_else(|| {
-                        anyhow::anyhow!(
-                            "{}: effect {} ({}): unknown joint '{j}' (model '{}' has {})",
-                            path.display(),
-                            i + 1,
-                            e.kind,
-                            plant.model.name,
-                            plant.model.joints.join(", ")
-                        )
-                    })?;
+            let item = format!("effect {} ({})", i + 1, e.kind);
+            let mut effects = Vec::new();
+            if e.kind.is_pairwise() {
+                let (Some(from), Some(to)) = (&e.from, &e.to) else {
+                    bail!("{item}: expected 'from' and 'to' joints");
+                };
+                if !e.joints.is_empty() {
+                    bail!("{item}: takes 'from' and 'to', not 'joints'");
+                }
+                let from = plant.joint_index(from, &item)?;
+                let to = plant.joint_index(to, &item)?;
+                if from == to {
+                    bail!("{item}: 'from' and 'to' are the same joint");
+                }
+                effects.push(Effect::coupling(from, to));
+            } else {
+                if e.from.is_some() || e.to.is_some() {
+                    bail!("{item}: takes 'joints', not 'from'/'to'");
+                }
+                if e.joints.is_empty() {
+                    bail!("{item}: expected at least one joint in 'joints'");
+                }
+                for j in &e.joints {
+                    effects.push(Effect::on(e.kind, plant.joint_index(j, &item)?));
+                }
+            }
+            for eff in effects {
                 plant
-                    .add_effect(Effect {
-                        kind: e.kind,
-                        joint,
-                    })
-                    .map_err(|err| {
-                        anyhow::anyhow!("{}: effect {}: {err}", path.display(), i + 1)
-                    })?;
+                    .add_effect(eff)
+                    .map_err(|err| anyhow::anyhow!("effect {}: {err}", i + 1))?;
             }
         }
-        let known = plant.parameter_names();
-        for (k, v) in &spec.parameters {
-            if !known.contains(k) {
+        let known = plant.known_names();
+        let check_name = |k: &str, what: &str| -> Result<()> {
+            if !known.iter().any(|n| n == k) {
                 bail!(
-                    "{}: [parameters] '{k}' belongs to nothing in this plant (parameters: {})",
-                    path.display(),
+                    "{what} '{k}' belongs to nothing in this plant (parameters: {})",
                     known.join(", ")
                 );
             }
+            Ok(())
+        };
+        for (k, v) in &spec.parameters {
+            check_name(k, "[parameters]")?;
             if !v.is_finite() {
-                bail!(
-                    "{}: [parameters] '{k}': expected a finite number",
-                    path.display()
-                );
+                bail!("[parameters] '{k}': expected a finite number");
+            }
+        }
+        for (k, [lo, hi]) in &spec.bounds {
+            check_name(k, "[bounds]")?;
+            if !(lo.is_finite() && hi.is_finite()) || lo > hi {
+                bail!("[bounds] '{k}': expected [lower, upper] with finite lower ≤ upper, found [{lo}, {hi}]");
+            }
+            if let Some(v) = spec.parameters.get(k) {
+                if v < lo || v > hi {
+                    bail!("[bounds] '{k}': the value {v} lies outside [{lo}, {hi}]");
+                }
             }
         }
         plant.parameters = spec.parameters;
+        plant.bounds = spec
+            .bounds
+            .iter()
+            .map(|(k, [lo, hi])| (k.clone(), (*lo, *hi)))
+            .collect();
+        plant.link_forms()?;
         Ok(plant)
     }
 
     /// Add an effect.
     ///
     /// # Errors
-    /// The same kind already acts on that joint, or it conflicts (Coulomb or viscous beside
-    /// asymmetric friction on one joint: their regressor columns would be dependent).
+    /// The same effect is already there, or it conflicts with one on that joint: two friction
+    /// laws (Coulomb, asymmetric, Stribeck, LuGre) except Coulomb + Stribeck, viscous beside
+    /// asymmetric friction or LuGre (their viscous terms would be one parameter).
     pub fn add_effect(&mut self, e: Effect) -> Result<()> {
+        use EffectKind as K;
         let joint = &self.model.joints[e.joint];
         for other in self.effects.iter().filter(|o| o.joint == e.joint) {
-            let conflict = other.kind == e.kind
-                || matches!(
-                    (other.kind, e.kind),
-                    (
-                        EffectKind::AsymmetricFriction,
-                        EffectKind::Coulomb | EffectKind::Viscous
-                    ) | (
-                        EffectKind::Coulomb | EffectKind::Viscous,
-                        EffectKind::AsymmetricFriction
-                    )
-                );
+            let pair = |a: K, b: K| {
+                (other.kind == a && e.kind == b) || (other.kind == b && e.kind == a)
+            };
+            let conflict = if e.kind.is_pairwise() || other.kind.is_pairwise() {
+                *other == e
+            } else {
+                other.kind == e.kind
+                    || (other.kind.is_friction_law() && e.kind.is_friction_law())
+                    || pair(K::Viscous, K::AsymmetricFriction)
+                    || pair(K::Viscous, K::Lugre)
+            };
             if conflict {
+                let what = |x: &Effect| match x.from {
+                    Some(f) => format!("{} from '{}'", x.kind, self.model.joints[f]),
+                    None => x.kind.to_string(),
+                };
                 bail!(
                     "'{}' on joint '{joint}' conflicts with '{}' already there",
-                    e.kind,
-                    other.kind
+                    what(&e),
+                    what(other)
                 );
             }
         }
@@ -191,13 +322,383 @@ impl Plant {
         Ok(())
     }
 
-    /// All parameter names: the model's rigid-body parameters, then each effect's.
-    pub fn parameter_names(&self) -> Vec<String> {
-        let mut v: Vec<String> = self.model.params.iter().map(|s| s.to_string()).collect();
+    /// Effect parameter names, each once, in effect order (a spring and a friction bias on
+    /// one joint share `qeq_i`).
+    pub fn effect_parameter_names(&self) -> Vec<String> {
+        let mut v: Vec<String> = Vec::new();
         for e in &self.effects {
-            v.extend(e.parameter_names());
+            for n in e.parameter_names() {
+                if !v.contains(&n) {
+                    v.push(n);
+                }
+            }
         }
         v
+    }
+
+    /// All parameter names in barycentric form: the model's barycentric parameters, then
+    /// the effects' (the names inverse-dynamic identification fits).
+    pub fn parameter_names(&self) -> Vec<String> {
+        let mut v: Vec<String> = self.model.params.iter().map(|s| s.to_string()).collect();
+        v.extend(self.effect_parameter_names());
+        v
+    }
+
+    /// Every name `[parameters]` may hold: inertial symbols, barycentric parameters, effect
+    /// parameters.
+    pub fn known_names(&self) -> Vec<String> {
+        let mut v: Vec<String> = self
+            .model
+            .inertial_symbols
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        for p in self.model.params {
+            if !v.iter().any(|x| x == p) {
+                v.push(p.to_string());
+            }
+        }
+        v.extend(self.effect_parameter_names());
+        v
+    }
+
+    /// Per link: `Some(true)` when given in the model file's symbols, `Some(false)` in
+    /// barycentric form, `None` when nothing is given.
+    fn link_forms(&self) -> Result<Vec<Option<bool>>> {
+        let m = self.model;
+        let mut forms = Vec::new();
+        for (l, lname) in m.links.iter().enumerate() {
+            let syms: Vec<&str> = (0..m.inertial_symbols.len())
+                .filter(|&i| m.symbol_link[i] == l)
+                .map(|i| m.inertial_symbols[i])
+                .collect();
+            let bary: Vec<&str> = (0..m.params.len())
+                .filter(|&j| m.param_link[j] == l && !syms.contains(&m.params[j]))
+                .map(|j| m.params[j])
+                .collect();
+            let has = |names: &[&str]| -> Vec<String> {
+                names
+                    .iter()
+                    .filter(|n| self.parameters.contains_key(**n))
+                    .map(|n| n.to_string())
+                    .collect()
+            };
+            let (gs, gb) = (has(&syms), has(&bary));
+            if !gs.is_empty() && !gb.is_empty() {
+                bail!(
+                    "link '{lname}': given both in the model file's symbols ({}) and as barycentric parameters ({}); use one form per link",
+                    gs.join(", "),
+                    gb.join(", ")
+                );
+            }
+            if !gs.is_empty() {
+                let missing: Vec<&str> = syms
+                    .iter()
+                    .filter(|n| !self.parameters.contains_key(**n))
+                    .copied()
+                    .collect();
+                if !missing.is_empty() {
+                    bail!(
+                        "link '{lname}': symbols {} have no value (give every symbol of the link; 0 for those that appear in no configuration)",
+                        missing.join(", ")
+                    );
+                }
+            }
+            forms.push(if !gs.is_empty() {
+                Some(true)
+            } else if !gb.is_empty() {
+                Some(false)
+            } else {
+                None
+            });
+        }
+        Ok(forms)
+    }
+
+    /// The barycentric parameter vector (NP) for a configuration: links in symbol form are
+    /// converted ([`generated::Model::barycentric_from_symbols`]), links in barycentric form
+    /// taken as given; parameters absent from the configuration's equations default to 0.
+    ///
+    /// # Errors
+    /// A parameter that the configuration needs has no value (named, with the link).
+    pub fn barycentric(&self, conf: &generated::Configuration) -> Result<Vec<f64>> {
+        let m = self.model;
+        let forms = self.link_forms()?;
+        let sym: Vec<f64> = m
+            .inertial_symbols
+            .iter()
+            .map(|s| self.parameters.get(*s).copied().unwrap_or(0.0))
+            .collect();
+        let mut from_sym = vec![0.0; m.params.len()];
+        (m.barycentric_from_symbols)(&sym, &mut from_sym);
+        let mut p = vec![0.0; m.params.len()];
+        for j in 0..m.params.len() {
+            let l = m.param_link[j];
+            p[j] = match forms[l] {
+                Some(true) => from_sym[j],
+                Some(false) => self.parameters.get(m.params[j]).copied().unwrap_or(0.0),
+                None => 0.0,
+            };
+            let needed = conf.params_present.contains(&j);
+            let given = match forms[l] {
+                Some(true) => true,
+                Some(false) => self.parameters.contains_key(m.params[j]),
+                None => false,
+            };
+            if needed && !given {
+                let syms: Vec<&str> = (0..m.inertial_symbols.len())
+                    .filter(|&i| m.symbol_link[i] == l)
+                    .map(|i| m.inertial_symbols[i])
+                    .collect();
+                bail!(
+                    "{}: configuration '{}' needs link '{}' but parameter '{}' has no value (give the link's symbols {} or its barycentric parameters)",
+                    plant_name(&self.file),
+                    conf.name,
+                    m.links[l],
+                    m.params[j],
+                    syms.join(", ")
+                );
+            }
+        }
+        Ok(p)
+    }
+
+    /// Physical consistency of the links of barycentric vector `p` that a configuration
+    /// uses (all links when `conf` is None): mass > 0, and where the link has inertia
+    /// parameters, inertia about the centroid positive definite and satisfying the triangle
+    /// inequality.
+    pub fn consistency(&self, p: &[f64], conf: Option<&generated::Configuration>) -> Vec<Finding> {
+        let m = self.model;
+        let mut out = Vec::new();
+        for (l, lname) in m.links.iter().enumerate() {
+            let params: Vec<usize> = (0..m.params.len()).filter(|&j| m.param_link[j] == l).collect();
+            if let Some(c) = conf {
+                if !params.iter().any(|j| c.params_present.contains(j)) {
+                    continue;
+                }
+            }
+            let mut b = [0.0; 10];
+            for &j in &params {
+                b[m.param_kind[j]] = p[j];
+            }
+            let has_inertia = params.iter().any(|&j| m.param_kind[j] >= 4);
+            let findings = match CentroidalInertia::from_barycentric(&b) {
+                Some(ci) => ci.check(),
+                None => vec![generated::inertia::Inconsistency {
+                    kind: InconsistencyKind::Mass,
+                    message: format!("mass {} kg is not positive", b[0]),
+                }],
+            };
+            for f in findings {
+                if f.kind != InconsistencyKind::Mass && !has_inertia {
+                    continue;
+                }
+                out.push(Finding {
+                    link: lname.to_string(),
+                    kind: f.kind,
+                    message: f.message,
+                });
+            }
+        }
+        out
+    }
+
+    /// A parameter's value.
+    ///
+    /// # Errors
+    /// It has none (named, with the plant file).
+    pub fn value(&self, name: &str) -> Result<f64> {
+        self.parameters.get(name).copied().with_context(|| {
+            format!(
+                "{}: parameter '{name}' has no value (add it under [parameters])",
+                plant_name(&self.file)
+            )
+        })
+    }
+
+    /// The simulator of configuration `conf_name` with locked joints at `q_locked` (NJ; the
+    /// free joints' entries are ignored), after the physical-consistency check.
+    ///
+    /// # Errors
+    /// Unknown configuration, wrong number of positions, a needed parameter without value,
+    /// Stribeck or LuGre with vs ≤ 0, LuGre with Fc or Fs ≤ 0 (g(v) divides ż), asymmetric
+    /// friction (an inverse-model effect); under [`ConsistencyPolicy::Refuse`], blocking
+    /// consistency findings, listed by link.
+    pub fn simulator(
+        &self,
+        conf_name: &str,
+        q_locked: &[f64],
+        policy: ConsistencyPolicy,
+    ) -> Result<Configured> {
+        let m = self.model;
+        let name = plant_name(&self.file);
+        let conf = m.configuration(conf_name).with_context(|| {
+            format!(
+                "{name}: model '{}' has no configuration '{conf_name}' (it has {})",
+                m.name,
+                m.configurations
+                    .iter()
+                    .map(|c| c.name)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
+        if q_locked.len() != m.joints.len() {
+            bail!(
+                "{name}: {} joint positions given, model '{}' has {} joints",
+                q_locked.len(),
+                m.name,
+                m.joints.len()
+            );
+        }
+        let p = self.barycentric(conf)?;
+        let findings = self.consistency(&p, Some(conf));
+        if policy == ConsistencyPolicy::Refuse && findings.iter().any(Finding::is_blocking) {
+            bail!(
+                "{name}: physically inconsistent parameters for configuration '{}':\n  {}\n(fix them, or simulate anyway with --allow-inconsistent)",
+                conf.name,
+                findings
+                    .iter()
+                    .map(|f| f.to_string())
+                    .collect::<Vec<_>>()
+                    .join("\n  ")
+            );
+        }
+        let free_index = |j: usize| conf.free.iter().position(|&k| k == j);
+        let mut terms = vec![JointTerms::default(); conf.free.len()];
+        let mut couplings = Vec::new();
+        for e in &self.effects {
+            let Some(a) = free_index(e.joint) else {
+                continue;
+            };
+            let v = |s: &str| self.value(&format!("{s}_{}", e.joint));
+            let t = &mut terms[a];
+            let positive = |s: &str, x: f64| -> Result<f64> {
+                if x > 0.0 {
+                    Ok(x)
+                } else {
+                    bail!("{name}: parameter '{s}_{}' must be positive, found {x}", e.joint)
+                }
+            };
+            match e.kind {
+                EffectKind::Viscous => t.viscous = v("Fv")?,
+                EffectKind::Coulomb => t.coulomb = v("Fc")?,
+                EffectKind::AsymmetricFriction => bail!(
+                    "{name}: effect 'asymmetric_friction' on joint '{}' is for inverse-model fits only; the simulator takes coulomb + viscous, stribeck or lugre",
+                    m.joints[e.joint]
+                ),
+                EffectKind::Offset => t.offset = v("offset")?,
+                EffectKind::Gain => t.gain = v("Kp")?,
+                EffectKind::Stribeck => {
+                    t.stribeck = Some(Stribeck {
+                        fc: v("Fc")?,
+                        fs: v("Fs")?,
+                        vs: positive("vs", v("vs")?)?,
+                    })
+                }
+                EffectKind::Lugre => {
+                    let l = LuGre {
+                        sigma0: v("sigma0")?,
+                        sigma1: v("sigma1")?,
+                        sigma2: v("sigma2")?,
+                        fc: v("Fc")?,
+                        fs: v("Fs")?,
+                        vs: positive("vs", v("vs")?)?,
+                    };
+                    if !(l.fc > 0.0 && l.fs > 0.0) {
+                        bail!(
+                            "{name}: LuGre on joint '{}' needs Fc > 0 and Fs > 0 (g(v) divides ż), found Fc = {}, Fs = {}",
+                            m.joints[e.joint],
+                            l.fc,
+                            l.fs
+                        );
+                    }
+                    t.lugre = Some(l);
+                }
+                EffectKind::Spring => t.spring = Some((v("Ks")?, v("qeq")?)),
+                EffectKind::FrictionBias => t.bias = Some((v("FrictionBias")?, v("qeq")?)),
+                EffectKind::InputCoupling => {
+                    let from = e.from.unwrap_or(e.joint);
+                    if let Some(b) = free_index(from) {
+                        couplings.push(InputCoupling {
+                            from: b,
+                            to: a,
+                            g: self.value(&e.parameter_names()[0])?,
+                        });
+                    }
+                }
+            }
+        }
+        let mut q = q_locked.to_vec();
+        for &k in conf.free {
+            q[k] = 0.0;
+        }
+        Ok(Configured {
+            model: PlantModel {
+                conf,
+                p,
+                q_locked: q,
+                terms,
+                couplings,
+            },
+            findings,
+        })
+    }
+
+    /// Bounds by the thesis's rule (4.1.3, Appendix E) around the current values of the
+    /// model file's inertial symbols: mass ±50 %, centroid ±30 %, inertia ±120 %
+    /// (v ± f·|v|; a zero value gets the bound [0, 0], i.e. fixed). Existing bounds of other
+    /// parameters are kept.
+    pub fn apply_thesis_bounds(&mut self) {
+        let m = self.model;
+        for (i, s) in m.inertial_symbols.iter().enumerate() {
+            let Some(&v) = self.parameters.get(*s) else {
+                continue;
+            };
+            let f = [0.5, 0.3, 1.2][m.symbol_role[i].min(2)];
+            self.bounds
+                .insert(s.to_string(), (v - f * v.abs(), v + f * v.abs()));
+        }
+    }
+
+    /// The plant as a file.
+    pub fn to_file(&self) -> PlantFile {
+        let mut effects: Vec<EffectSpec> = Vec::new();
+        for e in &self.effects {
+            let j = self.model.joints[e.joint].to_string();
+            if let Some(f) = e.from {
+                effects.push(EffectSpec {
+                    kind: e.kind,
+                    joints: vec![],
+                    from: Some(self.model.joints[f].to_string()),
+                    to: Some(j),
+                });
+                continue;
+            }
+            match effects
+                .iter_mut()
+                .find(|s| s.kind == e.kind && s.from.is_none())
+            {
+                Some(s) => s.joints.push(j),
+                None => effects.push(EffectSpec {
+                    kind: e.kind,
+                    joints: vec![j],
+                    from: None,
+                    to: None,
+                }),
+            }
+        }
+        PlantFile {
+            model: self.model.name.to_string(),
+            description: self.description.clone(),
+            effects,
+            parameters: self.parameters.clone(),
+            bounds: self
+                .bounds
+                .iter()
+                .map(|(k, (lo, hi))| (k.clone(), [*lo, *hi]))
+                .collect(),
+        }
     }
 
     /// Write the plant file atomically (temporary file, then rename).
@@ -205,24 +706,7 @@ impl Plant {
     /// # Errors
     /// I/O errors, with the path.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let mut effects: Vec<EffectSpec> = Vec::new();
-        for e in &self.effects {
-            let j = self.model.joints[e.joint].to_string();
-            match effects.iter_mut().find(|s| s.kind == e.kind) {
-                Some(s) => s.joints.push(j),
-                None => effects.push(EffectSpec {
-                    kind: e.kind,
-                    joints: vec![j],
-                }),
-            }
-        }
-        let spec = PlantFile {
-            model: self.model.name.to_string(),
-            description: self.description.clone(),
-            effects,
-            parameters: self.parameters.clone(),
-        };
-        let text = toml::to_string_pretty(&spec).context("serialising the plant")?;
+        let text = toml::to_string_pretty(&self.to_file()).context("serialising the plant")?;
         write_atomic(path, text.as_bytes())
     }
 }

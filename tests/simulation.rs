@@ -13,7 +13,7 @@ fn emps(terms: JointTerms) -> PlantModel {
         p: vec![M],
         q_locked: vec![0.0],
         terms: vec![terms],
-        coupling: None,
+        couplings: vec![],
     }
 }
 

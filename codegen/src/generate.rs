@@ -645,7 +645,7 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
     let sym_list: Vec<Symbol> = model
         .inertial_symbols
         .iter()
-        .map(|(s, _)| user_symbol(s))
+        .map(|(s, _, _)| user_symbol(s))
         .collect();
     let bary_exprs: Vec<Atom> = sm.params.iter().map(|b| b.expr.clone()).collect();
     let (bstmts, bres, _) = Graph::new(Inputs::default(), "").emit(&bary_exprs, &|s| {
@@ -673,7 +673,17 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
     let snames: Vec<&str> = model
         .inertial_symbols
         .iter()
-        .map(|(s, _)| s.as_str())
+        .map(|(s, _, _)| s.as_str())
+        .collect();
+    let slinks: Vec<proc_macro2::Literal> = model
+        .inertial_symbols
+        .iter()
+        .map(|&(_, l, _)| proc_macro2::Literal::usize_unsuffixed(l))
+        .collect();
+    let sroles: Vec<proc_macro2::Literal> = model
+        .inertial_symbols
+        .iter()
+        .map(|&(_, _, r)| proc_macro2::Literal::usize_unsuffixed(r))
         .collect();
     let mname = &model.name;
     // Locking sequences whose steps were all generated.
@@ -715,6 +725,10 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
         pub const LINKS: [&str; #nl] = [#(#lnames),*];
         /// Inertial symbols of the model file (thesis form).
         pub const INERTIAL_SYMBOLS: [&str; NI] = [#(#snames),*];
+        /// Link of each inertial symbol.
+        pub const SYMBOL_LINK: [usize; NI] = [#(#slinks),*];
+        /// Role of each inertial symbol: 0 = mass, 1 = centroid, 2 = inertia about the centroid.
+        pub const SYMBOL_ROLE: [usize; NI] = [#(#sroles),*];
         /// Gravity in frame 0 (m/s²).
         pub const GRAVITY: [f64; 3] = [#(#gravity),*];
 
@@ -739,6 +753,8 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
             param_kind: &PARAM_KIND,
             links: &LINKS,
             inertial_symbols: &INERTIAL_SYMBOLS,
+            symbol_link: &SYMBOL_LINK,
+            symbol_role: &SYMBOL_ROLE,
             barycentric_from_symbols: barycentric_from_symbols_dyn,
             configurations: &[#(#conf_idents::CONFIGURATION),*],
             sequences: &[#(#seqs),*],

@@ -311,8 +311,9 @@ pub struct Model {
     pub frames: Vec<Frame>,
     /// Links.
     pub links: Vec<Link>,
-    /// Inertial parameter symbols in order of appearance, with the link index that owns each.
-    pub inertial_symbols: Vec<(String, usize)>,
+    /// Inertial parameter symbols in order of appearance, with the link index that owns each
+    /// and the role of the field it first appears in (0 = mass, 1 = centroid, 2 = inertia).
+    pub inertial_symbols: Vec<(String, usize, usize)>,
     /// Configurations (a `full` configuration freeing every joint is added when absent).
     pub configurations: Vec<Configuration>,
     /// Locking sequences: name and configuration indices.
@@ -630,7 +631,7 @@ impl Model {
 
         // Links and their inertial symbols.
         let mut links = Vec::new();
-        let mut inertial_symbols: Vec<(String, usize)> = Vec::new();
+        let mut inertial_symbols: Vec<(String, usize, usize)> = Vec::new();
         let mut link_names = BTreeSet::new();
         for (li, l) in spec.links.iter().enumerate() {
             let item = format!("link '{}'", l.name);
@@ -639,6 +640,13 @@ impl Model {
             }
             let frame = lookup(&names, &format!("{item} field 'frame'"), &l.frame)?;
             let mut inertial = |field: &str, s: &Scalar| -> Result<Expr, ModelError> {
+                let role = if field == "mass" {
+                    0
+                } else if field.starts_with("com") {
+                    1
+                } else {
+                    2
+                };
                 let fitem = format!("{item} field '{field}'");
                 let e = match s {
                     Scalar::Num(x) => Expr::Num(*x),
@@ -655,8 +663,8 @@ impl Model {
                     if constants.contains_key(&s) {
                         continue;
                     }
-                    match inertial_symbols.iter().find(|(n, _)| *n == s) {
-                        Some((_, owner)) if *owner != li => {
+                    match inertial_symbols.iter().find(|(n, _, _)| *n == s) {
+                        Some((_, owner, _)) if *owner != li => {
                             return Err(err(
                                 &fitem,
                                 format!(
@@ -666,7 +674,7 @@ impl Model {
                             ))
                         }
                         Some(_) => {}
-                        None => inertial_symbols.push((s, li)),
+                        None => inertial_symbols.push((s, li, role)),
                     }
                 }
                 Ok(e)

@@ -100,9 +100,17 @@ impl CentroidalInertia {
     /// centroid positive definite, and the triangle inequalities of its principal moments
     /// (each ≤ the sum of the other two). Tolerance 1e-12 relative to the trace.
     pub fn consistency(&self) -> Vec<String> {
+        self.check().into_iter().map(|f| f.message).collect()
+    }
+
+    /// [`CentroidalInertia::consistency`] with the kind of each finding.
+    pub fn check(&self) -> Vec<Inconsistency> {
         let mut out = Vec::new();
         if self.m.is_nan() || self.m <= 0.0 {
-            out.push(format!("mass {} kg is not positive", self.m));
+            out.push(Inconsistency {
+                kind: InconsistencyKind::Mass,
+                message: format!("mass {} kg is not positive", self.m),
+            });
         }
         let i = self.i_c;
         let mat = [[i[0], i[1], i[2]], [i[1], i[3], i[4]], [i[2], i[4], i[5]]];
@@ -110,22 +118,49 @@ impl CentroidalInertia {
         let tr = (i[0] + i[3] + i[5]).abs().max(1e-300);
         let tol = 1e-12 * tr;
         if ev.iter().any(|&l| l <= tol) {
-            out.push(format!(
-                "inertia about the centroid is not positive definite (principal moments {:.4e}, {:.4e}, {:.4e} kg·m²)",
-                ev[0], ev[1], ev[2]
-            ));
+            out.push(Inconsistency {
+                kind: InconsistencyKind::NotPositiveDefinite,
+                message: format!(
+                    "inertia about the centroid is not positive definite (principal moments {:.4e}, {:.4e}, {:.4e} kg·m²)",
+                    ev[0], ev[1], ev[2]
+                ),
+            });
         }
         for k in 0..3 {
             let (a, b, c) = (ev[k], ev[(k + 1) % 3], ev[(k + 2) % 3]);
             if a > b + c + tol {
-                out.push(format!(
-                    "principal moments violate the triangle inequality: {a:.4e} > {b:.4e} + {c:.4e} kg·m²"
-                ));
+                out.push(Inconsistency {
+                    kind: InconsistencyKind::TriangleInequality,
+                    message: format!(
+                        "principal moments violate the triangle inequality: {a:.4e} > {b:.4e} + {c:.4e} kg·m²"
+                    ),
+                });
                 break;
             }
         }
         out
     }
+}
+
+/// What is physically wrong with a link's inertial parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InconsistencyKind {
+    /// Mass ≤ 0 (or not a number).
+    Mass,
+    /// Inertia about the centroid has a principal moment ≤ 0.
+    NotPositiveDefinite,
+    /// A principal moment exceeds the sum of the other two (impossible for a rigid body,
+    /// though the equations of motion stay well posed).
+    TriangleInequality,
+}
+
+/// One physical-consistency finding of a link.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Inconsistency {
+    /// Which condition fails.
+    pub kind: InconsistencyKind,
+    /// A sentence with the numbers (SI units).
+    pub message: String,
 }
 
 /// Eigenvalues of a symmetric 3×3 matrix, ascending (closed form, Smith 1961).

@@ -76,6 +76,11 @@ pub struct Model {
     pub links: &'static [&'static str],
     /// Inertial symbols of the model file (thesis form: m, centroid, inertia about it).
     pub inertial_symbols: &'static [&'static str],
+    /// Link of each inertial symbol (index into [`Model::links`]).
+    pub symbol_link: &'static [usize],
+    /// Role of each inertial symbol: 0 = mass (kg), 1 = centroid coordinate (m),
+    /// 2 = inertia about the centroid (kg·m²) (the model-file field it appears in).
+    pub symbol_role: &'static [usize],
     /// Barycentric parameters from the model file's inertial symbols:
     /// `(symbols[NI], out[NP])`.
     pub barycentric_from_symbols: fn(&[f64], &mut [f64]),

@@ -113,6 +113,20 @@ pub fn observation(
         .filter(|e| conf.free.contains(&e.joint))
         .collect();
     for e in &effects {
+        if !e.kind.is_linear() {
+            bail!(
+                "{}: effect '{}' on joint '{}' is not linear in its parameters, so the \
+                 inverse-model least squares (IDIM) cannot fit it; use output-error \
+                 identification or remove the effect",
+                plant
+                    .file
+                    .as_ref()
+                    .map(|p| p.display().to_string())
+                    .unwrap_or_else(|| "plant".into()),
+                e.kind,
+                model.joints[e.joint]
+            );
+        }
         names.extend(e.parameter_names());
     }
     let ncol = names.len();
@@ -190,10 +204,9 @@ pub fn observation(
                     c += 1;
                 }
                 for e in &effects {
-                    let vals = if e.joint == conf.free[a] {
-                        e.kind.regressor(qd[a][k])
-                    } else {
-                        vec![0.0; e.kind.symbols().len()]
+                    let vals = match e.kind.regressor(qd[a][k]) {
+                        Some(v) if e.joint == conf.free[a] => v,
+                        _ => vec![0.0; e.kind.symbols().len()],
                     };
                     for v in vals {
                         wr[a][c][r] = v;
