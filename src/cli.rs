@@ -49,6 +49,84 @@ pub enum Command {
     },
     /// List the generated models, their joints, parameters and configurations.
     Models,
+    /// Sample an excitation of the thesis (Tables 4.3, 4.4, 4.5, 4.7, 4.9) for a configuration
+    /// and write a torque (or position-command) file with a side file naming the configuration.
+    Excite {
+        /// Model name.
+        #[arg(long)]
+        model: String,
+        /// Table id (4.3, 4.4, 4.5, 4.7, 4.9).
+        #[arg(long)]
+        table: String,
+        /// Test of the table (needed when it has several; the error lists them).
+        #[arg(long)]
+        test: Option<String>,
+        /// Configuration: only its free joints are driven.
+        #[arg(long)]
+        config: String,
+        /// Duration (s).
+        #[arg(long, default_value_t = 60.0)]
+        duration: f64,
+        /// Sampling rate (Hz).
+        #[arg(long, default_value_t = 100.0)]
+        rate: f64,
+        /// Excitation file (default: the tables bundled for the model).
+        #[arg(long)]
+        excitation: Option<PathBuf>,
+        /// Output file (.csv or .mat).
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+    /// Run a plant on a torque file (RK4) and write a measurement file, optionally with
+    /// position noise and quantisation: synthetic data with any effect switched on.
+    Simulate {
+        /// Plant file.
+        #[arg(long)]
+        plant: PathBuf,
+        /// Torque file (.csv or .mat): t and tau{j} of the free joints.
+        #[arg(long)]
+        input: PathBuf,
+        /// Configuration (default: the input's side file's).
+        #[arg(long)]
+        config: Option<String>,
+        /// Locked-joint positions, e.g. q0=0.1,q1=-0.2 (rad or m; default 0 or the side file's).
+        #[arg(long, value_parser = parse_positions, default_value = "")]
+        locked: PositionList,
+        /// Initial positions of free joints, e.g. q4=0.3 (default 0; at rest, z = 0).
+        #[arg(long, value_parser = parse_positions, default_value = "")]
+        initial: PositionList,
+        /// RK4 step (s), a number or a fraction such as 1/6000.
+        #[arg(long, default_value = "1/6000", value_parser = parse_number)]
+        step: f64,
+        /// Hold of the torques between samples.
+        #[arg(long, default_value = "zoh", value_parser = ["zoh", "linear"])]
+        hold: String,
+        /// Gaussian position noise σ (rad or m).
+        #[arg(long, default_value_t = 0.0)]
+        noise: f64,
+        /// Position quantisation step (rad or m).
+        #[arg(long, default_value_t = 0.0)]
+        quantisation: f64,
+        /// Noise seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Report divergence when a speed exceeds this (rad/s or m/s).
+        #[arg(long, default_value_t = 100.0)]
+        max_speed: f64,
+        /// Simulate even with physically impossible rigid-body parameters.
+        #[arg(long)]
+        allow_inconsistent: bool,
+        /// Output measurement file (.csv or .mat); a side file .toml is written beside it.
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+    /// Check a plant: physical consistency of every link (mass, positive-definite inertia,
+    /// triangle inequality) and, per configuration, what a simulation needs.
+    Check {
+        /// Plant file.
+        #[arg(long)]
+        plant: PathBuf,
+    },
     /// Parameter occurrence per configuration and along each locking sequence (thesis
     /// Figure 4.2), and the base (identifiable) parameters of every configuration; writes
     /// parameters.md and parameters.json.
@@ -60,6 +138,41 @@ pub enum Command {
         #[arg(long, default_value = "lockstep-out/params")]
         out: PathBuf,
     },
+}
+
+/// Joint positions given on the command line.
+#[derive(Debug, Clone, Default)]
+pub struct PositionList(pub std::collections::BTreeMap<String, f64>);
+
+fn parse_number(s: &str) -> Result<f64, String> {
+    crate::excitation::Value::Expr(s.to_string())
+        .eval()
+        .map_err(|e| format!("{e:#}"))
+}
+
+fn parse_positions(s: &str) -> Result<PositionList, String> {
+    let mut m = std::collections::BTreeMap::new();
+    for item in s.split(',').map(str::trim).filter(|x| !x.is_empty()) {
+        let (k, v) = item
+            .split_once('=')
+            .ok_or_else(|| format!("'{item}': expected joint=value, e.g. q0=0.1"))?;
+        let v = parse_number(v.trim()).map_err(|e| format!("'{item}': {e}"))?;
+        m.insert(k.trim().to_string(), v);
+    }
+    Ok(PositionList(m))
+}
+
+fn model_named(name: &str) -> Result<&'static generated::Model> {
+    generated::model(name).ok_or_else(|| {
+        anyhow::anyhow!(
+            "--model: unknown model '{name}' (generated models: {})",
+            generated::MODELS
+                .iter()
+                .map(|m| m.name)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })
 }
 
 /// Options shared by identify and compare.
@@ -170,17 +283,156 @@ pub fn run(cli: Cli) -> Result<()> {
             }
             println!("residual CSVs and plots (PNG, SVG) in {}", out.display());
         }
-        Command::Params { model, out } => {
-            let Some(m) = generated::model(&model) else {
-                bail!(
-                    "--model: unknown model '{model}' (generated models: {})",
-                    generated::MODELS
-                        .iter()
-                        .map(|m| m.name)
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                );
+        Command::Excite {
+            model,
+            table,
+            test,
+            config,
+            duration,
+            rate,
+            excitation,
+            out,
+        } => {
+            let m = model_named(&model)?;
+            let ex = match &excitation {
+                Some(p) => crate::excitation::Excitations::load(p, m)?,
+                None => crate::excitation::Excitations::bundled(m)?,
             };
+            let e =
+                crate::synthetic::excite(m, &ex, &table, test.as_deref(), &config, duration, rate)?;
+            let prefix = match e.quantity {
+                crate::excitation::Quantity::Torque => "tau",
+                crate::excitation::Quantity::Position => "qref",
+            };
+            let mut names = vec!["t".to_string()];
+            let mut cols: Vec<&[f64]> = vec![&e.t];
+            for (j, c) in e.u.iter().enumerate() {
+                names.push(format!("{prefix}{j}"));
+                cols.push(c);
+            }
+            crate::measurement::write_columns(&out, &names, &cols)?;
+            crate::measurement::write_side_file(&out, &e.side)?;
+            if !e.left_out.is_empty() {
+                println!(
+                    "note: {} locked in configuration {config}: their signals of table {table} are not applied",
+                    e.left_out.join(", ")
+                );
+            }
+            println!(
+                "wrote {} ({} samples, {}) and its side file {}",
+                out.display(),
+                e.t.len(),
+                e.side.description,
+                out.with_extension("toml").display()
+            );
+        }
+        Command::Simulate {
+            plant,
+            input,
+            config,
+            locked,
+            initial,
+            step,
+            hold,
+            noise,
+            quantisation,
+            seed,
+            max_speed,
+            allow_inconsistent,
+            out,
+        } => {
+            let p = Plant::load(&plant)?;
+            let opts = crate::synthetic::SimulateOptions {
+                config,
+                locked: locked.0,
+                initial: initial.0,
+                h: step,
+                hold: if hold == "linear" {
+                    crate::simulation::Hold::Linear
+                } else {
+                    crate::simulation::Hold::Zoh
+                },
+                noise,
+                quantisation,
+                seed,
+                max_speed,
+                policy: if allow_inconsistent {
+                    crate::plant::ConsistencyPolicy::Warn
+                } else {
+                    crate::plant::ConsistencyPolicy::Refuse
+                },
+            };
+            let started = std::time::Instant::now();
+            let sim = crate::synthetic::simulate_file(&p, &input, &opts)?;
+            let elapsed = started.elapsed().as_secs_f64();
+            for f in &sim.findings {
+                println!("warning: {}: {f}", plant.display());
+            }
+            for n in &sim.notes {
+                println!("note: {n}");
+            }
+            sim.measurement.write(&out)?;
+            crate::measurement::write_side_file(&out, &sim.side)?;
+            let m = &sim.measurement;
+            let span = m.t[m.len() - 1] - m.t[0];
+            println!(
+                "simulated {span:.3} s of configuration {} in {elapsed:.3} s ({:.0} RK4 steps/s); wrote {} and {}",
+                sim.side.configuration.as_deref().unwrap_or("?"),
+                span / step / elapsed.max(1e-9),
+                out.display(),
+                out.with_extension("toml").display()
+            );
+        }
+        Command::Check { plant } => {
+            let p = Plant::load(&plant)?;
+            let m = p.model;
+            println!(
+                "plant {} (model {}): {}",
+                plant.display(),
+                m.name,
+                p.description
+            );
+            let all = p.consistency(
+                &p.barycentric(&generated::Configuration {
+                    params_present: &[],
+                    ..m.configurations[0]
+                })?,
+                None,
+            );
+            if all.is_empty() {
+                println!("every link is physically consistent");
+            }
+            for f in &all {
+                println!(
+                    "  {} {f}",
+                    if f.is_blocking() {
+                        "IMPOSSIBLE "
+                    } else {
+                        "implausible"
+                    }
+                );
+            }
+            for c in m.configurations {
+                let q = vec![0.0; m.joints.len()];
+                match p.simulator(c.name, &q, crate::plant::ConsistencyPolicy::Warn) {
+                    Ok(s) => {
+                        let blocking = s.findings.iter().filter(|f| f.is_blocking()).count();
+                        println!(
+                            "  configuration {:<6} simulates{}",
+                            c.name,
+                            if blocking > 0 {
+                                format!(" only with --allow-inconsistent ({blocking} impossible link(s) in its equations)")
+                            } else {
+                                String::new()
+                            }
+                        );
+                    }
+                    Err(e) => println!("  configuration {:<6} cannot simulate: {e:#}", c.name),
+                }
+            }
+        }
+        Command::Params { model, out } => {
+            let m = model_named(&model)?;
             let occ = occurrence(m);
             let bases: Vec<_> = m
                 .configurations

@@ -111,8 +111,9 @@ impl Arith<'_> {
                     self.i += 1;
                 }
                 let text = std::str::from_utf8(&self.s[start..self.i]).unwrap_or("");
-                text.parse()
-                    .map_err(|_| anyhow::anyhow!("expected a number or 'pi' at position {}", start + 1))
+                text.parse().map_err(|_| {
+                    anyhow::anyhow!("expected a number or 'pi' at position {}", start + 1)
+                })
             }
         }
     }
@@ -244,11 +245,13 @@ impl Excitations {
             Some((m, text)) => {
                 Excitations::parse(text, &format!("model/excitation/{m}.toml"), model)
             }
-            None => bail!(
+            None => {
+                bail!(
                 "model '{}' has no bundled excitation tables (bundled: {}); give --excitation FILE",
                 model.name,
                 BUNDLED.iter().map(|(m, _)| *m).collect::<Vec<_>>().join(", ")
-            ),
+            )
+            }
         }
     }
 
@@ -289,7 +292,10 @@ impl Excitations {
                         .iter()
                         .position(|j| *j == s.joint)
                         .with_context(|| {
-                            format!("{item}: unknown joint (model has {})", model.joints.join(", "))
+                            format!(
+                                "{item}: unknown joint (model has {})",
+                                model.joints.join(", ")
+                            )
                         })?;
                     let ev = |v: &Value| v.eval().with_context(|| item.clone());
                     signals.push(Signal {
@@ -421,6 +427,6 @@ mod tests {
         let t: f64 = 30.0;
         let expect = (0.0045 - 0.001) * ((0.5 + 1.25) * t + std::f64::consts::FRAC_PI_2).cos();
         assert!((s.value(t) - expect).abs() < 1e-15);
-        assert_eq!(s.value(0.0).abs() < 1e-18, true);
+        assert!(s.value(0.0).abs() < 1e-18);
     }
 }

@@ -16,4 +16,5 @@ pub mod plant;
 pub mod report;
 pub mod signal;
 pub mod simulation;
+pub mod synthetic;
 pub mod util;

@@ -176,7 +176,11 @@ impl Table {
     }
 
     fn own_name(&self, std: &str) -> String {
-        self.side.columns.get(std).cloned().unwrap_or_else(|| std.to_string())
+        self.side
+            .columns
+            .get(std)
+            .cloned()
+            .unwrap_or_else(|| std.to_string())
     }
 }
 
@@ -416,7 +420,7 @@ impl Measurement {
         write_columns(path, &names, &cols)
     }
 
-    fn check_time(&self) -> Result<(), DataError> {
+    pub(crate) fn check_time(&self) -> Result<(), DataError> {
         let err = |reason: String| DataError::Record {
             file: self.file.clone(),
             reason,
@@ -498,8 +502,9 @@ pub fn write_columns(path: &Path, names: &[String], cols: &[&[f64]]) -> anyhow::
     if is_mat {
         let mut mat = matrw::MatFile::new();
         for (name, c) in names.iter().zip(cols) {
-            let arr = matrw::NumericArray::new(vec![n, 1], matrw::MatlabType::from(c.to_vec()), None)
-                .map_err(|e| anyhow::anyhow!("{}: variable '{name}': {e}", path.display()))?;
+            let arr =
+                matrw::NumericArray::new(vec![n, 1], matrw::MatlabType::from(c.to_vec()), None)
+                    .map_err(|e| anyhow::anyhow!("{}: variable '{name}': {e}", path.display()))?;
             mat.insert(name, matrw::MatVariable::NumericArray(arr));
         }
         // matrw writes to a path; write beside the target, check it reads back, rename.

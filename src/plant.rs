@@ -202,8 +202,7 @@ impl Plant {
                 e.message().replace('`', "'")
             )
         })?;
-        Plant::from_file(spec, Some(path))
-            .map_err(|e| anyhow::anyhow!("{}: {e:#}", path.display()))
+        Plant::from_file(spec, Some(path)).map_err(|e| anyhow::anyhow!("{}: {e:#}", path.display()))
     }
 
     /// Validate a parsed plant file (`path` for messages and [`Plant::file`]).
@@ -295,9 +294,8 @@ impl Plant {
         use EffectKind as K;
         let joint = &self.model.joints[e.joint];
         for other in self.effects.iter().filter(|o| o.joint == e.joint) {
-            let pair = |a: K, b: K| {
-                (other.kind == a && e.kind == b) || (other.kind == b && e.kind == a)
-            };
+            let pair =
+                |a: K, b: K| (other.kind == a && e.kind == b) || (other.kind == b && e.kind == a);
             let conflict = if e.kind.is_pairwise() || other.kind.is_pairwise() {
                 *other == e
             } else {
@@ -471,7 +469,9 @@ impl Plant {
         let m = self.model;
         let mut out = Vec::new();
         for (l, lname) in m.links.iter().enumerate() {
-            let params: Vec<usize> = (0..m.params.len()).filter(|&j| m.param_link[j] == l).collect();
+            let params: Vec<usize> = (0..m.params.len())
+                .filter(|&j| m.param_link[j] == l)
+                .collect();
             if let Some(c) = conf {
                 if !params.iter().any(|j| c.params_present.contains(j)) {
                     continue;
@@ -577,7 +577,10 @@ impl Plant {
                 if x > 0.0 {
                     Ok(x)
                 } else {
-                    bail!("{name}: parameter '{s}_{}' must be positive, found {x}", e.joint)
+                    bail!(
+                        "{name}: parameter '{s}_{}' must be positive, found {x}",
+                        e.joint
+                    )
                 }
             };
             match e.kind {

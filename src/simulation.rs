@@ -333,7 +333,14 @@ impl PlantModel {
         (q_applied, zd)
     }
 
-    fn applied_into(&self, x: &State, tau: &[f64], tc: &mut [f64], out: &mut [f64], zd: &mut [f64]) {
+    fn applied_into(
+        &self,
+        x: &State,
+        tau: &[f64],
+        tc: &mut [f64],
+        out: &mut [f64],
+        zd: &mut [f64],
+    ) {
         self.coupled_command(tau, tc);
         for (i, t) in self.terms.iter().enumerate() {
             let (f, d) = self.friction(i, x.q[i], x.qd[i], x.z[i]);
@@ -481,7 +488,11 @@ impl PlantModel {
         let mut next_out = 0;
         let push = |out: &mut Trajectory, a: &State, b: &State, ta: f64, tb: f64, t: f64| {
             let hh = tb - ta;
-            let s = if hh > 0.0 { ((t - ta) / hh).clamp(0.0, 1.0) } else { 1.0 };
+            let s = if hh > 0.0 {
+                ((t - ta) / hh).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
             for i in 0..nf {
                 let (h00, h10, h01, h11) = (
                     2.0 * s * s * s - 3.0 * s * s + 1.0,
@@ -489,9 +500,8 @@ impl PlantModel {
                     -2.0 * s * s * s + 3.0 * s * s,
                     s * s * s - s * s,
                 );
-                out.q[i].push(
-                    h00 * a.q[i] + h10 * hh * a.qd[i] + h01 * b.q[i] + h11 * hh * b.qd[i],
-                );
+                out.q[i]
+                    .push(h00 * a.q[i] + h10 * hh * a.qd[i] + h01 * b.q[i] + h11 * hh * b.qd[i]);
                 out.qd[i].push(a.qd[i] + s * (b.qd[i] - a.qd[i]));
                 out.z[i].push(a.z[i] + s * (b.z[i] - a.z[i]));
             }

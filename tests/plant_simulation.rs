@@ -1,0 +1,399 @@
+//! The full plant on the Freedom 6S: Appendix D plant files, the consistency check before
+//! simulation, input holds and output resampling, the tendon-coupling beat (4.3.4), the
+//! friction position bias, static Stribeck friction, RK4 convergence on the coupled-method
+//! parameters, and measurement files (CSV and MAT) round trips.
+
+use lockstep::effects::{Effect, EffectKind};
+use lockstep::measurement::{Measurement, Table};
+use lockstep::plant::{ConsistencyPolicy, Plant};
+use lockstep::simulation::{Hold, InputSignal, State};
+use std::path::{Path, PathBuf};
+
+fn plant_file(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("model/plants")
+        .join(format!("freedom6s_appendix_d_{name}.toml"))
+}
+
+/// The coupled-method plant with I4_33 made positive (issue 5's synthetic truth).
+fn coupled_consistent() -> Plant {
+    let mut p = Plant::load(&plant_file("coupled")).unwrap();
+    p.parameters.insert("I4_33".into(), 1.7449e-4);
+    p
+}
+
+#[test]
+fn appendix_d_plant_files_load_with_the_ocr_fixes() {
+    let init = Plant::load(&plant_file("initial")).unwrap();
+    let iso = Plant::load(&plant_file("isolated")).unwrap();
+    let cpl = Plant::load(&plant_file("coupled")).unwrap();
+    assert_eq!(init.parameters["Ks_1"], 1.5694e-1);
+    assert_eq!(iso.parameters["Ks_2"], 4.59e-2);
+    assert_eq!(iso.parameters["sigma1_3"], 9e-4);
+    assert_eq!(cpl.parameters["qeq_0"], -2.1791e-2);
+    assert_eq!(cpl.parameters["m7"], 6.0061e-2);
+    assert_eq!(cpl.parameters["sigma2_5"], 0.0019215);
+    // Thesis G54 = 0.20362 enters τ'_4 with a minus sign.
+    assert_eq!(cpl.parameters["G_5to4"], -0.20362);
+    assert_eq!(cpl.parameters["G_4to5"], 1.01);
+    // 59 effect parameters + 64 Appendix D inertial values + 6 symbols that appear nowhere.
+    assert_eq!(cpl.parameters.len(), 129);
+    assert_eq!(iso.parameters.len(), 129 - 5);
+    // Only the initial-guess file carries bounds: the thesis rule on the rigid body.
+    assert_eq!(init.bounds["m2"], (0.1972 * 0.5, 0.1972 * 1.5));
+    let (lo, hi) = init.bounds["x2"];
+    assert!((lo + 2.6e-3 * 1.3).abs() < 1e-15 && (hi + 2.6e-3 * 0.7).abs() < 1e-15);
+    let (lo, hi) = init.bounds["I2_11"];
+    assert!((lo + 1.518e-2 * 0.2).abs() < 1e-15 && (hi - 1.518e-2 * 2.2).abs() < 1e-15);
+}
+
+#[test]
+fn consistency_is_checked_before_every_simulation() {
+    let cpl = Plant::load(&plant_file("coupled")).unwrap();
+    let q = [0.0; 6];
+    // Link L4 (I4_33 < 0) enters k3 but not k1.
+    let e = cpl
+        .simulator("k3", &q, ConsistencyPolicy::Refuse)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("link 'L4'")
+            && e.contains("not positive definite")
+            && e.contains("--allow-inconsistent"),
+        "{e}"
+    );
+    let warned = cpl.simulator("k3", &q, ConsistencyPolicy::Warn).unwrap();
+    assert!(warned
+        .findings
+        .iter()
+        .any(|f| f.link == "L4" && f.is_blocking()));
+    let k1 = cpl.simulator("k1", &q, ConsistencyPolicy::Refuse).unwrap();
+    // Only link L7 enters k1; its tensor violates the triangle inequality (reported, not blocking).
+    assert!(k1
+        .findings
+        .iter()
+        .all(|f| f.link == "L7" && !f.is_blocking()));
+    assert!(!k1.findings.is_empty());
+    // With I4_33 positive, every configuration simulates.
+    let fixed = coupled_consistent();
+    for c in fixed.model.configurations {
+        fixed
+            .simulator(c.name, &q, ConsistencyPolicy::Refuse)
+            .unwrap();
+    }
+    // The initial guess has negative diagonal inertias (I1_33, I2_33, I3_11, I4_33, I5_33).
+    let init = Plant::load(&plant_file("initial")).unwrap();
+    let p = init
+        .barycentric(init.model.configuration("k5").unwrap())
+        .unwrap();
+    let bad: Vec<String> = init
+        .consistency(&p, None)
+        .into_iter()
+        .filter(|f| f.is_blocking())
+        .map(|f| f.link)
+        .collect();
+    assert_eq!(bad, vec!["L1", "L2", "L5", "L3", "L4"]);
+}
+
+#[test]
+fn zero_order_hold_and_linear_interpolation() {
+    let tau = vec![vec![0.0, 1.0, 3.0]];
+    let s = |hold| InputSignal {
+        t0: 10.0,
+        dt: 0.5,
+        tau: &tau,
+        hold,
+    };
+    let at = |hold, t| {
+        let mut o = [0.0];
+        s(hold).at(t, &mut o);
+        o[0]
+    };
+    assert_eq!(at(Hold::Zoh, 10.25), 0.0);
+    assert_eq!(at(Hold::Zoh, 10.5), 1.0);
+    assert_eq!(at(Hold::Zoh, 10.5 - 1e-12), 1.0); // a stage time at a sample up to rounding
+    assert_eq!(at(Hold::Zoh, 99.0), 3.0);
+    assert_eq!(at(Hold::Linear, 10.25), 0.5);
+    assert_eq!(at(Hold::Linear, 10.75), 2.0);
+    assert_eq!(at(Hold::Linear, 9.0), 0.0);
+}
+
+/// k1 of the coupled plant with linear friction (viscous) so the response is a sum of
+/// sinusoids, driven by cosines at ω4 on joint 4 and ω5 on joint 5.
+fn k1_response(coupling: bool, w4: f64, w5: f64, t_end: f64) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let mut p = coupled_consistent();
+    p.effects.retain(|e| {
+        matches!(
+            e.kind,
+            EffectKind::Gain | EffectKind::Spring | EffectKind::InputCoupling
+        )
+    });
+    if !coupling {
+        p.effects.retain(|e| e.kind != EffectKind::InputCoupling);
+    }
+    for j in [4, 5] {
+        p.add_effect(Effect::on(EffectKind::Viscous, j)).unwrap();
+        p.parameters.insert(format!("Fv_{j}"), 2e-3);
+    }
+    let s = p
+        .simulator("k1", &[0.0; 6], ConsistencyPolicy::Refuse)
+        .unwrap();
+    let dt = 0.01;
+    let n = (t_end / dt) as usize + 1;
+    let t: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+    let tau = vec![
+        t.iter()
+            .map(|&x| 0.002 * (w4 * x).cos())
+            .collect::<Vec<_>>(),
+        t.iter()
+            .map(|&x| 0.002 * (w5 * x).cos())
+            .collect::<Vec<_>>(),
+    ];
+    let input = InputSignal {
+        t0: 0.0,
+        dt,
+        tau: &tau,
+        hold: Hold::Linear,
+    };
+    let tr = s
+        .model
+        .simulate_at(
+            State::at_rest(vec![0.0, 0.0]),
+            1.0 / 6000.0,
+            &input,
+            &t,
+            100.0,
+        )
+        .unwrap();
+    (t, tr.q)
+}
+
+/// Amplitude of the component of `x` at `w` (rad/s) over the second half of the record.
+fn amplitude_at(t: &[f64], x: &[f64], w: f64) -> f64 {
+    let h = t.len() / 2;
+    let (mut c, mut s) = (0.0, 0.0);
+    for k in h..t.len() {
+        c += x[k] * (w * t[k]).cos();
+        s += x[k] * (w * t[k]).sin();
+    }
+    2.0 * (c * c + s * s).sqrt() / (t.len() - h) as f64
+}
+
+#[test]
+fn tendon_coupling_beats_at_the_difference_frequency() {
+    // Thesis 4.3.4: joints 4 and 5 driven at close frequencies. With the tendon coupling
+    // (G45 = 1.01: joint 5 receives joint 4's command), joint 5 carries ω4 as well as its own
+    // ω5 and beats at ω4 − ω5; without it, the rigid-body coupling alone leaves joint 5
+    // nearly pure (q4 carries some ω5 either way, through the inertia matrix).
+    let (w4, w5) = (
+        2.0 * std::f64::consts::PI * 0.5,
+        2.0 * std::f64::consts::PI * 0.4,
+    );
+    let (t, with) = k1_response(true, w4, w5, 200.0);
+    let (_, without) = k1_response(false, w4, w5, 200.0);
+    let q5 = |q: &Vec<Vec<f64>>| q[1].clone();
+    let (a_with, own_with) = (
+        amplitude_at(&t, &q5(&with), w4),
+        amplitude_at(&t, &q5(&with), w5),
+    );
+    let (a_without, own_without) = (
+        amplitude_at(&t, &q5(&without), w4),
+        amplitude_at(&t, &q5(&without), w5),
+    );
+    assert!(
+        a_with > 10.0 * a_without && a_with > 0.3 * own_with && a_without < 0.05 * own_without,
+        "q5 at ω4: {a_with:.3e} with coupling, {a_without:.3e} without; at ω5 {own_with:.3e}, {own_without:.3e}"
+    );
+    // The beat: x = a cos ω4 t + b cos ω5 t makes x² carry a·b at ω4 − ω5. Over 0.2..1.5
+    // rad/s the spectrum of x² peaks there, with about that amplitude.
+    let x = q5(&with);
+    let h = t.len() / 2;
+    let mean = x[h..].iter().sum::<f64>() / (t.len() - h) as f64;
+    let sq: Vec<f64> = x.iter().map(|v| (v - mean).powi(2)).collect();
+    let beat = w4 - w5;
+    let best = (20..150)
+        .map(|k| k as f64 * 0.01)
+        .max_by(|a, b| {
+            amplitude_at(&t, &sq, *a)
+                .partial_cmp(&amplitude_at(&t, &sq, *b))
+                .unwrap()
+        })
+        .unwrap();
+    let depth = amplitude_at(&t, &sq, beat) / (a_with * own_with);
+    assert!(
+        (0.7..1.3).contains(&depth),
+        "beat amplitude / (a·b) = {depth:.3}"
+    );
+    assert!(
+        (best - beat).abs() < 0.03,
+        "envelope peaks at {best} rad/s, beat {beat:.4}"
+    );
+}
+
+#[test]
+fn friction_bias_scales_friction_below_the_equilibrium() {
+    let mut p = Plant::new("freedom6s", vec![]).unwrap();
+    p.parameters = coupled_consistent().parameters;
+    p.parameters
+        .retain(|k, _| !k.contains('_') || k.starts_with('I'));
+    for e in [EffectKind::Coulomb, EffectKind::FrictionBias] {
+        p.add_effect(Effect::on(e, 5)).unwrap();
+    }
+    p.parameters.insert("Fc_5".into(), 0.01);
+    p.parameters.insert("FrictionBias_5".into(), 1.8);
+    p.parameters.insert("qeq_5".into(), 0.1);
+    let s = p
+        .simulator("c2", &[0.0; 6], ConsistencyPolicy::Refuse)
+        .unwrap()
+        .model;
+    assert_eq!(s.friction(0, 0.2, 1.0, 0.0).0, 0.01);
+    assert!((s.friction(0, 0.0, 1.0, 0.0).0 - 0.018).abs() < 1e-15);
+    assert!((s.friction(0, 0.0, -1.0, 0.0).0 + 0.018).abs() < 1e-15);
+}
+
+#[test]
+fn static_stribeck_friction_reaches_its_terminal_velocity() {
+    // EMPS mass with Stribeck + viscous friction under a constant force τ: the terminal
+    // velocity solves τ = Fc + (Fs − Fc) e^{−(v/vs)²} + Fv v.
+    let mut p = Plant::new(
+        "emps",
+        vec![
+            Effect::on(EffectKind::Stribeck, 0),
+            Effect::on(EffectKind::Viscous, 0),
+        ],
+    )
+    .unwrap();
+    for (k, v) in [
+        ("M", 95.0),
+        ("Fc_0", 20.0),
+        ("Fs_0", 35.0),
+        ("vs_0", 0.05),
+        ("Fv_0", 200.0),
+    ] {
+        p.parameters.insert(k.into(), v);
+    }
+    let s = p
+        .simulator("full", &[0.0], ConsistencyPolicy::Refuse)
+        .unwrap()
+        .model;
+    let tau = 60.0;
+    let mut x = State::at_rest(vec![0.0]);
+    x.qd[0] = 0.1;
+    let x = s
+        .simulate(x, 1e-3, 20_000, 10.0, |_, u| u[0] = tau, |_, _| {})
+        .unwrap();
+    let v = x.qd[0];
+    let residual = tau - (20.0 + 15.0 * (-(v / 0.05f64).powi(2)).exp() + 200.0 * v);
+    assert!(
+        residual.abs() < 1e-8 && (v - 0.2).abs() < 1e-6,
+        "v = {v}, residual {residual}"
+    );
+}
+
+#[test]
+fn the_thesis_step_diverges_near_the_wrist_singularity_and_halving_it_converges() {
+    // k2 (joints 3, 4, 5) with the full coupled-method plant on the Table 4.7 inputs: at the
+    // thesis's 1/6000 s, RK4 leaves its stability region (DESIGN.md §2: a mode of link 7's
+    // tiny inertia against LuGre damping) and the simulator reports the time and joint;
+    // 1/12000 s and below converge.
+    let p = coupled_consistent();
+    let s = p
+        .simulator("k2", &[0.0; 6], ConsistencyPolicy::Refuse)
+        .unwrap()
+        .model;
+    let ex = lockstep::excitation::Excitations::bundled(p.model).unwrap();
+    let test = ex.table("4.7").unwrap().test(None).unwrap();
+    let (t, u, _) = test.sample(6, &[3, 4, 5], 5.0, 100.0);
+    let tau: Vec<Vec<f64>> = [3, 4, 5].iter().map(|&j| u[j].clone()).collect();
+    let input = InputSignal {
+        t0: 0.0,
+        dt: 0.01,
+        tau: &tau,
+        hold: Hold::Linear,
+    };
+    let run = |h: f64| s.simulate_at(State::at_rest(vec![0.0; 3]), h, &input, &t, 100.0);
+    let d = run(1.0 / 6000.0).unwrap_err();
+    assert_eq!(d.joint, 1, "{d}"); // free joint 1 of k2 is q4
+    assert!(
+        d.t > 0.0 && d.t < 5.0 && d.to_string().contains("smaller step"),
+        "{d}"
+    );
+    let (a, b, c) = (
+        run(1.0 / 12000.0).unwrap().q,
+        run(1.0 / 24000.0).unwrap().q,
+        run(1.0 / 48000.0).unwrap().q,
+    );
+    let diff = |x: &Vec<Vec<f64>>, y: &Vec<Vec<f64>>| {
+        x.iter()
+            .zip(y)
+            .flat_map(|(p, q)| p.iter().zip(q).map(|(u, v)| (u - v).abs()))
+            .fold(0.0, f64::max)
+    };
+    let (d1, d2) = (diff(&a, &b), diff(&b, &c));
+    // The friction laws have kinks (|v|, sign v), so the order is below four here (the
+    // smooth case in tests/simulation.rs shows 16×); the changes are far below the 1e-4 rad
+    // encoder step and shrink with the step.
+    assert!(d1 < 1e-6, "1/12000 vs 1/24000: {d1:.3e} rad");
+    assert!(d1 / d2 > 3.0, "ratio {:.2} ({d1:.3e}, {d2:.3e})", d1 / d2);
+}
+
+#[test]
+fn measurement_files_round_trip_in_csv_and_mat() {
+    let d = tempfile::tempdir().unwrap();
+    let n = 50;
+    let t: Vec<f64> = (0..n).map(|k| k as f64 * 0.01).collect();
+    let m = Measurement {
+        file: d.path().join("x.csv"),
+        t: t.clone(),
+        tau: vec![
+            t.iter().map(|x| (3.0 * x).sin() / 7.0).collect(),
+            vec![0.0; n],
+        ],
+        q: vec![t.iter().map(|x| x.cos() * 1e-3).collect(), vec![0.25; n]],
+        qd: vec![Some(t.iter().map(|x| -x.sin()).collect()), None],
+        tau_m: vec![None, Some(vec![1.0 / 3.0; n])],
+    };
+    for ext in ["csv", "mat"] {
+        let path = d.path().join(format!("x.{ext}"));
+        m.write(&path).unwrap();
+        let back = Measurement::read(&path, 2).unwrap();
+        assert_eq!(back.t, m.t, "{ext}");
+        assert_eq!(back.tau, m.tau, "{ext}");
+        assert_eq!(back.q, m.q, "{ext}");
+        assert_eq!(back.qd, m.qd, "{ext}");
+        assert_eq!(back.tau_m, m.tau_m, "{ext}");
+        // No temporary file is left beside it.
+        assert_eq!(
+            std::fs::read_dir(d.path()).unwrap().count(),
+            if ext == "csv" { 1 } else { 2 }
+        );
+    }
+}
+
+#[test]
+fn mat_files_from_other_tools_and_bad_mat_files() {
+    // Written by SciPy 1.17 (header "MATLAB 5.0 MAT-file Platform: …", no comma): t, tau0 and
+    // a 12×2 matrix q giving q0 and q1; a text variable is skipped.
+    let f = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scipy_v5.mat");
+    let m = Measurement::read(&f, 1).unwrap();
+    assert_eq!(m.len(), 12);
+    assert!((m.q[0][3] - (0.03f64).sin()).abs() < 1e-15);
+    let table = Table::read(&f).unwrap();
+    assert_eq!(table.get("q1").unwrap().unwrap()[3], 2.0 * (0.03f64).sin());
+    let e = Measurement::read(&f, 2).unwrap_err().to_string();
+    assert!(
+        e.contains("missing column 'tau1'") && e.contains("variables are"),
+        "{e}"
+    );
+    let d = tempfile::tempdir().unwrap();
+    let v73 = d.path().join("v73.mat");
+    let mut bytes = b"MATLAB 7.3 MAT-file, Platform: GLNXA64".to_vec();
+    bytes.resize(512, 0);
+    std::fs::write(&v73, bytes).unwrap();
+    let e = Measurement::read(&v73, 1).unwrap_err().to_string();
+    assert!(e.contains("v7.3") && e.contains("-v7"), "{e}");
+    let junk = d.path().join("junk.mat");
+    std::fs::write(&junk, b"not a mat file at all").unwrap();
+    let e = Measurement::read(&junk, 1).unwrap_err().to_string();
+    assert!(e.contains("junk.mat") && e.contains("MAT file"), "{e}");
+}
