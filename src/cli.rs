@@ -392,13 +392,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 m.name,
                 p.description
             );
-            let all = p.consistency(
-                &p.barycentric(&generated::Configuration {
-                    params_present: &[],
-                    ..m.configurations[0]
-                })?,
-                None,
-            );
+            let all = p.consistency(&p.barycentric(None)?, None);
             if all.is_empty() {
                 println!("every link is physically consistent");
             }

@@ -415,11 +415,12 @@ impl Plant {
 
     /// The barycentric parameter vector (NP) for a configuration: links in symbol form are
     /// converted ([`generated::Model::barycentric_from_symbols`]), links in barycentric form
-    /// taken as given; parameters absent from the configuration's equations default to 0.
+    /// taken as given; parameters absent from the configuration's equations (or, with
+    /// `conf = None`, without a value) default to 0.
     ///
     /// # Errors
     /// A parameter that the configuration needs has no value (named, with the link).
-    pub fn barycentric(&self, conf: &generated::Configuration) -> Result<Vec<f64>> {
+    pub fn barycentric(&self, conf: Option<&generated::Configuration>) -> Result<Vec<f64>> {
         let m = self.model;
         let forms = self.link_forms()?;
         let sym: Vec<f64> = m
@@ -437,6 +438,7 @@ impl Plant {
                 Some(false) => self.parameters.get(m.params[j]).copied().unwrap_or(0.0),
                 None => 0.0,
             };
+            let Some(conf) = conf else { continue };
             let needed = conf.params_present.contains(&j);
             let given = match forms[l] {
                 Some(true) => true,
@@ -551,17 +553,27 @@ impl Plant {
                 m.joints.len()
             );
         }
-        let p = self.barycentric(conf)?;
+        let p = self.barycentric(Some(conf))?;
         let findings = self.consistency(&p, Some(conf));
         if policy == ConsistencyPolicy::Refuse && findings.iter().any(Finding::is_blocking) {
+            let (blocking, other): (Vec<&Finding>, Vec<&Finding>) =
+                findings.iter().partition(|f| f.is_blocking());
             bail!(
-                "{name}: physically inconsistent parameters for configuration '{}':\n  {}\n(fix them, or simulate anyway with --allow-inconsistent)",
+                "{name}: physically impossible parameters for configuration '{}': {}{} (fix them, or simulate anyway with --allow-inconsistent)",
                 conf.name,
-                findings
+                blocking
                     .iter()
                     .map(|f| f.to_string())
                     .collect::<Vec<_>>()
-                    .join("\n  ")
+                    .join("; "),
+                if other.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        "; also implausible: {}",
+                        other.iter().map(|f| f.link.as_str()).collect::<Vec<_>>().join(", ")
+                    )
+                }
             );
         }
         let free_index = |j: usize| conf.free.iter().position(|&k| k == j);

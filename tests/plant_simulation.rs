@@ -83,9 +83,7 @@ fn consistency_is_checked_before_every_simulation() {
     }
     // The initial guess has negative diagonal inertias (I1_33, I2_33, I3_11, I4_33, I5_33).
     let init = Plant::load(&plant_file("initial")).unwrap();
-    let p = init
-        .barycentric(init.model.configuration("k5").unwrap())
-        .unwrap();
+    let p = init.barycentric(init.model.configuration("k5")).unwrap();
     let bad: Vec<String> = init
         .consistency(&p, None)
         .into_iter()

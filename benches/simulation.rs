@@ -1,0 +1,69 @@
+//! Simulator throughput (issue 4): the Freedom 6S with the Appendix D coupled-method plant
+//! (I4_33 made positive; plant gain, LuGre, cable-drag spring on every joint, friction bias
+//! on the base joints, tendon coupling 4↔5) on the Table 4.7 inputs at 100 Hz, RK4 at the
+//! thesis's 1/6000 s, output at 100 Hz.
+//!
+//! - `simulate/k5_60s`: 60 s of all six joints = 360,000 RK4 steps (target < 2 s; the thesis
+//!   needed 15 min per minute of data).
+//! - `steps/<config>`: 1 s (6,000 steps) per configuration, for steps per second against the
+//!   number of free joints (c1: 1, k1: 2, k2: 3, k3: 4, k4: 5, k5: 6).
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use lockstep::excitation::Excitations;
+use lockstep::plant::{ConsistencyPolicy, Plant};
+use lockstep::simulation::{Hold, InputSignal, PlantModel, State};
+use std::path::Path;
+use std::time::Duration;
+
+fn setup(config: &str, seconds: f64) -> (PlantModel, Vec<Vec<f64>>, Vec<f64>) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("model/plants/freedom6s_appendix_d_coupled.toml");
+    let mut plant = Plant::load(&path).unwrap();
+    plant.parameters.insert("I4_33".into(), 1.7449e-4);
+    let sim = plant
+        .simulator(config, &[0.0; 6], ConsistencyPolicy::Refuse)
+        .unwrap()
+        .model;
+    let ex = Excitations::bundled(plant.model).unwrap();
+    let test = ex.table("4.7").unwrap().test(None).unwrap();
+    let (t, u, _) = test.sample(6, sim.conf.free, seconds, 100.0);
+    let tau = sim.conf.free.iter().map(|&j| u[j].clone()).collect();
+    (sim, tau, t)
+}
+
+fn run(sim: &PlantModel, tau: &[Vec<f64>], t: &[f64]) -> f64 {
+    let input = InputSignal {
+        t0: 0.0,
+        dt: 0.01,
+        tau,
+        hold: Hold::Zoh,
+    };
+    let tr = sim
+        .simulate_at(
+            State::at_rest(vec![0.0; sim.nf()]),
+            1.0 / 6000.0,
+            &input,
+            t,
+            100.0,
+        )
+        .unwrap();
+    tr.q[0][t.len() - 1]
+}
+
+fn bench(c: &mut Criterion) {
+    let (sim, tau, t) = setup("k5", 60.0);
+    let mut g = c.benchmark_group("simulate");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    g.bench_function("k5_60s", |b| b.iter(|| run(&sim, &tau, &t)));
+    g.finish();
+    let mut g = c.benchmark_group("steps");
+    g.sample_size(10).measurement_time(Duration::from_secs(3));
+    for config in ["c1", "k1", "k2", "k3", "k4", "k5"] {
+        let (sim, tau, t) = setup(config, 1.0);
+        g.bench_function(config, |b| b.iter(|| run(&sim, &tau, &t)));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

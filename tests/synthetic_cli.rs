@@ -1,0 +1,185 @@
+//! `lockstep excite` → `lockstep simulate` → a measurement file that reads back, and the
+//! errors of both commands: one line naming the option, file or item, no output left.
+
+use lockstep::measurement::{Measurement, Table};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lockstep(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lockstep"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn coupled_plant() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants/freedom6s_appendix_d_coupled.toml")
+}
+
+fn fails(o: &Output, needles: &[&str]) {
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    for n in needles {
+        assert!(err.contains(n), "'{n}' not in: {err}");
+    }
+}
+
+#[test]
+fn excite_then_simulate_makes_noisy_quantised_data_of_the_configuration() {
+    let d = tempfile::tempdir().unwrap();
+    let tau = d.path().join("k1_tau.csv");
+    let o = lockstep(&[
+        "excite",
+        "--model",
+        "freedom6s",
+        "--table",
+        "4.7",
+        "--config",
+        "k1",
+        "--duration",
+        "10",
+        "-o",
+        tau.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("q0, q1, q2, q3 locked"));
+    let t = Table::read(&tau).unwrap();
+    assert_eq!(t.side.configuration.as_deref(), Some("k1"));
+    let tau5 = t.need("tau5").unwrap();
+    assert_eq!(tau5.len(), 1001);
+    assert_eq!(tau5[0], 0.0055); // Table 4.7: A5(0) cos(0)
+    assert!(t.need("tau0").unwrap().iter().all(|&x| x == 0.0));
+    for (ext, noise) in [("csv", "2e-4"), ("mat", "0")] {
+        let out = d.path().join(format!("k1.{ext}"));
+        let o = lockstep(&[
+            "simulate",
+            "--plant",
+            coupled_plant().to_str().unwrap(),
+            "--input",
+            tau.to_str().unwrap(),
+            "--locked",
+            "q1=0.1",
+            "--noise",
+            noise,
+            "--quantisation",
+            "1e-4",
+            "--seed",
+            "7",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            stdout.contains("warning:") && stdout.contains("link 'L7'"),
+            "{stdout}"
+        );
+        let m = Measurement::read(&out, 6).unwrap();
+        assert_eq!(m.len(), 1001);
+        // Positions on the 1e-4 grid; locked joint 1 at 0.1 within the noise.
+        for q in &m.q {
+            assert!(q
+                .iter()
+                .all(|x| ((x / 1e-4) - (x / 1e-4).round()).abs() < 1e-6));
+        }
+        let spread = m.q[1].iter().map(|x| (x - 0.1).abs()).fold(0.0, f64::max);
+        assert!(spread < 1e-3, "{spread}");
+        // Joints 4 and 5 move; the side file records configuration and locked positions.
+        assert!(m.q[4].iter().any(|x| x.abs() > 0.1));
+        let side = Table::read(&out).unwrap().side;
+        assert_eq!(side.configuration.as_deref(), Some("k1"));
+        assert_eq!(side.locked["q1"], 0.1);
+    }
+}
+
+#[test]
+fn excite_and_simulate_errors_name_the_item() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("x.csv");
+    let o = lockstep(&[
+        "excite",
+        "--model",
+        "freedom6s",
+        "--table",
+        "9.9",
+        "--config",
+        "k1",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    fails(&o, &["no table '9.9'", "4.3, 4.4, 4.5, 4.7, 4.9"]);
+    let o = lockstep(&[
+        "excite",
+        "--model",
+        "freedom6s",
+        "--table",
+        "4.4",
+        "--config",
+        "c1",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    fails(&o, &["--test", "J4-1"]);
+    let o = lockstep(&[
+        "excite",
+        "--model",
+        "freedom6s",
+        "--table",
+        "4.4",
+        "--test",
+        "J0-1",
+        "--config",
+        "c1",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    fails(&o, &["drives q0", "none of them free", "free: q4"]);
+    assert!(!out.exists());
+
+    // A torque file without the column of a free joint.
+    let tau = d.path().join("tau.csv");
+    let mut text = String::from("t,tau4\n");
+    for k in 0..20 {
+        text.push_str(&format!("{},{}\n", k as f64 * 0.01, 0.001));
+    }
+    std::fs::write(&tau, text).unwrap();
+    let plant = coupled_plant();
+    let sim = |extra: &[&str]| {
+        let mut a = vec![
+            "simulate",
+            "--plant",
+            plant.to_str().unwrap(),
+            "--input",
+            tau.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        lockstep(&a)
+    };
+    fails(&sim(&[]), &["tau.csv", "no configuration", "--config"]);
+    fails(
+        &sim(&["--config", "k1"]),
+        &["tau.csv", "missing column 'tau5'", "t, tau4"],
+    );
+    fails(
+        &sim(&["--config", "c1", "--initial", "q0=0.2"]),
+        &["--initial", "'q0' is locked"],
+    );
+    fails(
+        &sim(&["--config", "c1", "--locked", "q9=0.2"]),
+        &["--locked", "unknown joint 'q9'"],
+    );
+    fails(&sim(&["--config", "c1", "--step", "0"]), &["--step"]);
+    fails(
+        &sim(&["--config", "k3"]),
+        &["link 'L4'", "not positive definite", "--allow-inconsistent"],
+    );
+    assert!(!out.exists());
+    assert!(std::fs::read_dir(d.path()).unwrap().all(|e| !e
+        .unwrap()
+        .file_name()
+        .to_string_lossy()
+        .starts_with('.')));
+}
