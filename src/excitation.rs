@@ -260,16 +260,8 @@ impl Excitations {
     /// # Errors
     /// As [`Excitations::load`].
     pub fn parse(text: &str, origin: &str, model: &generated::Model) -> Result<Excitations> {
-        let spec: FileSpec = toml::from_str(text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-            anyhow::anyhow!(
-                "{origin}{}: {}",
-                line.map(|l| format!(": line {l}")).unwrap_or_default(),
-                e.message().replace('`', "'")
-            )
-        })?;
+        let spec: FileSpec =
+            toml::from_str(text).map_err(|e| crate::util::toml_error(origin, text, &e))?;
         if spec.model != model.name {
             bail!(
                 "{origin}: written for model '{}', not '{}'",

@@ -191,17 +191,8 @@ impl Plant {
     pub fn load(path: &Path) -> Result<Plant> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("{}: cannot read the plant file", path.display()))?;
-        let spec: PlantFile = toml::from_str(&text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-            anyhow::anyhow!(
-                "{}{}: {}",
-                path.display(),
-                line.map(|l| format!(": line {l}")).unwrap_or_default(),
-                e.message().replace('`', "'")
-            )
-        })?;
+        let spec: PlantFile = toml::from_str(&text)
+            .map_err(|e| crate::util::toml_error(&path.display().to_string(), &text, &e))?;
         Plant::from_file(spec, Some(path)).map_err(|e| anyhow::anyhow!("{}: {e:#}", path.display()))
     }
 
@@ -534,17 +525,8 @@ impl Plant {
     ) -> Result<Configured> {
         let m = self.model;
         let name = plant_name(&self.file);
-        let conf = m.configuration(conf_name).with_context(|| {
-            format!(
-                "{name}: model '{}' has no configuration '{conf_name}' (it has {})",
-                m.name,
-                m.configurations
-                    .iter()
-                    .map(|c| c.name)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        })?;
+        let conf =
+            crate::util::configuration(m, conf_name).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
         if q_locked.len() != m.joints.len() {
             bail!(
                 "{name}: {} joint positions given, model '{}' has {} joints",

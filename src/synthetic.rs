@@ -93,27 +93,7 @@ pub fn excite(
     })
 }
 
-/// A configuration by name.
-///
-/// # Errors
-/// Unknown name (the model's configurations are listed).
-pub fn configuration(
-    model: &'static generated::Model,
-    name: &str,
-) -> Result<&'static generated::Configuration> {
-    model.configuration(name).with_context(|| {
-        format!(
-            "model '{}' has no configuration '{name}' (it has {})",
-            model.name,
-            model
-                .configurations
-                .iter()
-                .map(|c| c.name)
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    })
-}
+pub use crate::util::configuration;
 
 /// Options of [`simulate_file`].
 #[derive(Debug, Clone)]

@@ -1,4 +1,5 @@
-//! Small shared helpers: atomic file output.
+//! Small shared helpers: atomic file output, TOML errors with line numbers, configuration
+//! lookup.
 
 use anyhow::{Context, Result};
 use std::io::Write;
@@ -44,4 +45,38 @@ pub fn write_atomic_with(
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// A TOML parse error as one line: `origin: line N: message`.
+pub fn toml_error(origin: &str, text: &str, e: &toml::de::Error) -> anyhow::Error {
+    let line = e
+        .span()
+        .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+    anyhow::anyhow!(
+        "{origin}{}: {}",
+        line.map(|l| format!(": line {l}")).unwrap_or_default(),
+        e.message().replace('`', "'")
+    )
+}
+
+/// A configuration of `model` by name.
+///
+/// # Errors
+/// Unknown name (the model's configurations are listed).
+pub fn configuration(
+    model: &'static generated::Model,
+    name: &str,
+) -> Result<&'static generated::Configuration> {
+    model.configuration(name).with_context(|| {
+        format!(
+            "model '{}' has no configuration '{name}' (it has {})",
+            model.name,
+            model
+                .configurations
+                .iter()
+                .map(|c| c.name)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })
 }

@@ -86,18 +86,7 @@ pub fn observation(
     opts: &IdimOptions,
 ) -> Result<Observation> {
     let model = plant.model;
-    let conf = model.configuration(config).with_context(|| {
-        format!(
-            "model '{}' has no configuration '{config}' (it has: {})",
-            model.name,
-            model
-                .configurations
-                .iter()
-                .map(|c| c.name)
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    })?;
+    let conf = crate::util::configuration(model, config)?;
     let nj = model.joints.len();
     let nf = conf.free.len();
     let np = model.params.len();
