@@ -181,7 +181,7 @@ pub struct Common {
     /// Plant file (model + effects + parameter values).
     #[arg(long)]
     pub plant: PathBuf,
-    /// Measurement files (CSV; a side file <name>.toml may map the columns).
+    /// Measurement files (CSV or .mat; a side file <name>.toml may map the columns).
     #[arg(long, required = true, num_args = 1..)]
     pub data: Vec<PathBuf>,
     /// Configuration (set of free joints) of the data.
@@ -205,7 +205,7 @@ impl Common {
         let records = self
             .data
             .iter()
-            .map(|d| Measurement::read_csv(d, nj))
+            .map(|d| Measurement::read(d, nj))
             .collect::<Result<Vec<_>, _>>()?;
         if self.order == 0 || self.order > 12 {
             bail!("--order: expected 1 to 12, got {}", self.order);

@@ -107,8 +107,8 @@ pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
             .progress_chars("=> "),
     );
     bar.set_message("reading the EMPS records");
-    let train = Measurement::read_csv(&data_dir.join("emps_train.csv"), 1)?;
-    let pulses = Measurement::read_csv(&data_dir.join("emps_test_pulses.csv"), 1)?;
+    let train = Measurement::read(&data_dir.join("emps_train.csv"), 1)?;
+    let pulses = Measurement::read(&data_dir.join("emps_test_pulses.csv"), 1)?;
     bar.inc(1);
     let mut text = String::new();
     writeln!(text, "EMPS (Janot, Gautier, Brunot 2019): one prismatic axis, {} samples at {:.0} Hz per record.", train.len(), 1.0 / train.dt())?;

@@ -332,7 +332,7 @@ pub const MIN_SAMPLES: usize = 10;
 impl Measurement {
     /// Sampling period (s).
     pub fn dt(&self) -> f64 {
-        (self.t[self.t.len() - 1] - self.t[0]) / (self.t.len() - 1) as f64
+        mean_period(&self.t)
     }
 
     /// Number of samples.
@@ -356,14 +356,6 @@ impl Measurement {
     pub fn read(path: &Path, joints: usize) -> Result<Measurement, DataError> {
         let table = Table::read(path)?;
         Measurement::from_table(&table, joints)
-    }
-
-    /// [`Measurement::read`] under its former name.
-    ///
-    /// # Errors
-    /// As [`Measurement::read`].
-    pub fn read_csv(path: &Path, joints: usize) -> Result<Measurement, DataError> {
-        Measurement::read(path, joints)
     }
 
     /// A record from a table: `t`, `tau{j}` and `q{j}` required, `qd{j}`, `tauM{j}` optional.
@@ -420,40 +412,54 @@ impl Measurement {
         write_columns(path, &names, &cols)
     }
 
-    pub(crate) fn check_time(&self) -> Result<(), DataError> {
-        let err = |reason: String| DataError::Record {
-            file: self.file.clone(),
-            reason,
-        };
-        if self.t.len() < MIN_SAMPLES {
+    fn check_time(&self) -> Result<(), DataError> {
+        check_sampling(&self.file, &self.t).map(|_| ())
+    }
+}
+
+/// Mean sampling period of sample times `t` (two or more), (t_last − t_first)/(n − 1).
+fn mean_period(t: &[f64]) -> f64 {
+    (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64
+}
+
+/// Check sample times `t` of `file`: at least [`MIN_SAMPLES`], strictly increasing, evenly
+/// spaced (relative deviation of a step at most 1e-3). Returns the mean sampling period (s).
+///
+/// # Errors
+/// [`DataError::Record`] naming the row (header = line 1).
+pub(crate) fn check_sampling(file: &Path, t: &[f64]) -> Result<f64, DataError> {
+    let err = |reason: String| DataError::Record {
+        file: file.to_path_buf(),
+        reason,
+    };
+    if t.len() < MIN_SAMPLES {
+        return Err(err(format!(
+            "too few samples: {} rows, at least {MIN_SAMPLES} needed",
+            t.len()
+        )));
+    }
+    let dt = mean_period(t);
+    if dt <= 0.0 {
+        return Err(err("time does not increase".into()));
+    }
+    for k in 1..t.len() {
+        let step = t[k] - t[k - 1];
+        if step <= 0.0 {
             return Err(err(format!(
-                "too few samples: {} rows, at least {MIN_SAMPLES} needed",
-                self.t.len()
+                "row {}: time {} s is not after the previous {} s (time must increase)",
+                k + 2,
+                t[k],
+                t[k - 1]
             )));
         }
-        let dt = self.dt();
-        if dt <= 0.0 {
-            return Err(err("time does not increase".into()));
+        if (step - dt).abs() > 1e-3 * dt {
+            return Err(err(format!(
+                "row {}: uneven sampling, step {step:.6e} s where the mean step is {dt:.6e} s",
+                k + 2
+            )));
         }
-        for k in 1..self.t.len() {
-            let step = self.t[k] - self.t[k - 1];
-            if step <= 0.0 {
-                return Err(err(format!(
-                    "row {}: time {} s is not after the previous {} s (time must increase)",
-                    k + 2,
-                    self.t[k],
-                    self.t[k - 1]
-                )));
-            }
-            if (step - dt).abs() > 1e-3 * dt {
-                return Err(err(format!(
-                    "row {}: uneven sampling, step {step:.6e} s where the mean step is {dt:.6e} s",
-                    k + 2
-                )));
-            }
-        }
-        Ok(())
     }
+    Ok(dt)
 }
 
 fn io_reason(e: &csv::Error) -> String {

@@ -351,16 +351,22 @@ impl Plant {
         v
     }
 
+    /// The model file's inertial symbols of link `l`.
+    fn link_symbols(&self, l: usize) -> Vec<&'static str> {
+        let m = self.model;
+        (0..m.inertial_symbols.len())
+            .filter(|&i| m.symbol_link[i] == l)
+            .map(|i| m.inertial_symbols[i])
+            .collect()
+    }
+
     /// Per link: `Some(true)` when given in the model file's symbols, `Some(false)` in
     /// barycentric form, `None` when nothing is given.
     fn link_forms(&self) -> Result<Vec<Option<bool>>> {
         let m = self.model;
         let mut forms = Vec::new();
         for (l, lname) in m.links.iter().enumerate() {
-            let syms: Vec<&str> = (0..m.inertial_symbols.len())
-                .filter(|&i| m.symbol_link[i] == l)
-                .map(|i| m.inertial_symbols[i])
-                .collect();
+            let syms = self.link_symbols(l);
             let bary: Vec<&str> = (0..m.params.len())
                 .filter(|&j| m.param_link[j] == l && !syms.contains(&m.params[j]))
                 .map(|j| m.params[j])
@@ -437,10 +443,7 @@ impl Plant {
                 None => false,
             };
             if needed && !given {
-                let syms: Vec<&str> = (0..m.inertial_symbols.len())
-                    .filter(|&i| m.symbol_link[i] == l)
-                    .map(|i| m.inertial_symbols[i])
-                    .collect();
+                let syms = self.link_symbols(l);
                 bail!(
                     "{}: configuration '{}' needs link '{}' but parameter '{}' has no value (give the link's symbols {} or its barycentric parameters)",
                     plant_name(&self.file),

@@ -40,7 +40,7 @@ pub struct LuGre {
 impl LuGre {
     /// The Stribeck curve g(v) (N·m).
     pub fn g(&self, v: f64) -> f64 {
-        self.fc + (self.fs - self.fc) * (-(v / self.vs).powi(2)).exp()
+        stribeck_curve(self.fc, self.fs, self.vs, v)
     }
 
     /// Friction force and bristle rate `(F, ż)` at velocity `v` and deflection `z`.
@@ -57,6 +57,12 @@ impl LuGre {
             self.g(v) * v.signum() + self.sigma2 * v
         }
     }
+}
+
+/// The Stribeck curve g(v) = Fc + (Fs − Fc) e^{−(v/vs)²} (thesis 3.8), shared by LuGre and
+/// the static model.
+fn stribeck_curve(fc: f64, fs: f64, vs: f64, v: f64) -> f64 {
+    fc + (fs - fc) * (-(v / vs).powi(2)).exp()
 }
 
 /// Static friction with the Stribeck effect (thesis 3.3.1):
@@ -77,7 +83,7 @@ impl Stribeck {
         if v == 0.0 {
             0.0
         } else {
-            (self.fc + (self.fs - self.fc) * (-(v / self.vs).powi(2)).exp()) * v.signum()
+            stribeck_curve(self.fc, self.fs, self.vs, v) * v.signum()
         }
     }
 }
@@ -183,7 +189,7 @@ impl State {
 
 /// The simulation left the valid region.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("simulation diverged at t = {t:.6} s: joint {joint} has {what} (step {h} s; try a smaller step)")]
+#[error("{}", self.message(&self.joint.to_string()))]
 pub struct Divergence {
     /// Time of the first invalid state (s).
     pub t: f64,
@@ -284,6 +290,16 @@ pub struct Trajectory {
     pub qd: Vec<Vec<f64>>,
     /// LuGre deflections per free joint (rad).
     pub z: Vec<Vec<f64>>,
+}
+
+impl Divergence {
+    /// The report with the joint called `joint` (a name where the caller knows it).
+    pub fn message(&self, joint: &str) -> String {
+        format!(
+            "simulation diverged at t = {:.6} s: joint {joint} has {} (step {} s; try a smaller step)",
+            self.t, self.what, self.h
+        )
+    }
 }
 
 impl PlantModel {
@@ -493,13 +509,13 @@ impl PlantModel {
             } else {
                 1.0
             };
+            let (h00, h10, h01, h11) = (
+                2.0 * s * s * s - 3.0 * s * s + 1.0,
+                s * s * s - 2.0 * s * s + s,
+                -2.0 * s * s * s + 3.0 * s * s,
+                s * s * s - s * s,
+            );
             for i in 0..nf {
-                let (h00, h10, h01, h11) = (
-                    2.0 * s * s * s - 3.0 * s * s + 1.0,
-                    s * s * s - 2.0 * s * s + s,
-                    -2.0 * s * s * s + 3.0 * s * s,
-                    s * s * s - s * s,
-                );
                 out.q[i]
                     .push(h00 * a.q[i] + h10 * hh * a.qd[i] + h01 * b.q[i] + h11 * hh * b.qd[i]);
                 out.qd[i].push(a.qd[i] + s * (b.qd[i] - a.qd[i]));

@@ -3,9 +3,10 @@
 //! effect of the plant file switched on, optional Gaussian sensor noise and quantisation.
 
 use crate::excitation::{Excitations, Quantity};
-use crate::measurement::{Measurement, SideFile, Table};
+use crate::measurement::{check_sampling, Measurement, SideFile, Table};
 use crate::plant::{ConsistencyPolicy, Finding, Plant};
 use crate::simulation::{Hold, InputSignal, State};
+use crate::util::configuration;
 use anyhow::{bail, Context, Result};
 use generated::inertia::Xorshift;
 use std::collections::BTreeMap;
@@ -92,8 +93,6 @@ pub fn excite(
             .collect(),
     })
 }
-
-pub use crate::util::configuration;
 
 /// Options of [`simulate_file`].
 #[derive(Debug, Clone)]
@@ -257,19 +256,11 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
             tau_all[j] = c;
         }
     }
-    let m_in = Measurement {
-        file: input.to_path_buf(),
-        t: t.clone(),
-        tau: tau_all.clone(),
-        q: vec![vec![0.0; t.len()]; nj],
-        qd: vec![None; nj],
-        tau_m: vec![None; nj],
-    };
-    m_in.check_time()?;
+    let dt = check_sampling(input, &t)?;
     let tau_free: Vec<Vec<f64>> = conf.free.iter().map(|&j| tau_all[j].clone()).collect();
     let signal = InputSignal {
         t0: t[0],
-        dt: m_in.dt(),
+        dt,
         tau: &tau_free,
         hold: opts.hold,
     };
@@ -278,14 +269,8 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
         .model
         .simulate_at(x0, opts.h, &signal, &t, opts.max_speed)
         .map_err(|d| {
-            anyhow::anyhow!(
-                "{}: {}",
-                input.display(),
-                d.to_string().replace(
-                    &format!("joint {}", d.joint),
-                    &format!("joint '{}'", model.joints[conf.free[d.joint]])
-                )
-            )
+            let joint = format!("'{}'", model.joints[conf.free[d.joint]]);
+            anyhow::anyhow!("{}: {}", input.display(), d.message(&joint))
         })?;
     let mut rng = Xorshift(opts.seed.max(1));
     let mut measure = |x: f64| {

@@ -49,7 +49,7 @@ fn run_identify(data: &Path, out: &Path) -> std::process::Output {
 }
 
 fn read_err(path: &Path) -> String {
-    Measurement::read_csv(path, 1).unwrap_err().to_string()
+    Measurement::read(path, 1).unwrap_err().to_string()
 }
 
 #[test]

@@ -7,7 +7,7 @@ use lockstep::plant::Plant;
 use std::path::Path;
 
 fn record(name: &str) -> Measurement {
-    Measurement::read_csv(
+    Measurement::read(
         &Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("data/emps")
             .join(name),
