@@ -163,16 +163,7 @@ fn parse_positions(s: &str) -> Result<PositionList, String> {
 }
 
 fn model_named(name: &str) -> Result<&'static generated::Model> {
-    generated::model(name).ok_or_else(|| {
-        anyhow::anyhow!(
-            "--model: unknown model '{name}' (generated models: {})",
-            generated::MODELS
-                .iter()
-                .map(|m| m.name)
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    })
+    crate::util::model(name).map_err(|e| anyhow::anyhow!("--model: {e}"))
 }
 
 /// Options shared by identify and compare.

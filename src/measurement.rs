@@ -382,7 +382,7 @@ impl Measurement {
             qd,
             tau_m,
         };
-        m.check_time()?;
+        check_sampling(&m.file, &m.t)?;
         Ok(m)
     }
 
@@ -410,10 +410,6 @@ impl Measurement {
             }
         }
         write_columns(path, &names, &cols)
-    }
-
-    fn check_time(&self) -> Result<(), DataError> {
-        check_sampling(&self.file, &self.t).map(|_| ())
     }
 }
 

@@ -147,16 +147,7 @@ impl Plant {
     /// # Errors
     /// Unknown model name.
     pub fn new(model: &str, effects: Vec<Effect>) -> Result<Plant> {
-        let m = generated::model(model).with_context(|| {
-            format!(
-                "unknown model '{model}' (generated models: {})",
-                generated::MODELS
-                    .iter()
-                    .map(|m| m.name)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        })?;
+        let m = crate::util::model(model)?;
         Ok(Plant {
             file: None,
             model: m,

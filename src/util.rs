@@ -59,6 +59,23 @@ pub fn toml_error(origin: &str, text: &str, e: &toml::de::Error) -> anyhow::Erro
     )
 }
 
+/// A generated model by name.
+///
+/// # Errors
+/// Unknown name (the generated models are listed).
+pub fn model(name: &str) -> Result<&'static generated::Model> {
+    generated::model(name).with_context(|| {
+        format!(
+            "unknown model '{name}' (generated models: {})",
+            generated::MODELS
+                .iter()
+                .map(|m| m.name)
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })
+}
+
 /// A configuration of `model` by name.
 ///
 /// # Errors

@@ -97,43 +97,23 @@ fn excite_then_simulate_makes_noisy_quantised_data_of_the_configuration() {
 fn excite_and_simulate_errors_name_the_item() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("x.csv");
-    let o = lockstep(&[
-        "excite",
-        "--model",
-        "freedom6s",
-        "--table",
-        "9.9",
-        "--config",
-        "k1",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    // `lockstep excite` on the Freedom 6S with these table/test/config arguments, into `out`.
+    let excite = |extra: &[&str]| {
+        let mut a = vec![
+            "excite",
+            "--model",
+            "freedom6s",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        a.extend_from_slice(extra);
+        lockstep(&a)
+    };
+    let o = excite(&["--table", "9.9", "--config", "k1"]);
     fails(&o, &["no table '9.9'", "4.3, 4.4, 4.5, 4.7, 4.9"]);
-    let o = lockstep(&[
-        "excite",
-        "--model",
-        "freedom6s",
-        "--table",
-        "4.4",
-        "--config",
-        "c1",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = excite(&["--table", "4.4", "--config", "c1"]);
     fails(&o, &["--test", "J4-1"]);
-    let o = lockstep(&[
-        "excite",
-        "--model",
-        "freedom6s",
-        "--table",
-        "4.4",
-        "--test",
-        "J0-1",
-        "--config",
-        "c1",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = excite(&["--table", "4.4", "--test", "J0-1", "--config", "c1"]);
     fails(&o, &["drives q0", "none of them free", "free: q4"]);
     assert!(!out.exists());
 
