@@ -3,9 +3,12 @@
 use crate::compare::{compare_torque, plot, write_residual_csv};
 use crate::identify::identifiability::{base_parameters, markdown, occurrence};
 use crate::identify::idim::{least_squares, observation, IdimOptions};
+use crate::identify::output_error::OutputErrorOptions;
+use crate::identify::sequence::SequenceOptions;
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::fit_table;
+use crate::simulation::Hold;
 use crate::util::write_atomic;
 use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};
@@ -32,12 +35,23 @@ pub enum Command {
         out: PathBuf,
     },
     /// Fit a plant's parameters to torque-measured data by IDIM-LS.
+    ///
+    /// `--method idim` (default): IDIM-LS on torque-measured data. `--method isolated` or
+    /// `coupled`: output-error fits along the model's locking sequence on the position
+    /// measurements in `--data` (files or directories), writing `plant.toml`, `report.md`
+    /// and `report.json` to `--out` (a directory) after every step.
     Identify {
         #[command(flatten)]
         common: Common,
-        /// Write the plant with the fitted values here.
+        /// Method: idim, isolated (thesis 4.2-4.3) or coupled (4.4).
+        #[arg(long, default_value = "idim")]
+        method: String,
+        /// IDIM: write the plant with the fitted values to this file. Output error: the
+        /// output directory (default lockstep-out/identify).
         #[arg(long)]
         out: Option<PathBuf>,
+        #[command(flatten)]
+        oe: OutputErrorArgs,
     },
     /// Compare a plant (with parameter values) with measurements: errors, residual CSV, plots.
     Compare {
@@ -175,9 +189,10 @@ pub struct Common {
     /// Measurement files (CSV or .mat; a side file <name>.toml may map the columns).
     #[arg(long, required = true, num_args = 1..)]
     pub data: Vec<PathBuf>,
-    /// Configuration (set of free joints) of the data.
-    #[arg(long, default_value = "full")]
-    pub config: String,
+    /// Configuration (set of free joints) of the data (IDIM and compare: default `full`);
+    /// with `--method isolated|coupled`, run this step of the sequence only.
+    #[arg(long)]
+    pub config: Option<String>,
     /// Cut-off of the zero-phase Butterworth on positions (Hz).
     #[arg(long, default_value_t = 100.0)]
     pub cutoff: f64,
@@ -216,6 +231,185 @@ impl Common {
     }
 }
 
+/// Settings of output-error identification (`identify --method isolated|coupled`).
+#[derive(Debug, Args)]
+pub struct OutputErrorArgs {
+    /// Cost: 4.2 (first half of each file weighted 1/2; isolated default) or 4.3 (skip the
+    /// first --skip samples; coupled default).
+    #[arg(long)]
+    pub cost: Option<String>,
+    /// Samples skipped at the start of each file under cost 4.3.
+    #[arg(long, default_value_t = 1000)]
+    pub skip: usize,
+    /// Joint weight of the joint(s) of interest (others 1).
+    #[arg(long, default_value_t = 50.0)]
+    pub weight: f64,
+    /// RK4 step (s); fractions such as 1/6000 accepted.
+    #[arg(long, default_value = "1/6000", value_parser = parse_number)]
+    pub step: f64,
+    /// Torque hold between samples: zoh or linear.
+    #[arg(long, default_value = "zoh")]
+    pub hold: String,
+    /// Starts per step: the plant's values, then random points inside the bounds (run in
+    /// parallel).
+    #[arg(long, default_value_t = 1)]
+    pub starts: usize,
+    /// Seed of the random starts.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Stop when the relative parameter step is below this (thesis 2e-6).
+    #[arg(long, default_value_t = 2e-6)]
+    pub xtol: f64,
+    /// Stop when the relative cost decrease is below this.
+    #[arg(long, default_value_t = 1e-6)]
+    pub ftol: f64,
+    /// Most iterations per start.
+    #[arg(long, default_value_t = 100)]
+    pub max_iter: usize,
+    /// Growing horizons: fit on these fractions of every file in turn, each stage starting
+    /// where the last ended; the last must be 1 (`--horizons 1`: the whole files at once).
+    #[arg(long, default_value = "0.05,0.1,0.25,0.5,1", value_delimiter = ',')]
+    pub horizons: Vec<f64>,
+    /// Largest motion (rad) allowed of a locked joint in a file.
+    #[arg(long, default_value_t = 0.01)]
+    pub locked_tolerance: f64,
+}
+
+impl OutputErrorArgs {
+    fn options(&self, method: &str) -> Result<OutputErrorOptions> {
+        use crate::identify::output_error::TimeWeighting;
+        let weighting =
+            match self
+                .cost
+                .as_deref()
+                .unwrap_or(if method == "isolated" { "4.2" } else { "4.3" })
+            {
+                "4.2" => TimeWeighting::HalfFirst,
+                "4.3" => TimeWeighting::SkipTransient(self.skip),
+                other => bail!("--cost: expected 4.2 or 4.3, got '{other}'"),
+            };
+        if !(self.step > 0.0 && self.step.is_finite()) {
+            bail!(
+                "--step: expected a positive step in seconds, got {}",
+                self.step
+            );
+        }
+        if !(self.weight > 0.0 && self.weight.is_finite()) {
+            bail!("--weight: expected a positive weight, got {}", self.weight);
+        }
+        if self.starts == 0 || self.max_iter == 0 {
+            bail!("--starts and --max-iter must be at least 1");
+        }
+        if !(self.xtol > 0.0 && self.ftol > 0.0) {
+            bail!("--xtol and --ftol must be positive");
+        }
+        if self.horizons.last() != Some(&1.0)
+            || self.horizons.iter().any(|&h| !(h > 0.0 && h <= 1.0))
+        {
+            bail!(
+                "--horizons: expected increasing fractions in (0, 1] ending with 1, got {:?}",
+                self.horizons
+            );
+        }
+        let hold = match self.hold.as_str() {
+            "zoh" => Hold::Zoh,
+            "linear" => Hold::Linear,
+            other => bail!("--hold: expected zoh or linear, got '{other}'"),
+        };
+        Ok(OutputErrorOptions {
+            weighting,
+            interest_weight: self.weight,
+            h: self.step,
+            hold,
+            xtol: self.xtol,
+            ftol: self.ftol,
+            max_iter: self.max_iter,
+            starts: self.starts,
+            seed: self.seed,
+            horizons: self.horizons.clone(),
+            ..OutputErrorOptions::default()
+        })
+    }
+}
+
+/// Output-error identification along a locking sequence, with a progress line.
+fn identify_sequence(
+    common: &Common,
+    method: &str,
+    out: Option<PathBuf>,
+    oe: &OutputErrorArgs,
+) -> Result<()> {
+    let plant = Plant::load(&common.plant)?;
+    let opts = SequenceOptions {
+        sequence: method.to_string(),
+        only: common.config.clone(),
+        fit: oe.options(method)?,
+        locked_tolerance: oe.locked_tolerance,
+        out: out.unwrap_or_else(|| PathBuf::from("lockstep-out/identify")),
+    };
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
+    // Without a terminal (logs, CI) one line per iteration instead of a spinner.
+    let plain = bar.is_hidden();
+    let last = std::sync::Mutex::new((String::new(), usize::MAX));
+    let report = crate::identify::sequence::run(&plant, &common.data, &opts, &|step, p| {
+        let msg = format!(
+            "{step} · start {}/{} · horizon {:.0} % · iteration {} · {} evaluations · cost {:.4e} · {:.0} s",
+            p.start + 1,
+            p.starts,
+            100.0 * p.horizon,
+            p.iteration,
+            p.evaluations,
+            p.cost,
+            p.elapsed
+        );
+        if plain {
+            let mut l = last.lock().unwrap_or_else(|e| e.into_inner());
+            if l.0 != step || l.1 != p.iteration {
+                *l = (step.to_string(), p.iteration);
+                eprintln!("{msg}");
+            }
+        } else {
+            bar.set_message(msg);
+        }
+    });
+    bar.finish_and_clear();
+    let report = report?;
+    for i in &report.ignored {
+        eprintln!("note: not used: {i}");
+    }
+    println!(
+        "{:<6} {:>6} {:>12} {:>12} {:>9} {:>8} {:>6}  fit % per joint",
+        "step", "params", "cost before", "cost after", "wall s", "evals", "ident."
+    );
+    for s in &report.steps {
+        let f = &s.fit;
+        println!(
+            "{:<6} {:>6} {:>12.4e} {:>12.4e} {:>9.1} {:>8} {:>6}  {}",
+            s.step.config,
+            f.names.len(),
+            f.cost_before,
+            f.cost_after,
+            f.wall_s,
+            f.evaluations,
+            f.statistics.identifiable.iter().filter(|&&x| x).count(),
+            f.statistics
+                .joints
+                .iter()
+                .map(|j| format!("{} {:.2}", j.joint, j.nrmse_fit))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    println!(
+        "wrote {}, {} and {}",
+        opts.out.join("plant.toml").display(),
+        opts.out.join("report.md").display(),
+        opts.out.join("report.json").display()
+    );
+    Ok(())
+}
+
 /// Run a parsed command line.
 ///
 /// # Errors
@@ -227,13 +421,24 @@ pub fn run(cli: Cli) -> Result<()> {
             print!("{}", r.text);
             println!("\nOutputs (plant files, residual CSVs, plots as PNG and SVG, summary.txt) are in {}", r.out.display());
         }
-        Command::Identify { common, out } => {
+        Command::Identify {
+            common,
+            method,
+            out,
+            oe,
+        } => {
+            match method.as_str() {
+                "idim" => {}
+                "isolated" | "coupled" => return identify_sequence(&common, &method, out, &oe),
+                other => bail!("--method: expected idim, isolated or coupled, got '{other}'"),
+            }
+            let config = common.config.as_deref().unwrap_or("full");
             let (mut plant, records, opts) = common.load()?;
-            let fit = least_squares(&observation(&plant, &common.config, &records, &opts)?)?;
+            let fit = least_squares(&observation(&plant, config, &records, &opts)?)?;
             println!(
                 "IDIM-LS, plant {}, configuration {}, {} record(s)",
                 common.plant.display(),
-                common.config,
+                config,
                 records.len()
             );
             print!("{}", fit_table(&fit));
@@ -245,7 +450,8 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         Command::Compare { common, out } => {
             let (plant, records, opts) = common.load()?;
-            let cmps = compare_torque(&plant, &common.config, &records, &opts)?;
+            let config = common.config.as_deref().unwrap_or("full");
+            let cmps = compare_torque(&plant, config, &records, &opts)?;
             println!(
                 "{:<28} {:<6} {:>10} {:>12} {:>12} {:>10} {:>12}",
                 "record", "joint", "error %", "RMSE", "max |e|", "at t (s)", "at qd"

@@ -1,0 +1,1082 @@
+//! Output-error identification (thesis 4.1–4.4): simulate the plant on the measured
+//! torques of every file of a configuration and fit parameters so that the simulated
+//! positions match the measured ones.
+//!
+//! Cost (4.2) / (4.3): J(p) = Σ_files Σ_{a ∈ F} Σ_k w_k (λ_a (y_a,k − ŷ_a,k(p)))², with the
+//! time weighting w_k of [`TimeWeighting`] and joint weights λ_a (λ = 50 for the joint of
+//! interest, 1 for the joints already identified; DESIGN.md §3). Bounds on every fitted
+//! parameter and Fs ≥ Fc (4.1) hold at every trial point: the optimiser works on
+//! u ∈ [0, 1]ⁿ with p = lo + u (hi − lo), and a fitted Stribeck level as
+//! Fs = max(Fc, lo_Fs) + u (hi_Fs − max(Fc, lo_Fs)).
+//!
+//! Optimiser: bounded Levenberg–Marquardt (MINPACK/CMPFIT, crate `rmpfit`) with the
+//! Jacobian by forward finite differences, one simulation per column, run in parallel
+//! (rayon). Standard errors from the Jacobian at the solution, correlations above 0.95
+//! flagged, NRMSE fit per joint as MATLAB's `compare`.
+
+use crate::plant::{ConsistencyPolicy, Plant};
+use crate::simulation::{Hold, InputSignal, State, Trajectory};
+use anyhow::{bail, Result};
+use generated::Configuration;
+use nalgebra::DMatrix;
+use rayon::prelude::*;
+use rmpfit::{MPConfig, MPError, MPFitter, MPMaxFev, MPPar, MPResult, MPSide};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Time weighting of the output-error cost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum TimeWeighting {
+    /// Cost (4.2): samples in the first half of each file weighted ½, the rest 1.
+    HalfFirst,
+    /// Cost (4.3): the first `n` samples of each file skipped (transient), the rest 1.
+    SkipTransient(usize),
+}
+
+impl TimeWeighting {
+    /// Weight w_k of sample `k` of `n`.
+    pub fn weight(self, k: usize, n: usize) -> f64 {
+        match self {
+            TimeWeighting::HalfFirst => {
+                if 2 * k < n {
+                    0.5
+                } else {
+                    1.0
+                }
+            }
+            TimeWeighting::SkipTransient(s) => {
+                if k < s {
+                    0.0
+                } else {
+                    1.0
+                }
+            }
+        }
+    }
+}
+
+/// Settings of an output-error fit.
+#[derive(Debug, Clone, Serialize)]
+pub struct OutputErrorOptions {
+    /// Time weighting (cost 4.2 or 4.3).
+    pub weighting: TimeWeighting,
+    /// Joint weight λ of the joint(s) of interest (thesis: 50); others 1.
+    pub interest_weight: f64,
+    /// RK4 step (s); the thesis uses 1/6000 s for the coupled method.
+    pub h: f64,
+    /// Hold of the measured torques between samples.
+    #[serde(skip)]
+    pub hold: Hold,
+    /// Divergence bound on |q̇| (rad/s).
+    pub max_speed: f64,
+    /// Stop when the relative step in the scaled parameters is below this (thesis: 2e-6).
+    pub xtol: f64,
+    /// Stop when the relative cost decrease of a step is below this.
+    pub ftol: f64,
+    /// Most Levenberg–Marquardt iterations per start.
+    pub max_iter: usize,
+    /// Starts: the plant's current values, then `starts − 1` random points in the bounds.
+    pub starts: usize,
+    /// Seed of the random starts.
+    pub seed: u64,
+    /// Finite-difference step in the scaled parameters (fraction of the bound width).
+    pub fd_step: f64,
+    /// Growing horizons: the fit runs on the first fraction of every file's weighted
+    /// samples, then on longer ones, each stage starting where the last ended (a long
+    /// output-error horizon has local minima that a short one does not; the last entry
+    /// must be 1).
+    pub horizons: Vec<f64>,
+}
+
+impl Default for OutputErrorOptions {
+    fn default() -> Self {
+        OutputErrorOptions {
+            weighting: TimeWeighting::SkipTransient(1000),
+            interest_weight: 50.0,
+            h: 1.0 / 6000.0,
+            hold: Hold::Zoh,
+            max_speed: 100.0,
+            xtol: 2e-6,
+            ftol: 1e-6,
+            max_iter: 100,
+            starts: 1,
+            seed: 1,
+            fd_step: 1e-6,
+            horizons: vec![0.05, 0.1, 0.25, 0.5, 1.0],
+        }
+    }
+}
+
+/// One measurement file prepared for a configuration.
+#[derive(Debug, Clone)]
+pub struct Record {
+    /// The file.
+    pub file: PathBuf,
+    /// Sample times (s), evenly spaced.
+    pub t: Vec<f64>,
+    /// Sampling period (s).
+    pub dt: f64,
+    /// Commanded torque per free joint (NF × samples, N·m).
+    pub tau: Vec<Vec<f64>>,
+    /// Measured position per free joint (NF × samples, rad).
+    pub q: Vec<Vec<f64>>,
+    /// All joint positions (NJ): the locked joints' positions and the free joints' start
+    /// (the first measured sample; the plant starts at rest with z = 0).
+    pub q_all: Vec<f64>,
+}
+
+/// Progress of a running fit, for a display.
+#[derive(Debug, Clone, Copy)]
+pub struct Progress {
+    /// Start index (0 = the plant's values).
+    pub start: usize,
+    /// Number of starts.
+    pub starts: usize,
+    /// Jacobians computed so far (≈ iterations).
+    pub iteration: usize,
+    /// Cost evaluations (simulations of all files) so far.
+    pub evaluations: usize,
+    /// Fraction of the files' weighted samples in the current stage (growing horizons).
+    pub horizon: f64,
+    /// Lowest cost seen in this stage of this start.
+    pub cost: f64,
+    /// Seconds since the fit started.
+    pub elapsed: f64,
+}
+
+/// The fit problem of one configuration: which parameters, within which bounds, on which
+/// files, with which weights.
+pub struct Problem {
+    plant: Plant,
+    conf: &'static Configuration,
+    /// Fitted parameter names.
+    pub names: Vec<String>,
+    /// Lower bounds (physical units).
+    pub lower: Vec<f64>,
+    /// Upper bounds.
+    pub upper: Vec<f64>,
+    /// (Fc, Fs) index pairs within `names` under Fs ≥ Fc.
+    pairs: Vec<(usize, usize)>,
+    /// The files.
+    pub records: Vec<Record>,
+    /// Joint weights λ per free joint.
+    pub lambda: Vec<f64>,
+    /// √w_k per record and sample.
+    sqrt_w: Vec<Vec<f64>>,
+    /// Number of residuals.
+    m: usize,
+    options: OutputErrorOptions,
+}
+
+/// A failed simulation at a trial point.
+#[derive(Debug, Clone)]
+pub struct TrialFailure(pub String);
+
+impl Problem {
+    /// Set up the fit of `names` of `plant` in configuration `conf` on `records`, with
+    /// weight λ = `options.interest_weight` on the free joints listed in `interest`.
+    ///
+    /// # Errors
+    /// No records; a fitted parameter without value or bounds, with lower ≥ upper, or with
+    /// its value outside its bounds; Fs ≥ Fc infeasible within the bounds (all named).
+    pub fn new(
+        plant: &Plant,
+        conf: &'static Configuration,
+        names: Vec<String>,
+        records: Vec<Record>,
+        interest: &[usize],
+        options: OutputErrorOptions,
+    ) -> Result<Problem> {
+        if records.is_empty() {
+            bail!("configuration '{}': no measurement files", conf.name);
+        }
+        let pname = plant
+            .file
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|| "plant".into());
+        let mut lower = Vec::new();
+        let mut upper = Vec::new();
+        for n in &names {
+            let v = plant.value(n)?;
+            let Some(&(lo, hi)) = plant.bounds.get(n) else {
+                bail!("{pname}: parameter '{n}' is fitted in configuration '{}' but has no bounds (add `{n} = [lower, upper]` under [bounds])", conf.name);
+            };
+            if lo >= hi {
+                bail!("{pname}: bounds of '{n}' are [{lo}, {hi}]: lower must be below upper for a fitted parameter");
+            }
+            if !(lo..=hi).contains(&v) {
+                bail!("{pname}: '{n}' = {v} is outside its bounds [{lo}, {hi}]");
+            }
+            lower.push(lo);
+            upper.push(hi);
+        }
+        // Fs ≥ Fc per joint (4.1): both fitted → mapped pair; one fitted → a bound.
+        let mut pairs = Vec::new();
+        for (i, n) in names.iter().enumerate() {
+            let Some(j) = n.strip_prefix("Fc_") else {
+                continue;
+            };
+            let fs = format!("Fs_{j}");
+            match names.iter().position(|x| *x == fs) {
+                Some(k) => {
+                    upper[i] = upper[i].min(upper[k]);
+                    if upper[i] < lower[i] {
+                        bail!(
+                            "{pname}: Fs_{j} ≥ Fc_{j} cannot hold: Fs_{j} ≤ {} but Fc_{j} ≥ {}",
+                            upper[k],
+                            lower[i]
+                        );
+                    }
+                    pairs.push((i, k));
+                }
+                None => {
+                    if let Ok(fs_v) = plant.value(&fs) {
+                        upper[i] = upper[i].min(fs_v);
+                        if upper[i] < lower[i] {
+                            bail!("{pname}: Fs_{j} = {fs_v} (fixed) is below the lower bound {} of Fc_{j}", lower[i]);
+                        }
+                    }
+                }
+            }
+        }
+        for (k, n) in names.iter().enumerate() {
+            let Some(j) = n.strip_prefix("Fs_") else {
+                continue;
+            };
+            let fc = format!("Fc_{j}");
+            if !names.contains(&fc) {
+                if let Ok(fc_v) = plant.value(&fc) {
+                    lower[k] = lower[k].max(fc_v);
+                    if upper[k] < lower[k] {
+                        bail!("{pname}: Fc_{j} = {fc_v} (fixed) is above the upper bound {} of Fs_{j}", upper[k]);
+                    }
+                }
+            }
+        }
+        let nf = conf.free.len();
+        let lambda: Vec<f64> = conf
+            .free
+            .iter()
+            .map(|j| {
+                if interest.contains(j) {
+                    options.interest_weight
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let sqrt_w: Vec<Vec<f64>> = records
+            .iter()
+            .map(|r| {
+                let n = r.t.len();
+                (0..n)
+                    .map(|k| options.weighting.weight(k, n).sqrt())
+                    .collect()
+            })
+            .collect();
+        let m = sqrt_w
+            .iter()
+            .map(|w| w.iter().filter(|&&x| x > 0.0).count() * nf)
+            .sum();
+        if m <= names.len() {
+            bail!(
+                "configuration '{}': {m} weighted samples for {} parameters (the transient skip leaves too little data)",
+                conf.name,
+                names.len()
+            );
+        }
+        Ok(Problem {
+            plant: plant.clone(),
+            conf,
+            names,
+            lower,
+            upper,
+            pairs,
+            records,
+            lambda,
+            sqrt_w,
+            m,
+            options,
+        })
+    }
+
+    /// The same problem on the first samples of every file: the skipped transient plus
+    /// `fraction` of the weighted samples.
+    fn truncated(&self, fraction: f64) -> Problem {
+        let mut records = Vec::with_capacity(self.records.len());
+        let mut sqrt_w = Vec::with_capacity(self.records.len());
+        for (r, w) in self.records.iter().zip(&self.sqrt_w) {
+            let first = w.iter().position(|&x| x > 0.0).unwrap_or(0);
+            let n = r.t.len();
+            let keep =
+                (first + ((n - first) as f64 * fraction).ceil() as usize).clamp(first + 2, n);
+            let mut rr = r.clone();
+            rr.t.truncate(keep);
+            for c in rr.tau.iter_mut().chain(rr.q.iter_mut()) {
+                c.truncate(keep);
+            }
+            records.push(rr);
+            sqrt_w.push(w[..keep].to_vec());
+        }
+        let m = sqrt_w
+            .iter()
+            .map(|w| w.iter().filter(|&&x| x > 0.0).count() * self.lambda.len())
+            .sum();
+        Problem {
+            plant: self.plant.clone(),
+            conf: self.conf,
+            names: self.names.clone(),
+            lower: self.lower.clone(),
+            upper: self.upper.clone(),
+            pairs: self.pairs.clone(),
+            records,
+            lambda: self.lambda.clone(),
+            sqrt_w,
+            m,
+            options: self.options.clone(),
+        }
+    }
+
+    /// Number of residuals.
+    pub fn residual_count(&self) -> usize {
+        self.m
+    }
+
+    /// The options.
+    pub fn options(&self) -> &OutputErrorOptions {
+        &self.options
+    }
+
+    /// The configuration.
+    pub fn configuration(&self) -> &'static Configuration {
+        self.conf
+    }
+
+    /// Physical parameters from scaled ones (u ∈ [0, 1]ⁿ).
+    pub fn to_physical(&self, u: &[f64]) -> Vec<f64> {
+        let mut p: Vec<f64> = (0..u.len())
+            .map(|i| self.lower[i] + u[i].clamp(0.0, 1.0) * (self.upper[i] - self.lower[i]))
+            .collect();
+        for &(c, s) in &self.pairs {
+            let lo = p[c].max(self.lower[s]);
+            p[s] = lo + u[s].clamp(0.0, 1.0) * (self.upper[s] - lo).max(0.0);
+        }
+        p
+    }
+
+    /// Scaled parameters of physical ones (clamped into the feasible set).
+    pub fn to_scaled(&self, p: &[f64]) -> Vec<f64> {
+        let mut u: Vec<f64> = (0..p.len())
+            .map(|i| ((p[i] - self.lower[i]) / (self.upper[i] - self.lower[i])).clamp(0.0, 1.0))
+            .collect();
+        for &(c, s) in &self.pairs {
+            let pc = self.lower[c] + u[c] * (self.upper[c] - self.lower[c]);
+            let lo = pc.max(self.lower[s]);
+            let w = self.upper[s] - lo;
+            u[s] = if w > 0.0 {
+                ((p[s] - lo) / w).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+        }
+        u
+    }
+
+    /// The plant with the fitted parameters set to `p`.
+    pub fn plant_at(&self, p: &[f64]) -> Plant {
+        let mut plant = self.plant.clone();
+        for (n, &v) in self.names.iter().zip(p) {
+            plant.parameters.insert(n.clone(), v);
+        }
+        plant
+    }
+
+    /// Simulate record `r` with physical parameters `p`.
+    ///
+    /// # Errors
+    /// The plant cannot be configured or the simulation diverges (message with the file).
+    pub fn simulate(&self, plant: &Plant, r: &Record) -> Result<Trajectory, TrialFailure> {
+        let fail = |e: String| TrialFailure(format!("{}: {e}", r.file.display()));
+        let sim = plant
+            .simulator(self.conf.name, &r.q_all, ConsistencyPolicy::Warn)
+            .map_err(|e| fail(format!("{e:#}")))?;
+        let x0 = State::at_rest(self.conf.free.iter().map(|&j| r.q_all[j]).collect());
+        let input = InputSignal {
+            t0: r.t[0],
+            dt: r.dt,
+            tau: &r.tau,
+            hold: self.options.hold,
+        };
+        sim.model
+            .simulate_at(x0, self.options.h, &input, &r.t, self.options.max_speed)
+            .map_err(|d| {
+                let j = plant.model.joints[self.conf.free[d.joint]];
+                fail(d.message(&format!("'{j}'")))
+            })
+    }
+
+    /// Weighted residuals √w_k λ_a (y − ŷ) of one record into `out`.
+    fn record_residuals(&self, ri: usize, traj: &Trajectory, out: &mut [f64]) {
+        let r = &self.records[ri];
+        let mut i = 0;
+        for (a, lam) in self.lambda.iter().enumerate() {
+            for (k, &sw) in self.sqrt_w[ri].iter().enumerate() {
+                if sw > 0.0 {
+                    out[i] = sw * lam * (r.q[a][k] - traj.q[a][k]);
+                    i += 1;
+                }
+            }
+        }
+    }
+
+    fn record_len(&self, ri: usize) -> usize {
+        self.sqrt_w[ri].iter().filter(|&&x| x > 0.0).count() * self.lambda.len()
+    }
+
+    /// Residual vector (length [`Problem::residual_count`]) at physical parameters `p`,
+    /// files simulated in parallel.
+    ///
+    /// # Errors
+    /// The first failing file's simulation.
+    pub fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
+        let plant = self.plant_at(p);
+        let parts: Vec<Result<Vec<f64>, TrialFailure>> = (0..self.records.len())
+            .into_par_iter()
+            .map(|ri| {
+                let traj = self.simulate(&plant, &self.records[ri])?;
+                let mut out = vec![0.0; self.record_len(ri)];
+                self.record_residuals(ri, &traj, &mut out);
+                Ok(out)
+            })
+            .collect();
+        let mut r = Vec::with_capacity(self.m);
+        for part in parts {
+            r.extend(part?);
+        }
+        Ok(r)
+    }
+
+    /// Forward-difference Jacobian ∂r/∂x (m × n, column-major columns) at `x` where
+    /// `p_of(x)` gives the physical parameters, `steps[i]` the step of column i (the sign
+    /// chosen by the caller to stay in the feasible set); all columns simulated in parallel.
+    /// A column whose simulation fails is retried with the opposite step, then left zero.
+    fn jacobian_columns(
+        &self,
+        x: &[f64],
+        r0: &[f64],
+        steps: &[f64],
+        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+    ) -> Vec<Vec<f64>> {
+        (0..x.len())
+            .into_par_iter()
+            .map(|i| {
+                for s in [steps[i], -steps[i]] {
+                    let mut xi = x.to_vec();
+                    xi[i] += s;
+                    if let Ok(ri) = self.residuals(&p_of(&xi)) {
+                        return ri.iter().zip(r0).map(|(a, b)| (a - b) / s).collect();
+                    }
+                }
+                vec![0.0; r0.len()]
+            })
+            .collect()
+    }
+
+    /// Σ r² at `p`, or +∞ where the simulation fails.
+    pub fn cost(&self, p: &[f64]) -> f64 {
+        self.residuals(p)
+            .map(|r| r.iter().map(|x| x * x).sum())
+            .unwrap_or(f64::INFINITY)
+    }
+
+    /// Fit from the plant's values and `options.starts − 1` random starts (in parallel),
+    /// keeping the lowest cost. `progress` is called after every cost evaluation.
+    ///
+    /// # Errors
+    /// Every start fails (the start's simulation diverges, or the optimiser reports an
+    /// input error); the message names the first failure.
+    pub fn fit(&self, progress: &(dyn Fn(Progress) + Sync)) -> Result<FitResult> {
+        let started = Instant::now();
+        let n = self.names.len();
+        let p0: Vec<f64> = self
+            .names
+            .iter()
+            .map(|k| self.plant.parameters[k])
+            .collect();
+        let mut rng = generated::inertia::Xorshift(self.options.seed.max(1));
+        let starts: Vec<Vec<f64>> = (0..self.options.starts.max(1))
+            .map(|s| {
+                if s == 0 {
+                    self.to_scaled(&p0)
+                } else {
+                    (0..n).map(|_| rng.uniform(0.0, 1.0)).collect()
+                }
+            })
+            .collect();
+        let cost_before = self.cost(&p0);
+        let evaluations = AtomicUsize::new(0);
+        let jacobians = AtomicUsize::new(0);
+        let nstarts = starts.len();
+        let runs: Vec<StartRun> = starts
+            .into_par_iter()
+            .enumerate()
+            .map(|(s, u0)| {
+                let mut u = u0.clone();
+                let start_cost = self.cost(&self.to_physical(&u0));
+                if !start_cost.is_finite() {
+                    let why = self
+                        .residuals(&self.to_physical(&u0))
+                        .err()
+                        .map(|e| e.0)
+                        .unwrap_or_default();
+                    return StartRun {
+                        start: s,
+                        u,
+                        start_cost,
+                        cost: f64::INFINITY,
+                        iterations: 0,
+                        status: format!("the start cannot be simulated: {why}"),
+                    };
+                }
+                let mut iterations = 0;
+                let mut status = String::new();
+                for &frac in &self.options.horizons {
+                    let staged;
+                    let problem = if frac < 1.0 {
+                        staged = self.truncated(frac);
+                        &staged
+                    } else {
+                        self
+                    };
+                    let mut fitter = Fitter {
+                        problem,
+                        start: s,
+                        starts: nstarts,
+                        evaluations: &evaluations,
+                        jacobians: &jacobians,
+                        best: f64::INFINITY,
+                        horizon: frac,
+                        started,
+                        progress,
+                        cache: None,
+                        failures: 0,
+                        config: MPConfig {
+                            xtol: self.options.xtol,
+                            ftol: self.options.ftol,
+                            gtol: 1e-10,
+                            max_iter: self.options.max_iter,
+                            max_fev: MPMaxFev::Limited(20 * self.options.max_iter.max(1)),
+                            ..MPConfig::new()
+                        },
+                        pars: (0..n)
+                            .map(|_| MPPar {
+                                limited_low: true,
+                                limited_up: true,
+                                limit_low: 0.0,
+                                limit_up: 1.0,
+                                side: MPSide::User,
+                                ..MPPar::new()
+                            })
+                            .collect(),
+                        start_cost: problem.cost(&problem.to_physical(&u)),
+                    };
+                    if !fitter.start_cost.is_finite() {
+                        status = format!("horizon {frac}: the stage's start cannot be simulated");
+                        break;
+                    }
+                    match fitter.mpfit(&mut u) {
+                        Ok(st) => {
+                            iterations += st.n_iter;
+                            status = format!("{:?}", st.success);
+                        }
+                        Err(MPError::Eval) => {
+                            status = "stopped: a simulation failed".into();
+                            break;
+                        }
+                        Err(e) => {
+                            status = format!("optimiser error: {e:?}");
+                            break;
+                        }
+                    }
+                }
+                let cost = self.cost(&self.to_physical(&u));
+                StartRun {
+                    start: s,
+                    u,
+                    start_cost,
+                    cost,
+                    iterations,
+                    status,
+                }
+            })
+            .collect();
+        let best = runs
+            .iter()
+            .filter(|r| r.cost.is_finite())
+            .min_by(|a, b| a.cost.total_cmp(&b.cost))
+            .cloned();
+        let Some(best) = best else {
+            bail!(
+                "configuration '{}': no start could be fitted: {}",
+                self.conf.name,
+                runs[0].status
+            );
+        };
+        let p = self.to_physical(&best.u);
+        let stats = self.statistics(&p, &p0)?;
+        Ok(FitResult {
+            configuration: self.conf.name.to_string(),
+            names: self.names.clone(),
+            initial: p0,
+            fitted: p,
+            lower: self.lower.clone(),
+            upper: self.upper.clone(),
+            cost_before,
+            cost_after: best.cost,
+            statistics: stats,
+            starts: runs
+                .iter()
+                .map(|r| StartSummary {
+                    start: r.start,
+                    start_cost: r.start_cost,
+                    cost: r.cost,
+                    iterations: r.iterations,
+                    status: r.status.clone(),
+                })
+                .collect(),
+            best_start: best.start,
+            evaluations: evaluations.load(Ordering::Relaxed),
+            jacobians: jacobians.load(Ordering::Relaxed),
+            wall_s: started.elapsed().as_secs_f64(),
+            residuals: self.m,
+            files: self.records.iter().map(|r| r.file.clone()).collect(),
+        })
+    }
+
+    /// Standard errors, correlations and fit figures at physical parameters `p`.
+    ///
+    /// Covariance of the weighted least-squares estimate with per-joint noise variances
+    /// s_a² (estimated from that joint's residuals): cov = (JᵀJ)⁻¹ Jᵀ Σ J (JᵀJ)⁻¹,
+    /// Σ = diag(w_k λ_a² s_a²), J = ∂r/∂p by forward differences (step 1e-6 of the bound
+    /// width, away from the nearer bound).
+    ///
+    /// # Errors
+    /// The simulation at `p` fails.
+    pub fn statistics(&self, p: &[f64], p0: &[f64]) -> Result<Statistics> {
+        let r = self
+            .residuals(p)
+            .map_err(|e| anyhow::anyhow!("at the fitted values: {}", e.0))?;
+        let n = p.len();
+        let steps: Vec<f64> = (0..n)
+            .map(|i| {
+                let w = self.upper[i] - self.lower[i];
+                let s = self.options.fd_step * w;
+                if p[i] + s > self.upper[i] {
+                    -s
+                } else {
+                    s
+                }
+            })
+            .collect();
+        let cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec());
+        let m = r.len();
+        // Per-joint noise variance and the diagonal of Σ.
+        let nf = self.lambda.len();
+        let mut sigma = vec![0.0; m];
+        let mut var = vec![0.0; nf];
+        let mut cnt = vec![0usize; nf];
+        let mut i = 0;
+        let mut owner = vec![0usize; m];
+        for ri in 0..self.records.len() {
+            for a in 0..nf {
+                for &sw in &self.sqrt_w[ri] {
+                    if sw > 0.0 {
+                        let e = r[i] / (sw * self.lambda[a]);
+                        var[a] += e * e;
+                        cnt[a] += 1;
+                        owner[i] = a;
+                        sigma[i] = sw * sw * self.lambda[a] * self.lambda[a];
+                        i += 1;
+                    }
+                }
+            }
+        }
+        for a in 0..nf {
+            var[a] /= (cnt[a].max(1)) as f64;
+        }
+        for k in 0..m {
+            sigma[k] *= var[owner[k]] * m as f64 / (m - n) as f64;
+        }
+        // Columns scaled to unit norm; a zero column (the parameter changes no output)
+        // stays zero and gets an infinite standard error.
+        let norms: Vec<f64> = cols
+            .iter()
+            .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
+            .collect();
+        let cols: Vec<Vec<f64>> = cols
+            .iter()
+            .zip(&norms)
+            .map(|(c, &nrm)| {
+                if nrm > 0.0 && nrm.is_finite() {
+                    c.iter().map(|x| x / nrm).collect()
+                } else {
+                    vec![0.0; c.len()]
+                }
+            })
+            .collect();
+        let mut a = DMatrix::zeros(n, n);
+        let mut b = DMatrix::zeros(n, n);
+        for i in 0..n {
+            for j in i..n {
+                let (mut s, mut t) = (0.0, 0.0);
+                for k in 0..m {
+                    let x = cols[i][k] * cols[j][k];
+                    s += x;
+                    t += x * sigma[k];
+                }
+                a[(i, j)] = s;
+                a[(j, i)] = s;
+                b[(i, j)] = t;
+                b[(j, i)] = t;
+            }
+        }
+        if !(a.iter().all(|x| x.is_finite()) && b.iter().all(|x| x.is_finite())) {
+            bail!("the Jacobian at the fitted values is not finite");
+        }
+        let svd = a.clone().svd(true, true);
+        let smax = svd.singular_values.max();
+        let condition = smax / svd.singular_values.min().max(1e-300);
+        // Directions at rounding level (below 1e-15 of the largest singular value) are not
+        // determined by the data: truncated, and the parameters along them reported with
+        // infinite error. Anything above is inverted, so a near-symmetry (such as the plant
+        // gain against everything it multiplies) shows as large errors and correlations.
+        let cutoff = smax * 1e-15;
+        let ainv = svd
+            .clone()
+            .pseudo_inverse(cutoff)
+            .unwrap_or_else(|_| DMatrix::from_element(n, n, f64::NAN));
+        let mut undetermined = vec![false; n];
+        if let Some(v_t) = &svd.v_t {
+            for (k, &sv) in svd.singular_values.iter().enumerate() {
+                if sv <= cutoff {
+                    for i in 0..n {
+                        if v_t[(k, i)].abs() > 0.1 {
+                            undetermined[i] = true;
+                        }
+                    }
+                }
+            }
+        }
+        let cov_scaled = &ainv * b * &ainv;
+        let mut std_err = vec![0.0; n];
+        for i in 0..n {
+            std_err[i] = if norms[i] > 0.0 && !undetermined[i] {
+                cov_scaled[(i, i)].max(0.0).sqrt() / norms[i]
+            } else {
+                f64::INFINITY
+            };
+        }
+        let mut correlation = vec![vec![0.0; n]; n];
+        let mut correlated = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let d = (cov_scaled[(i, i)] * cov_scaled[(j, j)]).sqrt();
+                correlation[i][j] = if i == j {
+                    1.0
+                } else if d > 0.0 && d.is_finite() {
+                    (cov_scaled[(i, j)] / d).clamp(-1.0, 1.0)
+                } else {
+                    0.0
+                };
+                if j > i && correlation[i][j].abs() > CORRELATION_LIMIT {
+                    correlated.push((
+                        self.names[i].clone(),
+                        self.names[j].clone(),
+                        correlation[i][j],
+                    ));
+                }
+            }
+        }
+        let at_bound: Vec<bool> = (0..n)
+            .map(|i| {
+                let w = self.upper[i] - self.lower[i];
+                (p[i] - self.lower[i]).abs() < 1e-4 * w || (self.upper[i] - p[i]).abs() < 1e-4 * w
+            })
+            .collect();
+        let relative: Vec<f64> = (0..n)
+            .map(|i| std_err[i] / p[i].abs().max(1e-300))
+            .collect();
+        let identifiable: Vec<bool> = (0..n)
+            .map(|i| {
+                relative[i].is_finite()
+                    && relative[i] <= RELATIVE_STD_LIMIT
+                    && !at_bound[i]
+                    && (0..n).all(|j| j == i || correlation[i][j].abs() <= CORRELATION_LIMIT)
+            })
+            .collect();
+        let _ = p0;
+        // Fit per joint over all samples (unweighted), as MATLAB's compare.
+        let plant = self.plant_at(p);
+        let mut joint = vec![JointFit::default(); nf];
+        for rec in &self.records {
+            let traj = self
+                .simulate(&plant, rec)
+                .map_err(|e| anyhow::anyhow!("{}", e.0))?;
+            for a in 0..nf {
+                let y = &rec.q[a];
+                let mean = y.iter().sum::<f64>() / y.len() as f64;
+                for k in 0..y.len() {
+                    let e = y[k] - traj.q[a][k];
+                    joint[a].sse += e * e;
+                    joint[a].sst += (y[k] - mean) * (y[k] - mean);
+                    joint[a].n += 1;
+                    if e.abs() > joint[a].max_abs {
+                        joint[a].max_abs = e.abs();
+                    }
+                }
+            }
+        }
+        for (a, jf) in joint.iter_mut().enumerate() {
+            jf.joint = self.plant.model.joints[self.conf.free[a]].to_string();
+            jf.weight = self.lambda[a];
+            jf.rms = (jf.sse / jf.n.max(1) as f64).sqrt();
+            jf.nrmse_fit = 100.0 * (1.0 - (jf.sse / jf.sst.max(1e-300)).sqrt());
+        }
+        Ok(Statistics {
+            std_err,
+            relative_std_err: relative,
+            correlation,
+            correlated,
+            at_bound,
+            identifiable,
+            condition,
+            joints: joint,
+        })
+    }
+}
+
+/// Correlation above which two parameters are reported as not separately identifiable.
+pub const CORRELATION_LIMIT: f64 = 0.95;
+/// Relative standard error (σ/|p|) above which a parameter is reported as poorly determined.
+pub const RELATIVE_STD_LIMIT: f64 = 0.02;
+
+/// Fit figures of one free joint over all files.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct JointFit {
+    /// Joint name.
+    pub joint: String,
+    /// λ in the cost.
+    pub weight: f64,
+    /// RMS position error (rad), all samples.
+    pub rms: f64,
+    /// Largest |error| (rad).
+    pub max_abs: f64,
+    /// NRMSE fit % = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) (MATLAB `compare`).
+    pub nrmse_fit: f64,
+    #[serde(skip)]
+    sse: f64,
+    #[serde(skip)]
+    sst: f64,
+    #[serde(skip)]
+    n: usize,
+}
+
+/// Uncertainty and fit figures at a solution.
+#[derive(Debug, Clone, Serialize)]
+pub struct Statistics {
+    /// Standard error per parameter (its units).
+    pub std_err: Vec<f64>,
+    /// σ/|p|.
+    pub relative_std_err: Vec<f64>,
+    /// Correlation matrix (n × n).
+    pub correlation: Vec<Vec<f64>>,
+    /// Pairs with |correlation| > [`CORRELATION_LIMIT`].
+    pub correlated: Vec<(String, String, f64)>,
+    /// At (within 1e-4 of the width of) a bound.
+    pub at_bound: Vec<bool>,
+    /// σ/|p| ≤ [`RELATIVE_STD_LIMIT`], not at a bound, no correlation above the limit.
+    pub identifiable: Vec<bool>,
+    /// Condition number of the column-scaled JᵀJ.
+    pub condition: f64,
+    /// Per free joint.
+    pub joints: Vec<JointFit>,
+}
+
+/// One start of a multi-start fit.
+#[derive(Debug, Clone, Serialize)]
+pub struct StartSummary {
+    /// Index (0 = the plant's values).
+    pub start: usize,
+    /// Cost at the start.
+    pub start_cost: f64,
+    /// Cost at its end.
+    pub cost: f64,
+    /// Levenberg–Marquardt iterations.
+    pub iterations: usize,
+    /// How it ended.
+    pub status: String,
+}
+
+#[derive(Debug, Clone)]
+struct StartRun {
+    start: usize,
+    u: Vec<f64>,
+    start_cost: f64,
+    cost: f64,
+    iterations: usize,
+    status: String,
+}
+
+/// Result of [`Problem::fit`].
+#[derive(Debug, Clone, Serialize)]
+pub struct FitResult {
+    /// Configuration.
+    pub configuration: String,
+    /// Fitted parameter names.
+    pub names: Vec<String>,
+    /// Values before.
+    pub initial: Vec<f64>,
+    /// Values after.
+    pub fitted: Vec<f64>,
+    /// Lower bounds used (after Fs ≥ Fc).
+    pub lower: Vec<f64>,
+    /// Upper bounds used.
+    pub upper: Vec<f64>,
+    /// Cost (4.2)/(4.3) at the plant's values.
+    pub cost_before: f64,
+    /// Cost at the result.
+    pub cost_after: f64,
+    /// Uncertainty and fit figures.
+    pub statistics: Statistics,
+    /// All starts.
+    pub starts: Vec<StartSummary>,
+    /// The start that won.
+    pub best_start: usize,
+    /// Cost evaluations (each simulates every file), all starts.
+    pub evaluations: usize,
+    /// Jacobians (each n simulations of every file), all starts.
+    pub jacobians: usize,
+    /// Wall time (s).
+    pub wall_s: f64,
+    /// Number of residuals.
+    pub residuals: usize,
+    /// Files.
+    pub files: Vec<PathBuf>,
+}
+
+impl FitResult {
+    /// Write the fitted values into `plant`.
+    pub fn apply(&self, plant: &mut Plant) {
+        for (n, &v) in self.names.iter().zip(&self.fitted) {
+            plant.parameters.insert(n.clone(), v);
+        }
+    }
+}
+
+/// The rmpfit adapter: scaled parameters, cached residuals, user (parallel) Jacobian.
+struct Fitter<'a> {
+    problem: &'a Problem,
+    start: usize,
+    starts: usize,
+    evaluations: &'a AtomicUsize,
+    jacobians: &'a AtomicUsize,
+    best: f64,
+    horizon: f64,
+    started: Instant,
+    progress: &'a (dyn Fn(Progress) + Sync),
+    cache: Option<(Vec<f64>, Vec<f64>)>,
+    failures: usize,
+    config: MPConfig,
+    pars: Vec<MPPar>,
+    start_cost: f64,
+}
+
+impl Fitter<'_> {
+    fn evaluate(&mut self, u: &[f64]) -> Vec<f64> {
+        if let Some((cu, cr)) = &self.cache {
+            if cu.as_slice() == u {
+                return cr.clone();
+            }
+        }
+        self.evaluations.fetch_add(1, Ordering::Relaxed);
+        let r = match self.problem.residuals(&self.problem.to_physical(u)) {
+            Ok(r) => r,
+            Err(_) => {
+                // A trial point where the plant diverges: a cost far above the start's so
+                // that the step is rejected and the trust region shrinks.
+                self.failures += 1;
+                let level = (self.start_cost.max(1e-12) / self.problem.m as f64).sqrt() * 1e3;
+                vec![level; self.problem.m]
+            }
+        };
+        let c: f64 = r.iter().map(|x| x * x).sum();
+        if std::env::var_os("LOCKSTEP_TRACE").is_some() {
+            eprintln!(
+                "trace: start {} evaluation cost {c:.6e} failures {}",
+                self.start, self.failures
+            );
+        }
+        self.best = self.best.min(c);
+        let best = self.best;
+        (self.progress)(Progress {
+            start: self.start,
+            starts: self.starts,
+            horizon: self.horizon,
+            iteration: self.jacobians.load(Ordering::Relaxed),
+            evaluations: self.evaluations.load(Ordering::Relaxed),
+            cost: best,
+            elapsed: self.started.elapsed().as_secs_f64(),
+        });
+        self.cache = Some((u.to_vec(), r.clone()));
+        r
+    }
+}
+
+impl MPFitter for Fitter<'_> {
+    fn eval(&mut self, params: &[f64], deviates: &mut [f64]) -> MPResult<()> {
+        let r = self.evaluate(params);
+        deviates.copy_from_slice(&r);
+        Ok(())
+    }
+
+    fn number_of_points(&self) -> usize {
+        self.problem.m
+    }
+
+    fn config(&self) -> &MPConfig {
+        &self.config
+    }
+
+    fn parameters(&self) -> &[MPPar] {
+        &self.pars
+    }
+
+    fn jacobian(
+        &mut self,
+        params: &[f64],
+        deviates: &mut [f64],
+        derivs: &mut [Option<Vec<f64>>],
+    ) -> MPResult<()> {
+        let r0 = self.evaluate(params);
+        deviates.copy_from_slice(&r0);
+        self.jacobians.fetch_add(1, Ordering::Relaxed);
+        let h = self.problem.options.fd_step;
+        let steps: Vec<f64> = params
+            .iter()
+            .map(|&u| if u + h > 1.0 { -h } else { h })
+            .collect();
+        let p = self.problem;
+        let cols = p.jacobian_columns(params, &r0, &steps, &|x: &[f64]| p.to_physical(x));
+        self.evaluations.fetch_add(params.len(), Ordering::Relaxed);
+        // rmpfit's deviates are (y − f): the derivative of the residual as defined here.
+        for (i, d) in derivs.iter_mut().enumerate() {
+            if let Some(col) = d {
+                col.copy_from_slice(&cols[i]);
+            }
+        }
+        Ok(())
+    }
+}

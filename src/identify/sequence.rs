@@ -1,0 +1,556 @@
+//! Locking sequences (thesis 4.2–4.4): the method of isolated joints (c1..c7, Table 4.2)
+//! and the method of coupling joints (k1..k5, Table 4.6), each step an output-error fit
+//! ([`super::output_error`]) of the parameters that appear first in its configuration,
+//! with everything identified earlier held at its fitted value.
+//!
+//! Which rigid-body quantities a step identifies comes from the generated equations
+//! ([`super::identifiability::occurrence`], Figure 4.2); an effect's parameters are
+//! identified at the first step where its joint (both joints, for an input coupling) is
+//! free. After every step the updated plant and the report are written atomically, so an
+//! interrupted run (Ctrl-C) leaves the last completed step's results intact.
+
+use super::identifiability::occurrence;
+use super::output_error::{FitResult, OutputErrorOptions, Problem, Progress, Record};
+use crate::measurement::{check_sampling, Table};
+use crate::plant::Plant;
+use crate::util::write_atomic;
+use anyhow::{bail, Context, Result};
+use generated::{Configuration, Model};
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// One step of a locking sequence.
+#[derive(Debug, Clone, Serialize)]
+pub struct Step {
+    /// Configuration name.
+    pub config: String,
+    /// Free joints (model indices).
+    pub free: Vec<usize>,
+    /// Joints free here for the first time (weight λ in the cost).
+    pub interest: Vec<usize>,
+    /// Parameters fitted here: rigid-body quantities, then effect parameters.
+    pub fitted: Vec<String>,
+    /// Parameters that first appear here but are held (bounds with lower = upper).
+    pub held: Vec<String>,
+}
+
+/// The steps of sequence `sequence` of the plant's model, from step `only` alone if given.
+///
+/// # Errors
+/// Unknown sequence or step (the known ones listed); a rigid-body quantity the step
+/// identifies without a value in the plant.
+pub fn plan(plant: &Plant, sequence: &str) -> Result<Vec<Step>> {
+    let model = plant.model;
+    let occ = occurrence(model);
+    let Some(seq) = occ.sequences.iter().find(|s| s.name == sequence) else {
+        bail!(
+            "model '{}' has no locking sequence '{sequence}' (it has: {})",
+            model.name,
+            occ.sequences
+                .iter()
+                .map(|s| s.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    };
+    let mut seen_free: Vec<usize> = Vec::new();
+    let mut effect_done: Vec<String> = Vec::new();
+    let mut steps = Vec::new();
+    for (cname, first) in &seq.steps {
+        let conf = crate::util::configuration(model, cname)?;
+        let interest: Vec<usize> = conf
+            .free
+            .iter()
+            .copied()
+            .filter(|j| !seen_free.contains(j))
+            .collect();
+        let mut names: Vec<String> = Vec::new();
+        for s in first {
+            if !plant.parameters.contains_key(s) {
+                bail!(
+                    "{}: step '{cname}' identifies '{s}' but the plant gives it no value (give link '{}' in the model file's symbols)",
+                    plant_name(plant),
+                    link_of(model, s)
+                );
+            }
+            names.push(s.clone());
+        }
+        for e in &plant.effects {
+            let joints_free =
+                conf.free.contains(&e.joint) && e.from.is_none_or(|f| conf.free.contains(&f));
+            if !joints_free {
+                continue;
+            }
+            for n in e.parameter_names() {
+                if !effect_done.contains(&n) {
+                    effect_done.push(n.clone());
+                    names.push(n);
+                }
+            }
+        }
+        let (held, fitted): (Vec<String>, Vec<String>) = names
+            .into_iter()
+            .partition(|n| plant.bounds.get(n).is_some_and(|&(lo, hi)| lo == hi));
+        seen_free.extend(interest.iter().copied());
+        steps.push(Step {
+            config: cname.clone(),
+            free: conf.free.to_vec(),
+            interest,
+            fitted,
+            held,
+        });
+    }
+    Ok(steps)
+}
+
+fn link_of(model: &Model, symbol: &str) -> String {
+    model
+        .inertial_symbols
+        .iter()
+        .position(|s| *s == symbol)
+        .map(|i| model.links[model.symbol_link[i]].to_string())
+        .unwrap_or_else(|| "?".into())
+}
+
+fn plant_name(plant: &Plant) -> String {
+    plant
+        .file
+        .as_ref()
+        .map(|p| p.display().to_string())
+        .unwrap_or_else(|| "plant".into())
+}
+
+/// A measurement file found for a sequence, with the configuration it was taken in.
+#[derive(Debug, Clone)]
+pub struct DataFile {
+    /// Path.
+    pub path: PathBuf,
+    /// Configuration (from the side file, else the file name's prefix before `_`).
+    pub config: String,
+}
+
+/// Measurement files (`*.csv`, `*.mat`) given directly or found in directories, with
+/// their configurations; files that cannot be used are returned with the reason.
+///
+/// # Errors
+/// A path that does not exist, an unreadable directory or side file.
+pub fn discover(paths: &[PathBuf], model: &Model) -> Result<(Vec<DataFile>, Vec<String>)> {
+    let mut files = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(p)
+                .with_context(|| format!("{}: cannot read the directory", p.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    f.extension().is_some_and(|e| {
+                        e.eq_ignore_ascii_case("csv") || e.eq_ignore_ascii_case("mat")
+                    })
+                })
+                .collect();
+            found.sort();
+            files.extend(found);
+        } else if p.exists() {
+            files.push(p.clone());
+        } else {
+            bail!("{}: no such file or directory", p.display());
+        }
+    }
+    let mut out = Vec::new();
+    let mut ignored = Vec::new();
+    for f in files {
+        let side = crate::measurement::read_side_file(&f)?;
+        let stem = f
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let config = side.configuration.clone().or_else(|| {
+            let prefix = stem.split(['_', '-', '.']).next().unwrap_or("");
+            model
+                .configurations
+                .iter()
+                .find(|c| c.name == prefix)
+                .map(|c| c.name.to_string())
+        });
+        match config {
+            Some(c) => out.push(DataFile { path: f, config: c }),
+            None => ignored.push(format!(
+                "{}: no configuration (name it in the side file {}, or start the file name with the configuration, e.g. k1_run1.csv)",
+                f.display(),
+                f.with_extension("toml").display()
+            )),
+        }
+    }
+    Ok((out, ignored))
+}
+
+/// Read file `path` as a record of configuration `conf`: `t`, `tau{j}` and `q{j}` of every
+/// free joint; a locked joint's `q{j}`, where present, must stay within `tolerance` of its
+/// mean (its position is the side file's `locked` value, else that mean, else 0).
+///
+/// # Errors
+/// Unreadable file, a free joint without torque or position column, a locked joint that
+/// moves, bad sampling (all naming the file and column).
+pub fn read_record(
+    path: &Path,
+    model: &Model,
+    conf: &Configuration,
+    tolerance: f64,
+) -> Result<Record> {
+    let table = Table::read(path)?;
+    let t = table.need("t")?;
+    let dt = check_sampling(path, &t)?;
+    let nj = model.joints.len();
+    let mut q_all = vec![0.0; nj];
+    let mut tau = Vec::new();
+    let mut q = Vec::new();
+    for j in 0..nj {
+        let name = model.joints[j];
+        if conf.free.contains(&j) {
+            let qj = table.get(&format!("q{j}"))?.with_context(|| {
+                format!(
+                    "{}: joint '{name}' is free in configuration '{}' but the file has no position column 'q{j}'",
+                    path.display(),
+                    conf.name
+                )
+            })?;
+            let tj = table.get(&format!("tau{j}"))?.with_context(|| {
+                format!(
+                    "{}: joint '{name}' is free in configuration '{}' but the file has no torque column 'tau{j}'",
+                    path.display(),
+                    conf.name
+                )
+            })?;
+            q_all[j] = qj[0];
+            q.push(qj);
+            tau.push(tj);
+        } else {
+            let measured = table.get(&format!("q{j}"))?;
+            if let Some(qj) = &measured {
+                let (lo, hi) = qj
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                        (a.min(x), b.max(x))
+                    });
+                if hi - lo > tolerance {
+                    bail!(
+                        "{}: joint '{name}' is locked in configuration '{}' but moves by {:.4} rad (tolerance {tolerance} rad): is the file from another configuration?",
+                        path.display(),
+                        conf.name,
+                        hi - lo
+                    );
+                }
+            }
+            q_all[j] = match table.side.locked.get(name) {
+                Some(&v) => v,
+                None => measured
+                    .as_ref()
+                    .map(|v| v.iter().sum::<f64>() / v.len() as f64)
+                    .unwrap_or(0.0),
+            };
+        }
+    }
+    Ok(Record {
+        file: path.to_path_buf(),
+        t,
+        dt,
+        tau,
+        q,
+        q_all,
+    })
+}
+
+/// What a sequence run did, step by step.
+#[derive(Debug, Clone, Serialize)]
+pub struct SequenceReport {
+    /// Sequence name.
+    pub sequence: String,
+    /// The plant file started from.
+    pub plant: String,
+    /// Settings.
+    pub options: OutputErrorOptions,
+    /// Completed steps.
+    pub steps: Vec<StepReport>,
+    /// Files not used, with the reason.
+    pub ignored: Vec<String>,
+}
+
+/// One completed step.
+#[derive(Debug, Clone, Serialize)]
+pub struct StepReport {
+    /// The plan.
+    pub step: Step,
+    /// The fit.
+    pub fit: FitResult,
+}
+
+/// Settings of a sequence run.
+#[derive(Debug, Clone)]
+pub struct SequenceOptions {
+    /// Sequence name in the model file (`isolated`, `coupled`).
+    pub sequence: String,
+    /// Run this step only (the plant must hold the earlier steps' values).
+    pub only: Option<String>,
+    /// Fit settings.
+    pub fit: OutputErrorOptions,
+    /// Largest motion (rad) of a locked joint's measured position.
+    pub locked_tolerance: f64,
+    /// Output directory: `plant.toml`, `report.md`, `report.json`.
+    pub out: PathBuf,
+}
+
+/// Run a locking sequence: check every step's data and bounds first, then fit step by
+/// step, writing the plant and report after each. `progress(step, p)` reports progress.
+///
+/// # Errors
+/// Before any fit: unknown sequence or step, a step without data, a file that does not
+/// match its configuration, a fitted parameter without bounds or outside them. During:
+/// a step where no start can be simulated.
+pub fn run(
+    plant: &Plant,
+    data: &[PathBuf],
+    opts: &SequenceOptions,
+    progress: &(dyn Fn(&str, Progress) + Sync),
+) -> Result<SequenceReport> {
+    let model = plant.model;
+    let mut steps = plan(plant, &opts.sequence)?;
+    if let Some(only) = &opts.only {
+        let Some(i) = steps.iter().position(|s| &s.config == only) else {
+            bail!(
+                "--config: sequence '{}' has no step '{only}' (its steps: {})",
+                opts.sequence,
+                steps
+                    .iter()
+                    .map(|s| s.config.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        };
+        steps = vec![steps.swap_remove(i)];
+    }
+    let (files, mut ignored) = discover(data, model)?;
+    // Everything checked before the first fit.
+    let mut records: Vec<Vec<Record>> = Vec::new();
+    for s in &steps {
+        let conf = crate::util::configuration(model, &s.config)?;
+        let recs = files
+            .iter()
+            .filter(|f| f.config == s.config)
+            .map(|f| read_record(&f.path, model, conf, opts.locked_tolerance))
+            .collect::<Result<Vec<_>>>()?;
+        if recs.is_empty() {
+            bail!(
+                "step '{}': no measurement file of configuration '{}' in {} (files found: {})",
+                s.config,
+                s.config,
+                data.iter()
+                    .map(|d| d.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if files.is_empty() {
+                    "none".to_string()
+                } else {
+                    files
+                        .iter()
+                        .map(|f| format!("{} ({})", f.path.display(), f.config))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                }
+            );
+        }
+        Problem::new(
+            plant,
+            conf,
+            s.fitted.clone(),
+            recs.clone(),
+            &s.interest,
+            opts.fit.clone(),
+        )
+        .with_context(|| format!("step '{}'", s.config))?;
+        records.push(recs);
+    }
+    for f in &files {
+        if !steps.iter().any(|s| s.config == f.config) {
+            ignored.push(format!(
+                "{}: configuration '{}' is not a step of this run",
+                f.path.display(),
+                f.config
+            ));
+        }
+    }
+    let mut current = plant.clone();
+    let mut report = SequenceReport {
+        sequence: opts.sequence.clone(),
+        plant: plant_name(plant),
+        options: opts.fit.clone(),
+        steps: Vec::new(),
+        ignored,
+    };
+    for (s, recs) in steps.into_iter().zip(records) {
+        let conf = crate::util::configuration(model, &s.config)?;
+        let problem = Problem::new(
+            &current,
+            conf,
+            s.fitted.clone(),
+            recs,
+            &s.interest,
+            opts.fit.clone(),
+        )?;
+        let cname = s.config.clone();
+        let fit = problem.fit(&|p| progress(&cname, p))?;
+        fit.apply(&mut current);
+        report.steps.push(StepReport { step: s, fit });
+        current.description = format!(
+            "{} — identified by lockstep ({} method, steps {})",
+            plant.description,
+            opts.sequence,
+            report
+                .steps
+                .iter()
+                .map(|s| s.step.config.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        current.save(&opts.out.join("plant.toml"))?;
+        write_atomic(
+            &opts.out.join("report.json"),
+            serde_json::to_string_pretty(&report)?.as_bytes(),
+        )?;
+        write_atomic(
+            &opts.out.join("report.md"),
+            markdown(&report, model).as_bytes(),
+        )?;
+    }
+    Ok(report)
+}
+
+fn fmt_g(x: f64) -> String {
+    if x == 0.0 {
+        "0".into()
+    } else if !x.is_finite() {
+        format!("{x}")
+    } else if (1e-3..1e4).contains(&x.abs()) {
+        format!("{x:.5}")
+    } else {
+        format!("{x:.4e}")
+    }
+}
+
+/// The report as Markdown: per step, files, weights, cost before and after, time and
+/// evaluations, parameters with standard errors and identifiability, fit per joint.
+pub fn markdown(report: &SequenceReport, model: &Model) -> String {
+    let mut s = String::new();
+    let o = &report.options;
+    let _ = writeln!(
+        s,
+        "# Output-error identification: {} method\n\nPlant: `{}`. Cost: {}; joint of interest weighted {}; RK4 step {:.6e} s; stop at relative step < {:e} or relative cost decrease < {:e}; {} start(s).\n",
+        report.sequence,
+        report.plant,
+        match o.weighting {
+            super::output_error::TimeWeighting::HalfFirst =>
+                "(4.2), first half of each file weighted ½".to_string(),
+            super::output_error::TimeWeighting::SkipTransient(n) =>
+                format!("(4.3), first {n} samples skipped"),
+        },
+        o.interest_weight,
+        o.h,
+        o.xtol,
+        o.ftol,
+        o.starts
+    );
+    for st in &report.steps {
+        let f = &st.fit;
+        let joints = |v: &[usize]| {
+            v.iter()
+                .map(|&j| model.joints[j])
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let _ = writeln!(
+            s,
+            "## Step {}: free {}, of interest {}\n\n{} file(s): {}. {} residuals, {} parameters. Cost {} → {} ({:.1} % lower). {:.1} s wall, {} cost evaluations and {} Jacobians; best of {} start(s): start {} ({}).\n",
+            st.step.config,
+            joints(&st.step.free),
+            if st.step.interest.is_empty() { "none (all weighted 1)".into() } else { joints(&st.step.interest) },
+            f.files.len(),
+            f.files.iter().map(|p| format!("`{}`", p.display())).collect::<Vec<_>>().join(", "),
+            f.residuals,
+            f.names.len(),
+            fmt_g(f.cost_before),
+            fmt_g(f.cost_after),
+            100.0 * (1.0 - f.cost_after / f.cost_before),
+            f.wall_s,
+            f.evaluations,
+            f.jacobians,
+            f.starts.len(),
+            f.best_start,
+            f.starts.get(f.best_start).map(|x| x.status.as_str()).unwrap_or("")
+        );
+        if !st.step.held.is_empty() {
+            let _ = writeln!(
+                s,
+                "Held at their values (bounds lower = upper): {}.\n",
+                st.step.held.join(", ")
+            );
+        }
+        let _ = writeln!(
+            s,
+            "| parameter | initial | fitted | std error | rel. % | bounds | identifiable |\n|---|---|---|---|---|---|---|"
+        );
+        let stats = &f.statistics;
+        for i in 0..f.names.len() {
+            let mut why = Vec::new();
+            if stats.at_bound[i] {
+                why.push("at a bound".to_string());
+            }
+            if stats.relative_std_err[i] > super::output_error::RELATIVE_STD_LIMIT {
+                why.push(format!(
+                    "σ/|p| > {} %",
+                    100.0 * super::output_error::RELATIVE_STD_LIMIT
+                ));
+            }
+            for (a, b, c) in &stats.correlated {
+                if *a == f.names[i] || *b == f.names[i] {
+                    let other = if *a == f.names[i] { b } else { a };
+                    why.push(format!("corr {c:+.3} with {other}"));
+                }
+            }
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {:.2} | [{}, {}] | {} |",
+                f.names[i],
+                fmt_g(f.initial[i]),
+                fmt_g(f.fitted[i]),
+                fmt_g(stats.std_err[i]),
+                100.0 * stats.relative_std_err[i],
+                fmt_g(f.lower[i]),
+                fmt_g(f.upper[i]),
+                if stats.identifiable[i] {
+                    "yes".to_string()
+                } else {
+                    format!("no: {}", why.join("; "))
+                }
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nCondition number of the scaled JᵀJ: {:.3e}.\n\n| joint | λ | RMS error (rad) | max error (rad) | NRMSE fit % |\n|---|---|---|---|---|",
+            stats.condition
+        );
+        for j in &stats.joints {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.4e} | {:.4e} | {:.2} |",
+                j.joint, j.weight, j.rms, j.max_abs, j.nrmse_fit
+            );
+        }
+        let _ = writeln!(s);
+    }
+    if !report.ignored.is_empty() {
+        let _ = writeln!(s, "## Files not used\n");
+        for i in &report.ignored {
+            let _ = writeln!(s, "- {i}");
+        }
+    }
+    s
+}
