@@ -539,9 +539,11 @@ impl Problem {
                         cost: f64::INFINITY,
                         iterations: 0,
                         status: format!("the start cannot be simulated: {why}"),
+                        diverged: 0,
                     };
                 }
                 let mut iterations = 0;
+                let mut diverged = 0;
                 let mut status = String::new();
                 for &frac in &self.options.horizons {
                     let staged;
@@ -564,8 +566,18 @@ impl Problem {
                         cache: None,
                         failures: 0,
                         config: MPConfig {
-                            xtol: self.options.xtol,
-                            ftol: self.options.ftol,
+                            // Shorter horizons only warm-start the next stage: looser
+                            // stopping rules there, the user's on the whole files.
+                            xtol: if frac < 1.0 {
+                                self.options.xtol.max(1e-4)
+                            } else {
+                                self.options.xtol
+                            },
+                            ftol: if frac < 1.0 {
+                                self.options.ftol.max(1e-3)
+                            } else {
+                                self.options.ftol
+                            },
                             gtol: 1e-10,
                             max_iter: self.options.max_iter,
                             max_fev: MPMaxFev::Limited(20 * self.options.max_iter.max(1)),
@@ -587,7 +599,9 @@ impl Problem {
                         status = format!("horizon {frac}: the stage's start cannot be simulated");
                         break;
                     }
-                    match fitter.mpfit(&mut u) {
+                    let result = fitter.mpfit(&mut u);
+                    diverged += fitter.failures;
+                    match result {
                         Ok(st) => {
                             iterations += st.n_iter;
                             status = format!("{:?}", st.success);
@@ -610,6 +624,7 @@ impl Problem {
                     cost,
                     iterations,
                     status,
+                    diverged,
                 }
             })
             .collect();
@@ -645,6 +660,7 @@ impl Problem {
                     cost: r.cost,
                     iterations: r.iterations,
                     status: r.status.clone(),
+                    diverged: r.diverged,
                 })
                 .collect(),
             best_start: best.start,
@@ -918,6 +934,8 @@ pub struct StartSummary {
     pub iterations: usize,
     /// How it ended.
     pub status: String,
+    /// Trial points whose simulation diverged (rejected by the optimiser).
+    pub diverged: usize,
 }
 
 #[derive(Debug, Clone)]
@@ -928,6 +946,7 @@ struct StartRun {
     cost: f64,
     iterations: usize,
     status: String,
+    diverged: usize,
 }
 
 /// Result of [`Problem::fit`].
@@ -1013,12 +1032,6 @@ impl Fitter<'_> {
             }
         };
         let c: f64 = r.iter().map(|x| x * x).sum();
-        if std::env::var_os("LOCKSTEP_TRACE").is_some() {
-            eprintln!(
-                "trace: start {} evaluation cost {c:.6e} failures {}",
-                self.start, self.failures
-            );
-        }
         self.best = self.best.min(c);
         let best = self.best;
         (self.progress)(Progress {

@@ -1,0 +1,160 @@
+//! Output-error identification cost (issue 5), on synthetic data of the Appendix D
+//! coupled-method plant (I4_33 made positive) excited by Table 4.7 for 40 s at 100 Hz.
+//!
+//! - `cost_evaluation/<config>`: one evaluation of cost (4.3), i.e. one simulation of a
+//!   40 s file at the thesis's 1/6000 s; a Jacobian costs one evaluation per fitted
+//!   parameter, spread over the cores.
+//! - With `LOCKSTEP_BENCH_SEQUENCE=1`, the whole coupled sequence k1..k5 is then run from
+//!   the Appendix D initial guess (bounds widened where the truth lies outside the thesis
+//!   bounds) and the time per step and per cost evaluation printed (takes tens of minutes).
+
+use criterion::{criterion_group, Criterion};
+use lockstep::excitation::Excitations;
+use lockstep::identify::output_error::{OutputErrorOptions, Problem};
+use lockstep::identify::sequence::{plan, read_record, run, SequenceOptions};
+use lockstep::plant::Plant;
+use lockstep::synthetic::{excite, simulate_file, SimulateOptions};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+fn truth() -> Plant {
+    let mut p = Plant::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
+    )
+    .unwrap();
+    p.parameters.insert("I4_33".into(), 1.7449e-4);
+    p
+}
+
+/// Data files k1..k5 in `dir/data`.
+fn make_data(dir: &Path, truth: &Plant) -> PathBuf {
+    let data = dir.join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    let ex = Excitations::bundled(truth.model).unwrap();
+    for k in ["k1", "k2", "k3", "k4", "k5"] {
+        let e = excite(truth.model, &ex, "4.7", None, k, 40.0, 100.0).unwrap();
+        let tau = dir.join(format!("tau_{k}.csv"));
+        let names: Vec<String> = std::iter::once("t".to_string())
+            .chain((0..6).map(|j| format!("tau{j}")))
+            .collect();
+        let mut cols: Vec<&[f64]> = vec![&e.t];
+        cols.extend(e.u.iter().map(|c| c.as_slice()));
+        lockstep::measurement::write_columns(&tau, &names, &cols).unwrap();
+        lockstep::measurement::write_side_file(&tau, &e.side).unwrap();
+        let sim = simulate_file(
+            truth,
+            &tau,
+            &SimulateOptions {
+                h: 1.0 / 12000.0,
+                noise: 2e-4,
+                quantisation: 1e-4,
+                seed: 7,
+                ..SimulateOptions::default()
+            },
+        )
+        .unwrap();
+        let out = data.join(format!("{k}_run.csv"));
+        sim.measurement.write(&out).unwrap();
+        lockstep::measurement::write_side_file(&out, &sim.side).unwrap();
+    }
+    data
+}
+
+fn bench(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = truth();
+    let data = make_data(dir.path(), &truth);
+    let mut g = c.benchmark_group("cost_evaluation");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    let steps = plan(&truth, "coupled").unwrap();
+    for s in &steps {
+        let conf = truth.model.configuration(&s.config).unwrap();
+        let rec = read_record(
+            &data.join(format!("{}_run.csv", s.config)),
+            truth.model,
+            conf,
+            0.01,
+        )
+        .unwrap();
+        let mut plant = truth.clone();
+        for n in &s.fitted {
+            let v = plant.parameters[n];
+            plant
+                .bounds
+                .insert(n.clone(), (v - v.abs() - 1.0, v + v.abs() + 1.0));
+        }
+        let p = Problem::new(
+            &plant,
+            conf,
+            s.fitted.clone(),
+            vec![rec],
+            &s.interest,
+            OutputErrorOptions::default(),
+        )
+        .unwrap();
+        let x: Vec<f64> = s.fitted.iter().map(|n| plant.parameters[n]).collect();
+        g.bench_function(&s.config, |b| b.iter(|| p.cost(&x)));
+    }
+    g.finish();
+    if std::env::var_os("LOCKSTEP_BENCH_SEQUENCE").is_some() {
+        sequence(dir.path(), &data, &truth);
+    }
+}
+
+fn sequence(dir: &Path, data: &Path, truth: &Plant) {
+    let mut start = Plant::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("model/plants/freedom6s_appendix_d_initial.toml"),
+    )
+    .unwrap();
+    for (n, &v) in &truth.parameters {
+        if let Some(b) = start.bounds.get_mut(n) {
+            if v < b.0 || v > b.1 {
+                *b = (b.0.min(v - 0.3 * v.abs()), b.1.max(v + 0.3 * v.abs()));
+            }
+        }
+    }
+    let opts = SequenceOptions {
+        sequence: "coupled".into(),
+        only: None,
+        fit: OutputErrorOptions {
+            h: 1.0 / 12000.0,
+            ..OutputErrorOptions::default()
+        },
+        locked_tolerance: 0.01,
+        out: dir.join("out"),
+    };
+    let report = run(&start, &[data.to_path_buf()], &opts, &|_, _| {}).unwrap();
+    println!(
+        "step   params  wall s   evaluations  s per evaluation  cost after  RMS per joint (rad)"
+    );
+    let mut total = 0.0;
+    for s in &report.steps {
+        let f = &s.fit;
+        total += f.wall_s;
+        println!(
+            "{:<6} {:>6} {:>7.1} {:>13} {:>17.3} {:>11.4e}  {}",
+            s.step.config,
+            f.names.len(),
+            f.wall_s,
+            f.evaluations,
+            f.wall_s / f.evaluations.max(1) as f64,
+            f.cost_after,
+            f.statistics
+                .joints
+                .iter()
+                .map(|j| format!("{} {:.2e}", j.joint, j.rms))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    println!("whole coupled sequence: {total:.1} s");
+}
+
+criterion_group!(benches, bench);
+
+fn main() {
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
