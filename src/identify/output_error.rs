@@ -459,7 +459,8 @@ impl Problem {
         Ok(r)
     }
 
-    /// Forward-difference Jacobian ∂r/∂x (m × n, column-major columns) at `x` where
+    /// Finite-difference Jacobian ∂r/∂x (n columns of length m; forward, or central where
+    /// `central` and both sides simulate) at `x` where
     /// `p_of(x)` gives the physical parameters, `steps[i]` the step of column i (the sign
     /// chosen by the caller to stay in the feasible set); all columns simulated in parallel.
     /// A column whose simulation fails is retried with the opposite step, then left zero.
@@ -469,10 +470,25 @@ impl Problem {
         r0: &[f64],
         steps: &[f64],
         p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+        central: bool,
     ) -> Vec<Vec<f64>> {
         (0..x.len())
             .into_par_iter()
             .map(|i| {
+                if central {
+                    let at = |s: f64| {
+                        let mut xi = x.to_vec();
+                        xi[i] += s;
+                        self.residuals(&p_of(&xi))
+                    };
+                    if let (Ok(rp), Ok(rm)) = (at(steps[i]), at(-steps[i])) {
+                        return rp
+                            .iter()
+                            .zip(&rm)
+                            .map(|(a, b)| (a - b) / (2.0 * steps[i]))
+                            .collect();
+                    }
+                }
                 for s in [steps[i], -steps[i]] {
                     let mut xi = x.to_vec();
                     xi[i] += s;
@@ -676,8 +692,8 @@ impl Problem {
     ///
     /// Covariance of the weighted least-squares estimate with per-joint noise variances
     /// s_a² (estimated from that joint's residuals): cov = (JᵀJ)⁻¹ Jᵀ Σ J (JᵀJ)⁻¹,
-    /// Σ = diag(w_k λ_a² s_a²), J = ∂r/∂p by forward differences (step 1e-6 of the bound
-    /// width, away from the nearer bound).
+    /// Σ = diag(w_k λ_a² s_a²), J = ∂r/∂p by central differences (step 1e-6 of the bound
+    /// width).
     ///
     /// # Errors
     /// The simulation at `p` fails.
@@ -697,7 +713,10 @@ impl Problem {
                 }
             })
             .collect();
-        let cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec());
+        // Central differences here (O(h²)): in a sensitive trajectory a one-sided
+        // difference blurs exact symmetries of the model into seemingly determined
+        // directions.
+        let cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
         let m = r.len();
         // Per-joint noise variance and the diagonal of Σ.
         let nf = self.lambda.len();
@@ -1082,7 +1101,7 @@ impl MPFitter for Fitter<'_> {
             .map(|&u| if u + h > 1.0 { -h } else { h })
             .collect();
         let p = self.problem;
-        let cols = p.jacobian_columns(params, &r0, &steps, &|x: &[f64]| p.to_physical(x));
+        let cols = p.jacobian_columns(params, &r0, &steps, &|x: &[f64]| p.to_physical(x), false);
         self.evaluations.fetch_add(params.len(), Ordering::Relaxed);
         // rmpfit's deviates are (y − f): the derivative of the residual as defined here.
         for (i, d) in derivs.iter_mut().enumerate() {
