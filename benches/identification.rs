@@ -35,13 +35,7 @@ fn make_data(dir: &Path, truth: &Plant) -> PathBuf {
     for k in ["k1", "k2", "k3", "k4", "k5"] {
         let e = excite(truth.model, &ex, "4.7", None, k, 40.0, 100.0).unwrap();
         let tau = dir.join(format!("tau_{k}.csv"));
-        let names: Vec<String> = std::iter::once("t".to_string())
-            .chain((0..6).map(|j| format!("tau{j}")))
-            .collect();
-        let mut cols: Vec<&[f64]> = vec![&e.t];
-        cols.extend(e.u.iter().map(|c| c.as_slice()));
-        lockstep::measurement::write_columns(&tau, &names, &cols).unwrap();
-        lockstep::measurement::write_side_file(&tau, &e.side).unwrap();
+        e.write(&tau).unwrap();
         let sim = simulate_file(
             truth,
             &tau,
@@ -54,9 +48,7 @@ fn make_data(dir: &Path, truth: &Plant) -> PathBuf {
             },
         )
         .unwrap();
-        let out = data.join(format!("{k}_run.csv"));
-        sim.measurement.write(&out).unwrap();
-        lockstep::measurement::write_side_file(&out, &sim.side).unwrap();
+        sim.write(&data.join(format!("{k}_run.csv"))).unwrap();
     }
     data
 }

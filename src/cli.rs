@@ -497,18 +497,7 @@ pub fn run(cli: Cli) -> Result<()> {
             };
             let e =
                 crate::synthetic::excite(m, &ex, &table, test.as_deref(), &config, duration, rate)?;
-            let prefix = match e.quantity {
-                crate::excitation::Quantity::Torque => "tau",
-                crate::excitation::Quantity::Position => "qref",
-            };
-            let mut names = vec!["t".to_string()];
-            let mut cols: Vec<&[f64]> = vec![&e.t];
-            for (j, c) in e.u.iter().enumerate() {
-                names.push(format!("{prefix}{j}"));
-                cols.push(c);
-            }
-            crate::measurement::write_columns(&out, &names, &cols)?;
-            crate::measurement::write_side_file(&out, &e.side)?;
+            e.write(&out)?;
             if !e.left_out.is_empty() {
                 println!(
                     "note: {} locked in configuration {config}: their signals of table {table} are not applied",
@@ -568,8 +557,7 @@ pub fn run(cli: Cli) -> Result<()> {
             for n in &sim.notes {
                 println!("note: {n}");
             }
-            sim.measurement.write(&out)?;
-            crate::measurement::write_side_file(&out, &sim.side)?;
+            sim.write(&out)?;
             let m = &sim.measurement;
             let span = m.t[m.len() - 1] - m.t[0];
             println!(

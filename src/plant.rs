@@ -135,13 +135,15 @@ pub struct Configured {
     pub findings: Vec<Finding>,
 }
 
-fn plant_name(file: &Option<PathBuf>) -> String {
-    file.as_ref()
-        .map(|p| p.display().to_string())
-        .unwrap_or_else(|| "plant".into())
-}
-
 impl Plant {
+    /// The plant's file name for messages, or "plant" when it has none.
+    pub fn name(&self) -> String {
+        self.file
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|| "plant".into())
+    }
+
     /// A plant of `model` with the given effects and no parameter values.
     ///
     /// # Errors
@@ -437,7 +439,7 @@ impl Plant {
                 let syms = self.link_symbols(l);
                 bail!(
                     "{}: configuration '{}' needs link '{}' but parameter '{}' has no value (give the link's symbols {} or its barycentric parameters)",
-                    plant_name(&self.file),
+                    self.name(),
                     conf.name,
                     m.links[l],
                     m.params[j],
@@ -498,7 +500,7 @@ impl Plant {
         self.parameters.get(name).copied().with_context(|| {
             format!(
                 "{}: parameter '{name}' has no value (add it under [parameters])",
-                plant_name(&self.file)
+                self.name()
             )
         })
     }
@@ -518,7 +520,7 @@ impl Plant {
         policy: ConsistencyPolicy,
     ) -> Result<Configured> {
         let m = self.model;
-        let name = plant_name(&self.file);
+        let name = self.name();
         let conf =
             crate::util::configuration(m, conf_name).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
         if q_locked.len() != m.joints.len() {

@@ -27,6 +27,28 @@ pub struct Excitation {
     pub left_out: Vec<String>,
 }
 
+impl Excitation {
+    /// Write `t` and one column per joint (`tau{j}` for torques, `qref{j}` for position
+    /// commands) as CSV or MAT (by extension), and the side file beside it, atomically.
+    ///
+    /// # Errors
+    /// I/O errors, with the path.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        let prefix = match self.quantity {
+            Quantity::Torque => "tau",
+            Quantity::Position => "qref",
+        };
+        let mut names = vec!["t".to_string()];
+        let mut cols: Vec<&[f64]> = vec![&self.t];
+        for (j, c) in self.u.iter().enumerate() {
+            names.push(format!("{prefix}{j}"));
+            cols.push(c);
+        }
+        crate::measurement::write_columns(path, &names, &cols)?;
+        crate::measurement::write_side_file(path, &self.side)
+    }
+}
+
 /// Sample test `test` of table `table` of `ex` for configuration `config` of `model`, for
 /// `duration` s at `rate` Hz.
 ///
@@ -148,6 +170,17 @@ pub struct Simulated {
     pub findings: Vec<Finding>,
     /// Things the user should know (ignored torque columns of locked joints).
     pub notes: Vec<String>,
+}
+
+impl Simulated {
+    /// Write the measurement (CSV or MAT by extension) and its side file, atomically.
+    ///
+    /// # Errors
+    /// I/O errors, with the path.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        self.measurement.write(path)?;
+        crate::measurement::write_side_file(path, &self.side)
+    }
 }
 
 /// Standard normal deviate (Box–Muller).

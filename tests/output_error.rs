@@ -365,9 +365,7 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
         &run(&start, &data, "c3"),
         &["no step 'c3'", "k1, k2, k3, k4, k5"],
     );
-    // A locked joint that moves: the k1 file relabelled as k2 (joint q3 is free in k2 but
-    // has no motion; joint q4 moves... the file has q3 locked at 0 and it is free in k2):
-    // instead relabel a k2 record as k1, whose locked joint q3 then moves.
+    // A locked joint that moves: a k2 record (q3 free) named as k1, where q3 is locked.
     make_data(d.path(), &truth, "4.7", None, "k2", "3");
     let moved = d.path().join("moved");
     std::fs::create_dir_all(&moved).unwrap();

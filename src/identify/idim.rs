@@ -107,11 +107,7 @@ pub fn observation(
                 "{}: effect '{}' on joint '{}' is not linear in its parameters, so the \
                  inverse-model least squares (IDIM) cannot fit it; use output-error \
                  identification or remove the effect",
-                plant
-                    .file
-                    .as_ref()
-                    .map(|p| p.display().to_string())
-                    .unwrap_or_else(|| "plant".into()),
+                plant.name(),
                 e.kind,
                 model.joints[e.joint]
             );
@@ -343,7 +339,7 @@ pub fn predict(plant: &Plant, obs: &Observation) -> Result<DVector<f64>> {
             plant.parameters.get(n).copied().with_context(|| {
                 format!(
                     "{}: parameter '{n}' has no value (identify first, or add it under [parameters])",
-                    plant.file.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "plant".into())
+                    plant.name()
                 )
             })
         })

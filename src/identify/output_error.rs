@@ -192,11 +192,7 @@ impl Problem {
         if records.is_empty() {
             bail!("configuration '{}': no measurement files", conf.name);
         }
-        let pname = plant
-            .file
-            .as_ref()
-            .map(|p| p.display().to_string())
-            .unwrap_or_else(|| "plant".into());
+        let pname = plant.name();
         let mut lower = Vec::new();
         let mut upper = Vec::new();
         for n in &names {
@@ -277,10 +273,7 @@ impl Problem {
                     .collect()
             })
             .collect();
-        let m = sqrt_w
-            .iter()
-            .map(|w| w.iter().filter(|&&x| x > 0.0).count() * nf)
-            .sum();
+        let m = residual_total(&sqrt_w, nf);
         if m <= names.len() {
             bail!(
                 "configuration '{}': {m} weighted samples for {} parameters (the transient skip leaves too little data)",
@@ -321,10 +314,7 @@ impl Problem {
             records.push(rr);
             sqrt_w.push(w[..keep].to_vec());
         }
-        let m = sqrt_w
-            .iter()
-            .map(|w| w.iter().filter(|&&x| x > 0.0).count() * self.lambda.len())
-            .sum();
+        let m = residual_total(&sqrt_w, self.lambda.len());
         Problem {
             plant: self.plant.clone(),
             conf: self.conf,
@@ -432,8 +422,29 @@ impl Problem {
         }
     }
 
-    fn record_len(&self, ri: usize) -> usize {
-        self.sqrt_w[ri].iter().filter(|&&x| x > 0.0).count() * self.lambda.len()
+    /// The simulated trajectory of every file at physical parameters `p`, files in
+    /// parallel.
+    ///
+    /// # Errors
+    /// The first failing file's simulation.
+    pub fn trajectories(&self, p: &[f64]) -> Result<Vec<Trajectory>, TrialFailure> {
+        let plant = self.plant_at(p);
+        self.records
+            .par_iter()
+            .map(|r| self.simulate(&plant, r))
+            .collect()
+    }
+
+    /// Residual vector (length [`Problem::residual_count`]) of the files' trajectories.
+    fn residuals_of(&self, trajectories: &[Trajectory]) -> Vec<f64> {
+        let mut r = vec![0.0; self.m];
+        let mut at = 0;
+        for (ri, traj) in trajectories.iter().enumerate() {
+            let len = residual_total(&self.sqrt_w[ri..=ri], self.lambda.len());
+            self.record_residuals(ri, traj, &mut r[at..at + len]);
+            at += len;
+        }
+        r
     }
 
     /// Residual vector (length [`Problem::residual_count`]) at physical parameters `p`,
@@ -442,21 +453,7 @@ impl Problem {
     /// # Errors
     /// The first failing file's simulation.
     pub fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
-        let plant = self.plant_at(p);
-        let parts: Vec<Result<Vec<f64>, TrialFailure>> = (0..self.records.len())
-            .into_par_iter()
-            .map(|ri| {
-                let traj = self.simulate(&plant, &self.records[ri])?;
-                let mut out = vec![0.0; self.record_len(ri)];
-                self.record_residuals(ri, &traj, &mut out);
-                Ok(out)
-            })
-            .collect();
-        let mut r = Vec::with_capacity(self.m);
-        for part in parts {
-            r.extend(part?);
-        }
-        Ok(r)
+        Ok(self.residuals_of(&self.trajectories(p)?))
     }
 
     /// Finite-difference Jacobian ∂r/∂x (n columns of length m; forward, or central where
@@ -541,23 +538,20 @@ impl Problem {
             .enumerate()
             .map(|(s, u0)| {
                 let mut u = u0.clone();
-                let start_cost = self.cost(&self.to_physical(&u0));
-                if !start_cost.is_finite() {
-                    let why = self
-                        .residuals(&self.to_physical(&u0))
-                        .err()
-                        .map(|e| e.0)
-                        .unwrap_or_default();
-                    return StartRun {
-                        start: s,
-                        u,
-                        start_cost,
-                        cost: f64::INFINITY,
-                        iterations: 0,
-                        status: format!("the start cannot be simulated: {why}"),
-                        diverged: 0,
-                    };
-                }
+                let start_cost = match self.residuals(&self.to_physical(&u0)) {
+                    Ok(r) => r.iter().map(|x| x * x).sum(),
+                    Err(why) => {
+                        return StartRun {
+                            start: s,
+                            u,
+                            start_cost: f64::INFINITY,
+                            cost: f64::INFINITY,
+                            iterations: 0,
+                            status: format!("the start cannot be simulated: {}", why.0),
+                            diverged: 0,
+                        }
+                    }
+                };
                 let mut iterations = 0;
                 let mut diverged = 0;
                 let mut status = String::new();
@@ -657,7 +651,7 @@ impl Problem {
             );
         };
         let p = self.to_physical(&best.u);
-        let stats = self.statistics(&p, &p0)?;
+        let stats = self.statistics(&p)?;
         Ok(FitResult {
             configuration: self.conf.name.to_string(),
             names: self.names.clone(),
@@ -697,10 +691,11 @@ impl Problem {
     ///
     /// # Errors
     /// The simulation at `p` fails.
-    pub fn statistics(&self, p: &[f64], p0: &[f64]) -> Result<Statistics> {
-        let r = self
-            .residuals(p)
+    pub fn statistics(&self, p: &[f64]) -> Result<Statistics> {
+        let trajectories = self
+            .trajectories(p)
             .map_err(|e| anyhow::anyhow!("at the fitted values: {}", e.0))?;
+        let r = self.residuals_of(&trajectories);
         let n = p.len();
         let steps: Vec<f64> = (0..n)
             .map(|i| {
@@ -852,14 +847,9 @@ impl Problem {
                     && (0..n).all(|j| j == i || correlation[i][j].abs() <= CORRELATION_LIMIT)
             })
             .collect();
-        let _ = p0;
         // Fit per joint over all samples (unweighted), as MATLAB's compare.
-        let plant = self.plant_at(p);
         let mut joint = vec![JointFit::default(); nf];
-        for rec in &self.records {
-            let traj = self
-                .simulate(&plant, rec)
-                .map_err(|e| anyhow::anyhow!("{}", e.0))?;
+        for (rec, traj) in self.records.iter().zip(&trajectories) {
             for a in 0..nf {
                 let y = &rec.q[a];
                 let mean = y.iter().sum::<f64>() / y.len() as f64;
@@ -891,6 +881,15 @@ impl Problem {
             joints: joint,
         })
     }
+}
+
+/// Number of weighted residuals of files with sample weights √w `sqrt_w` and `nf` free
+/// joints (samples of weight 0 are left out).
+fn residual_total(sqrt_w: &[Vec<f64>], nf: usize) -> usize {
+    sqrt_w
+        .iter()
+        .map(|w| w.iter().filter(|&&x| x > 0.0).count() * nf)
+        .sum()
 }
 
 /// Correlation above which two parameters are reported as not separately identifiable.

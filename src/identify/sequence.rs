@@ -70,7 +70,7 @@ pub fn plan(plant: &Plant, sequence: &str) -> Result<Vec<Step>> {
             if !plant.parameters.contains_key(s) {
                 bail!(
                     "{}: step '{cname}' identifies '{s}' but the plant gives it no value (give link '{}' in the model file's symbols)",
-                    plant_name(plant),
+                    plant.name(),
                     link_of(model, s)
                 );
             }
@@ -111,14 +111,6 @@ fn link_of(model: &Model, symbol: &str) -> String {
         .position(|s| *s == symbol)
         .map(|i| model.links[model.symbol_link[i]].to_string())
         .unwrap_or_else(|| "?".into())
-}
-
-fn plant_name(plant: &Plant) -> String {
-    plant
-        .file
-        .as_ref()
-        .map(|p| p.display().to_string())
-        .unwrap_or_else(|| "plant".into())
 }
 
 /// A measurement file found for a sequence, with the configuration it was taken in.
@@ -330,7 +322,7 @@ pub fn run(
     }
     let (files, mut ignored) = discover(data, model)?;
     // Everything checked before the first fit.
-    let mut records: Vec<Vec<Record>> = Vec::new();
+    let mut checked: Vec<Problem> = Vec::new();
     for s in &steps {
         let conf = crate::util::configuration(model, &s.config)?;
         let recs = files
@@ -358,16 +350,17 @@ pub fn run(
                 }
             );
         }
-        Problem::new(
-            plant,
-            conf,
-            s.fitted.clone(),
-            recs.clone(),
-            &s.interest,
-            opts.fit.clone(),
-        )
-        .with_context(|| format!("step '{}'", s.config))?;
-        records.push(recs);
+        checked.push(
+            Problem::new(
+                plant,
+                conf,
+                s.fitted.clone(),
+                recs,
+                &s.interest,
+                opts.fit.clone(),
+            )
+            .with_context(|| format!("step '{}'", s.config))?,
+        );
     }
     for f in &files {
         if !steps.iter().any(|s| s.config == f.config) {
@@ -381,18 +374,18 @@ pub fn run(
     let mut current = plant.clone();
     let mut report = SequenceReport {
         sequence: opts.sequence.clone(),
-        plant: plant_name(plant),
+        plant: plant.name(),
         options: opts.fit.clone(),
         steps: Vec::new(),
         ignored,
     };
-    for (s, recs) in steps.into_iter().zip(records) {
-        let conf = crate::util::configuration(model, &s.config)?;
+    for (s, first) in steps.into_iter().zip(checked) {
+        // The checked problem's files, with the plant as the earlier steps left it.
         let problem = Problem::new(
             &current,
-            conf,
+            first.configuration(),
             s.fitted.clone(),
-            recs,
+            first.records,
             &s.interest,
             opts.fit.clone(),
         )?;
