@@ -141,6 +141,41 @@ pub enum Command {
         #[arg(long)]
         plant: PathBuf,
     },
+    /// Closed-loop PD verification (thesis 4.5): PD per joint with the filtered error
+    /// derivative (4.7), position commands of Table 4.9, small and big gains of Table 4.8;
+    /// simulated vs commanded (and measured, if given) positions, fit figures, plots.
+    Closedloop {
+        /// Closed-loop file (gains, filter, commands, plant).
+        #[arg(long, default_value = "model/control/freedom6s_closedloop.toml")]
+        spec: PathBuf,
+        /// Plant file replacing the closed-loop file's.
+        #[arg(long)]
+        plant: Option<PathBuf>,
+        /// Gain sets to run (default: all in the file).
+        #[arg(long, num_args = 1..)]
+        gains: Vec<String>,
+        /// Measured closed-loop runs, one per gain set in the same order (CSV or .mat with
+        /// t and q{j}).
+        #[arg(long, num_args = 1..)]
+        measured: Vec<PathBuf>,
+        /// Duration (s), replacing the file's.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Output directory.
+        #[arg(long, default_value = "lockstep-out/closedloop")]
+        out: PathBuf,
+    },
+    /// Haptic virtual wall on joint 0 (thesis Chapter 5): PD vs fuzzy over the approach
+    /// speeds and the hand sweep, chatter metrics, position plots (Figures 5.10-5.12),
+    /// control surfaces (5.7-5.9), rule tables as FLL and FIS. `wall tune` tunes the rules.
+    #[command(args_conflicts_with_subcommands = true)]
+    Wall {
+        /// `tune`: tune the fuzzy rules against the simulated user.
+        #[command(subcommand)]
+        action: Option<WallAction>,
+        #[command(flatten)]
+        args: WallArgs,
+    },
     /// Parameter occurrence per configuration and along each locking sequence (thesis
     /// Figure 4.2), and the base (identifiable) parameters of every configuration; writes
     /// parameters.md and parameters.json.
@@ -152,6 +187,35 @@ pub enum Command {
         #[arg(long, default_value = "lockstep-out/params")]
         out: PathBuf,
     },
+}
+
+/// What `lockstep wall` does besides the comparison.
+#[derive(Debug, Subcommand)]
+pub enum WallAction {
+    /// Tune the fuzzy rules (one factor per position label for approaching and leaving
+    /// velocities) to minimise chatter under the penetration bound; report the tuned table
+    /// against the hand-made one.
+    Tune {
+        #[command(flatten)]
+        args: WallArgs,
+    },
+}
+
+/// Options of `lockstep wall`.
+#[derive(Debug, Clone, Args)]
+pub struct WallArgs {
+    /// Wall file (plant, loop, PD gains, user, membership functions, rule modifications).
+    #[arg(long, default_value = "model/control/freedom6s_wall.toml")]
+    pub spec: PathBuf,
+    /// Rule table replacing the file's modified one (.fll fuzzylite or .fis MATLAB).
+    #[arg(long)]
+    pub rules: Option<PathBuf>,
+    /// Control rate for the hand sweep and tuning (Hz; default the file's first).
+    #[arg(long)]
+    pub rate: Option<f64>,
+    /// Output directory.
+    #[arg(long, default_value = "lockstep-out/wall")]
+    pub out: PathBuf,
 }
 
 /// Joint positions given on the command line.
@@ -652,6 +716,27 @@ pub fn run(cli: Cli) -> Result<()> {
                 out.display()
             );
         }
+        Command::Closedloop {
+            spec,
+            plant,
+            gains,
+            measured,
+            duration,
+            out,
+        } => crate::report::control::closedloop_command(
+            &bundled_path(&spec),
+            plant.as_deref(),
+            &gains,
+            &measured,
+            duration,
+            &out,
+        )?,
+        Command::Wall { action, args } => match action {
+            None => crate::report::control::wall_command(&bundled_wall_args(args))?,
+            Some(WallAction::Tune { args }) => {
+                crate::report::control::tune_command(&bundled_wall_args(args))?
+            }
+        },
         Command::Models => {
             for m in generated::MODELS {
                 println!(
@@ -674,4 +759,23 @@ pub fn run(cli: Cli) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// A default data path of the repository: as given when it exists, else under the crate's
+/// own directory (so the defaults work from any working directory of a source checkout).
+fn bundled_path(p: &std::path::Path) -> PathBuf {
+    if p.exists() || p.is_absolute() {
+        return p.to_path_buf();
+    }
+    let alt = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(p);
+    if alt.exists() {
+        alt
+    } else {
+        p.to_path_buf()
+    }
+}
+
+fn bundled_wall_args(mut a: WallArgs) -> WallArgs {
+    a.spec = bundled_path(&a.spec);
+    a
 }

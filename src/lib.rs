@@ -7,6 +7,7 @@
 
 pub mod cli;
 pub mod compare;
+pub mod control;
 pub mod demo;
 pub mod effects;
 pub mod excitation;

@@ -366,11 +366,21 @@ impl PlantModel {
         }
     }
 
-    fn derivative_into(&self, x: &State, tau: &[f64], w: &mut Scratch, out: &mut State) {
+    fn derivative_into(
+        &self,
+        x: &State,
+        tau: &[f64],
+        q_ext: &[f64],
+        w: &mut Scratch,
+        out: &mut State,
+    ) {
         for (a, &k) in self.conf.free.iter().enumerate() {
             w.q_full[k] = x.q[a];
         }
         self.applied_into(x, tau, &mut w.tau_c, &mut w.applied, &mut out.z);
+        for (q, e) in w.applied.iter_mut().zip(q_ext) {
+            *q += e;
+        }
         out.q.copy_from_slice(&x.qd);
         (self.conf.forward_dynamics)(&w.q_full, &x.qd, &w.applied, &self.p, &mut out.qd);
     }
@@ -379,7 +389,17 @@ impl PlantModel {
     pub fn derivative(&self, x: &State, tau: &[f64]) -> State {
         let mut w = Scratch::new(self.nf(), &self.q_locked);
         let mut out = State::at_rest(vec![0.0; self.nf()]);
-        self.derivative_into(x, tau, &mut w, &mut out);
+        self.derivative_into(x, tau, &[], &mut w, &mut out);
+        out
+    }
+
+    /// dx/dt at state `x` under commanded torques `tau` (NF) and an external generalised
+    /// force `q_ext` (NF, N·m or N) added to the applied torques Q: a hand holding the end
+    /// point, a contact. The plant gain does not act on `q_ext`.
+    pub fn derivative_with_external(&self, x: &State, tau: &[f64], q_ext: &[f64]) -> State {
+        let mut w = Scratch::new(self.nf(), &self.q_locked);
+        let mut out = State::at_rest(vec![0.0; self.nf()]);
+        self.derivative_into(x, tau, q_ext, &mut w, &mut out);
         out
     }
 
@@ -399,13 +419,13 @@ impl PlantModel {
         let mut k = std::mem::take(&mut w.k);
         let mut stage = std::mem::take(&mut w.stage);
         let tau = std::mem::take(&mut w.tau);
-        self.derivative_into(x, &tau[0], w, &mut k[0]);
+        self.derivative_into(x, &tau[0], &[], w, &mut k[0]);
         x.axpy_into(h / 2.0, &k[0], &mut stage);
-        self.derivative_into(&stage, &tau[1], w, &mut k[1]);
+        self.derivative_into(&stage, &tau[1], &[], w, &mut k[1]);
         x.axpy_into(h / 2.0, &k[1], &mut stage);
-        self.derivative_into(&stage, &tau[1], w, &mut k[2]);
+        self.derivative_into(&stage, &tau[1], &[], w, &mut k[2]);
         x.axpy_into(h, &k[2], &mut stage);
-        self.derivative_into(&stage, &tau[2], w, &mut k[3]);
+        self.derivative_into(&stage, &tau[2], &[], w, &mut k[3]);
         let c = h / 6.0;
         let comb = |y: &mut [f64], a: &[f64], b: &[f64], cc: &[f64], d: &[f64]| {
             for i in 0..y.len() {

@@ -1,4 +1,5 @@
 //! Reporting: tables for the terminal and Markdown, figures ([`plot`]).
+pub mod control;
 pub mod plot;
 
 use crate::identify::idim::Fit;
