@@ -1,7 +1,8 @@
 //! Automatic tuning of the fuzzy wall's rules (beyond the thesis, its 6.2.2): the rules of
 //! the tuned block (the wall file's `[tune]` labels) are scaled by one factor per position
 //! label for approaching velocities (q̇ ≤ 0) and one for leaving velocities (q̇ > 0), and a
-//! compass search (step halving, bounds [0, 3]) minimises the chatter of the simulated user
+//! compass search (step halving; bounds [0.25, 3] approaching, so the wall keeps pushing, and
+//! [0, 3] leaving) minimises the chatter of the simulated user
 //! at every approach speed,
 //!
 //! J = Σ_speeds [ A / A_PD + E_gen / (E_gen,PD + 1e-6 J) + 0.1·losses ]
@@ -122,7 +123,9 @@ pub fn tune(setup: &WallSetup, rate: f64, progress: &dyn Fn(usize, f64)) -> Resu
                     break;
                 }
                 let mut y = x.clone();
-                y[d] = (y[d] + s).clamp(0.0, 3.0);
+                // Approaching factors keep a quarter of the rule at least: a wall must push.
+                let lo = if d % 2 == 0 { 0.25 } else { 0.0 };
+                y[d] = (y[d] + s).clamp(lo, 3.0);
                 if y[d] == x[d] {
                     continue;
                 }
