@@ -61,6 +61,15 @@ pub enum Command {
         #[arg(long, default_value = "lockstep-out/compare")]
         out: PathBuf,
     },
+    /// Name the missing physical effect (torque-measured data, inverse model): rank a
+    /// catalogue of candidate effects by how much of the residual each explains (ΔBIC).
+    Diagnose {
+        #[command(flatten)]
+        common: Common,
+        /// Candidates to print.
+        #[arg(long, default_value_t = 5)]
+        top: usize,
+    },
     /// List the generated models, their joints, parameters and configurations.
     Models,
     /// Sample an excitation of the thesis (Tables 4.3, 4.4, 4.5, 4.7, 4.9) for a configuration
@@ -737,6 +746,16 @@ pub fn run(cli: Cli) -> Result<()> {
                 crate::report::control::tune_command(&bundled_wall_args(args))?
             }
         },
+        Command::Diagnose { common, top } => {
+            let (plant, records, opts) = common.load()?;
+            let config = common.config.as_deref().unwrap_or("full");
+            for m in &records {
+                let obs = observation(&plant, config, std::slice::from_ref(m), &opts)?;
+                let findings = crate::diagnose::diagnose_torque(&plant, &obs)?;
+                println!("{} against plant {}:", m.file.display(), plant.name());
+                print!("{}", crate::diagnose::table(&findings, top));
+            }
+        }
         Command::Models => {
             for m in generated::MODELS {
                 println!(

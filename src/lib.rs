@@ -9,6 +9,7 @@ pub mod cli;
 pub mod compare;
 pub mod control;
 pub mod demo;
+pub mod diagnose;
 pub mod effects;
 pub mod excitation;
 pub mod identify;

@@ -460,3 +460,28 @@ fn bad_wall_files_name_the_field() {
     // The partition itself refuses a mismatch.
     assert!(Partition::new("q", vec!["a".into()], vec![0.0, 1.0]).is_err());
 }
+
+#[test]
+fn fuzzylite_evaluates_the_written_fll_table_as_lockstep_does() {
+    // Reference: fuzzylite 8.0.6 (pyfuzzylite) on the rules.fll that `lockstep wall` writes,
+    // printed by bench/fuzzylite_wall.py; its lock-range clamps inputs beyond the universes.
+    let s = WallSetup::load(&wall_file()).unwrap();
+    let text = std::fs::read_to_string(root().join("tests/data/fuzzylite_wall_rules.txt")).unwrap();
+    let mut n = 0;
+    for line in text.lines().filter(|l| !l.starts_with('#')) {
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .map(|x| x.parse().unwrap())
+            .collect();
+        let ours = s.modified.output(v[0], v[1]);
+        assert!(
+            (ours - v[2]).abs() <= 1e-12 * (1.0 + v[2].abs()),
+            "q = {}, dq = {}: lockstep {ours}, fuzzylite {}",
+            v[0],
+            v[1],
+            v[2]
+        );
+        n += 1;
+    }
+    assert_eq!(n, 305);
+}
