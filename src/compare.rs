@@ -114,15 +114,7 @@ pub fn compare_observation(
 /// at zero velocity show even when a fitted viscous coefficient has absorbed part of it.
 fn sign_fit(e: &[f64], qd: &[f64]) -> (f64, f64) {
     let n = e.len();
-    let sign = |v: f64| {
-        if v > 0.0 {
-            1.0
-        } else if v < 0.0 {
-            -1.0
-        } else {
-            0.0
-        }
-    };
+    let sign = crate::effects::sign;
     let a = nalgebra::DMatrix::from_fn(n, 3, |i, c| match c {
         0 => sign(qd[i]),
         1 => 1.0,

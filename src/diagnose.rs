@@ -27,7 +27,7 @@
 //! Output-space diagnosis (position-only data through the simulator's sensitivities) is not
 //! here yet.
 
-use crate::effects::EffectKind;
+use crate::effects::{sign, EffectKind};
 use crate::identify::idim::{predict, Observation};
 use crate::plant::Plant;
 use anyhow::Result;
@@ -78,16 +78,6 @@ fn fit(cols: &[Vec<f64>], e: &[f64]) -> Option<(Vec<f64>, f64)> {
     let x = svd.solve(&b, 1e-12 * svd.singular_values.max()).ok()?;
     let sse = (b - a * &x).norm_squared();
     Some((x.iter().copied().collect(), sse))
-}
-
-fn sign(v: f64) -> f64 {
-    if v > 0.0 {
-        1.0
-    } else if v < 0.0 {
-        -1.0
-    } else {
-        0.0
-    }
 }
 
 /// Rank the catalogue against the residual of `plant` on the prepared observation `obs`

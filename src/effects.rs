@@ -133,13 +133,7 @@ impl EffectKind {
     /// The regressor entries `∂τ/∂θ` of a linear kind at velocity `qd` (one per symbol);
     /// `None` for kinds that are not linear in their parameters ([`EffectKind::is_linear`]).
     pub fn regressor(self, qd: f64) -> Option<Vec<f64>> {
-        let sign = if qd > 0.0 {
-            1.0
-        } else if qd < 0.0 {
-            -1.0
-        } else {
-            0.0
-        };
+        let sign = sign(qd);
         let pos = if qd > 0.0 { 1.0 } else { 0.0 };
         let neg = if qd < 0.0 { 1.0 } else { 0.0 };
         match self {
@@ -149,6 +143,17 @@ impl EffectKind {
             EffectKind::Offset => Some(vec![1.0]),
             _ => None,
         }
+    }
+}
+
+/// sign(v) with sign(0) = 0 (and 0 for NaN): the Coulomb convention of the catalogue.
+pub fn sign(v: f64) -> f64 {
+    if v > 0.0 {
+        1.0
+    } else if v < 0.0 {
+        -1.0
+    } else {
+        0.0
     }
 }
 

@@ -312,7 +312,7 @@ impl PlantModel {
     /// bristle rate ż.
     pub fn friction(&self, i: usize, q: f64, v: f64, z: f64) -> (f64, f64) {
         let t = &self.terms[i];
-        let mut f = t.viscous * v + t.coulomb * if v == 0.0 { 0.0 } else { v.signum() };
+        let mut f = t.viscous * v + t.coulomb * crate::effects::sign(v);
         if let Some(s) = &t.stribeck {
             f += s.force(v);
         }
@@ -387,14 +387,11 @@ impl PlantModel {
 
     /// dx/dt at state `x` under commanded torques `tau`.
     pub fn derivative(&self, x: &State, tau: &[f64]) -> State {
-        let mut w = Scratch::new(self.nf(), &self.q_locked);
-        let mut out = State::at_rest(vec![0.0; self.nf()]);
-        self.derivative_into(x, tau, &[], &mut w, &mut out);
-        out
+        self.derivative_with_external(x, tau, &[])
     }
 
     /// dx/dt at state `x` under commanded torques `tau` (NF) and an external generalised
-    /// force `q_ext` (NF, N·m or N) added to the applied torques Q: a hand holding the end
+    /// force `q_ext` (NF, N·m or N; empty for none) added to the applied torques Q: a hand holding the end
     /// point, a contact. The plant gain does not act on `q_ext`.
     pub fn derivative_with_external(&self, x: &State, tau: &[f64], q_ext: &[f64]) -> State {
         let mut w = Scratch::new(self.nf(), &self.q_locked);

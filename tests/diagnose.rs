@@ -3,7 +3,7 @@
 //! benchmark's 4.3 % once they are added, and on data the model explains nothing significant
 //! is reported.
 
-use lockstep::diagnose::diagnose_torque;
+use lockstep::diagnose::{diagnose_torque, Finding};
 use lockstep::effects::{Effect, EffectKind};
 use lockstep::identify::idim::{least_squares, observation, IdimOptions};
 use lockstep::measurement::Measurement;
@@ -22,17 +22,21 @@ fn opts() -> IdimOptions {
     }
 }
 
+/// IDIM fit of `plant` on `m` (values applied), then the diagnosis on the same observation:
+/// (relative error %, ranking).
+fn fit_and_diagnose(plant: &mut Plant, m: &Measurement) -> (f64, Vec<Finding>) {
+    let obs = observation(plant, "full", std::slice::from_ref(m), &opts()).unwrap();
+    let fit = least_squares(&obs).unwrap();
+    fit.apply(plant);
+    (fit.relative_error, diagnose_torque(plant, &obs).unwrap())
+}
+
 #[test]
 fn emps_hidden_coulomb_friction_is_named_first_and_adding_it_brings_the_error_below_4_3_percent() {
     let m = Measurement::read(&root().join("data/emps/emps_train.csv"), 1).unwrap();
     let mut plant = Plant::load(&root().join("model/plants/emps_viscous.toml")).unwrap();
-    let fit =
-        least_squares(&observation(&plant, "full", std::slice::from_ref(&m), &opts()).unwrap())
-            .unwrap();
-    fit.apply(&mut plant);
-    assert!(fit.relative_error >= 15.0, "{}", fit.relative_error);
-    let obs = observation(&plant, "full", std::slice::from_ref(&m), &opts()).unwrap();
-    let f = diagnose_torque(&plant, &obs).unwrap();
+    let (error, f) = fit_and_diagnose(&mut plant, &m);
+    assert!(error >= 15.0, "{error}");
     assert_eq!(
         f[0].kind,
         Some(EffectKind::Coulomb),
@@ -51,12 +55,7 @@ fn emps_hidden_coulomb_friction_is_named_first_and_adding_it_brings_the_error_be
         .add_effect(Effect::on(EffectKind::Coulomb, 0))
         .unwrap();
     plant.parameters.insert("Fc_0".into(), 0.0);
-    let fit =
-        least_squares(&observation(&plant, "full", std::slice::from_ref(&m), &opts()).unwrap())
-            .unwrap();
-    fit.apply(&mut plant);
-    let obs = observation(&plant, "full", std::slice::from_ref(&m), &opts()).unwrap();
-    let f = diagnose_torque(&plant, &obs).unwrap();
+    let (_, f) = fit_and_diagnose(&mut plant, &m);
     // Next: a constant, alone (offset, −3.1 N) or inside a spring (Ks (q − qeq) has a constant
     // column; on EMPS it explains 68.3 % against the offset's 67.8 %).
     let t = lockstep::diagnose::table(&f, 5);
@@ -75,10 +74,8 @@ fn emps_hidden_coulomb_friction_is_named_first_and_adding_it_brings_the_error_be
     assert!((off.estimate[0].1 + 3.1).abs() < 0.5, "{t}");
     plant.add_effect(Effect::on(EffectKind::Offset, 0)).unwrap();
     plant.parameters.insert("offset_0".into(), 0.0);
-    let fit =
-        least_squares(&observation(&plant, "full", std::slice::from_ref(&m), &opts()).unwrap())
-            .unwrap();
-    assert!(fit.relative_error <= 4.3, "{}", fit.relative_error);
+    let (error, _) = fit_and_diagnose(&mut plant, &m);
+    assert!(error <= 4.3, "{error}");
 }
 
 #[test]
@@ -125,23 +122,13 @@ fn nothing_significant_is_missing_when_the_model_is_the_truth() {
     std::fs::write(&path, text).unwrap();
     let m = Measurement::read(&path, 1).unwrap();
     let mut plant = Plant::load(&root().join("model/plants/emps_symmetric.toml")).unwrap();
-    let fit =
-        least_squares(&observation(&plant, "full", std::slice::from_ref(&m), &opts()).unwrap())
-            .unwrap();
-    fit.apply(&mut plant);
-    let obs = observation(&plant, "full", std::slice::from_ref(&m), &opts()).unwrap();
-    let f = diagnose_torque(&plant, &obs).unwrap();
+    let (_, f) = fit_and_diagnose(&mut plant, &m);
     let table = lockstep::diagnose::table(&f, 5);
     assert!(!f.iter().any(|x| x.significant), "{table}");
     assert!(table.contains("nothing significant is missing"), "{table}");
     // The same data against the plant without Coulomb friction: named first.
     let mut viscous = Plant::load(&root().join("model/plants/emps_viscous.toml")).unwrap();
-    let fit =
-        least_squares(&observation(&viscous, "full", std::slice::from_ref(&m), &opts()).unwrap())
-            .unwrap();
-    fit.apply(&mut viscous);
-    let obs = observation(&viscous, "full", std::slice::from_ref(&m), &opts()).unwrap();
-    let f = diagnose_torque(&viscous, &obs).unwrap();
+    let (_, f) = fit_and_diagnose(&mut viscous, &m);
     assert_eq!(
         f[0].kind,
         Some(EffectKind::Coulomb),

@@ -170,16 +170,11 @@ impl ClosedLoop {
             spec.duration = d;
         }
         let dir = path.parent().unwrap_or(Path::new("."));
-        let plant_path = plant.map_or_else(|| dir.join(&spec.plant), Path::to_path_buf);
-        let mut p = Plant::load(&plant_path)?;
-        for (k, v) in &spec.plant_overrides {
-            if plant.is_none() {
-                if !p.parameters.contains_key(k) {
-                    bail!("{origin}: plant_overrides: the plant has no parameter '{k}'");
-                }
-                p.parameters.insert(k.clone(), *v);
-            }
-        }
+        // The overrides belong to the file's plant; a plant given instead is taken as is.
+        let p = match plant {
+            Some(given) => Plant::load(given)?,
+            None => super::experiment_plant(path, &spec.plant, &spec.plant_overrides)?,
+        };
         if !(spec.rate > 0.0 && spec.duration > 0.0 && spec.step > 0.0) {
             bail!("{origin}: rate, duration and step must be positive");
         }

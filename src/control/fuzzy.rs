@@ -10,6 +10,7 @@
 
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
 
 /// The membership functions of one input: triangles peaking at `peaks` whose feet are the
 /// neighbouring peaks, so at most two are non-zero and they sum to one everywhere (thesis
@@ -372,7 +373,7 @@ impl Fam {
     /// partition of unity, a rule on an unknown term, a missing or repeated rule.
     pub fn from_fll(text: &str, origin: &str) -> Result<Fam> {
         let mut inputs: Vec<(String, Terms)> = Vec::new();
-        let mut outputs: std::collections::HashMap<String, f64> = Default::default();
+        let mut outputs: HashMap<String, f64> = HashMap::new();
         let mut rules: Vec<(usize, String, String, String)> = Vec::new();
         let mut section = "";
         for (n, raw) in text.lines().enumerate() {
@@ -448,6 +449,18 @@ impl Fam {
                 _ => {}
             }
         }
+        Self::assemble(origin, &inputs, &outputs, rules)
+    }
+
+    /// The table from parsed file contents (FLL or FIS): two inputs whose triangles must
+    /// form a partition of unity, output singletons by name, and rules
+    /// `(line, position label, velocity label, output name)`; every cell exactly once.
+    fn assemble(
+        origin: &str,
+        inputs: &[(String, Terms)],
+        outputs: &HashMap<String, f64>,
+        rules: Vec<(usize, String, String, String)>,
+    ) -> Result<Fam> {
         if inputs.len() != 2 {
             bail!(
                 "{origin}: expected two input variables, found {}",
@@ -490,16 +503,7 @@ impl Fam {
             }
             table[i][j] = v;
         }
-        Self::complete(origin, position, velocity, table)
-    }
-
-    fn complete(
-        origin: &str,
-        position: Partition,
-        velocity: Partition,
-        rules: Vec<Vec<f64>>,
-    ) -> Result<Fam> {
-        for (i, row) in rules.iter().enumerate() {
+        for (i, row) in table.iter().enumerate() {
             for (j, v) in row.iter().enumerate() {
                 if v.is_nan() {
                     bail!(
@@ -515,7 +519,7 @@ impl Fam {
         Ok(Fam {
             position,
             velocity,
-            rules,
+            rules: table,
         })
     }
 
@@ -561,12 +565,23 @@ impl Fam {
             };
             let value = value.trim();
             let unquote = |s: &str| s.trim().trim_matches('\'').to_string();
-            let nums = |s: &str| -> Result<Vec<f64>> {
-                let inner = s.trim().trim_start_matches('[').trim_end_matches(']');
-                inner
+            // MFk='name':'shape',[numbers]: the label and `count` numbers of that shape.
+            let mf = |value: &str, shape: &str, count: usize| -> Result<(String, Vec<f64>)> {
+                let form = || err(&format!("expected MFk='name':'{shape}',[{count} numbers]"));
+                let (label, rest) = value.split_once(':').ok_or_else(form)?;
+                let (kind, params) = rest.split_once(',').ok_or_else(form)?;
+                if unquote(kind) != shape {
+                    return Err(err(&format!("only '{shape}' membership functions here")));
+                }
+                let inner = params.trim().trim_start_matches('[').trim_end_matches(']');
+                let v = inner
                     .split_whitespace()
-                    .map(|x| x.parse::<f64>().map_err(|_| err("expected numbers in [ ]")))
-                    .collect()
+                    .map(|x| x.parse::<f64>().map_err(|_| form()))
+                    .collect::<Result<Vec<f64>>>()?;
+                if v.len() != count {
+                    return Err(form());
+                }
+                Ok((unquote(label), v))
             };
             match (section.as_str(), key.trim()) {
                 ("System", "Type") if unquote(value) != "sugeno" => {
@@ -584,81 +599,41 @@ impl Fam {
                     }
                 }
                 (s, k) if s.starts_with("Input") && k.starts_with("MF") => {
-                    let (label, rest) = value
-                        .split_once(':')
-                        .ok_or_else(|| err("expected MFk='name':'trimf',[a b c]"))?;
-                    let (shape, params) = rest
-                        .split_once(',')
-                        .ok_or_else(|| err("expected MFk='name':'trimf',[a b c]"))?;
-                    if unquote(shape) != "trimf" {
-                        return Err(err("only 'trimf' input membership functions"));
-                    }
-                    let v = nums(params)?;
-                    if v.len() != 3 {
-                        return Err(err("trimf takes three numbers"));
-                    }
+                    let (label, v) = mf(value, "trimf", 3)?;
                     if let Some(last) = inputs.last_mut() {
-                        last.1.push((unquote(label), [v[0], v[1], v[2]]));
+                        last.1.push((label, [v[0], v[1], v[2]]));
                     }
                 }
                 ("Output1", k) if k.starts_with("MF") => {
-                    let (_, rest) = value
-                        .split_once(':')
-                        .ok_or_else(|| err("expected MFk='name':'constant',[v]"))?;
-                    let (shape, params) = rest
-                        .split_once(',')
-                        .ok_or_else(|| err("expected MFk='name':'constant',[v]"))?;
-                    if unquote(shape) != "constant" {
-                        return Err(err("only 'constant' output membership functions"));
-                    }
-                    let v = nums(params)?;
-                    if v.len() != 1 {
-                        return Err(err("constant takes one number"));
-                    }
-                    consts.push(v[0]);
+                    consts.push(mf(value, "constant", 1)?.1[0])
                 }
                 _ => {}
             }
         }
-        if inputs.len() != 2 {
-            bail!("{origin}: expected two inputs, found {}", inputs.len());
-        }
-        // Reuse the FLL checks on the partition by building the same structures.
-        let mut fll = String::new();
-        for (name, terms) in &inputs {
-            fll += &format!("InputVariable: {name}\n");
-            for (l, abc) in terms {
-                fll += &format!(
-                    "term: {l} Triangle {:e} {:e} {:e}\n",
-                    abc[0], abc[1], abc[2]
-                );
-            }
-        }
-        fll += "OutputVariable: u\n";
-        for (k, c) in consts.iter().enumerate() {
-            fll += &format!("term: o{} Constant {c:e}\n", k + 1);
-        }
-        fll += "RuleBlock: fam\n";
         let label = |input: usize, k: usize, line_no: usize| -> Result<String> {
-            inputs[input]
-                .1
-                .get(k.wrapping_sub(1))
+            inputs
+                .get(input)
+                .and_then(|x| x.1.get(k.wrapping_sub(1)))
                 .map(|t| t.0.clone())
                 .with_context(|| format!("{origin}:{line_no}: input {} has no MF{k}", input + 1))
         };
-        for &(line_no, i, j, k) in &rules {
-            if k == 0 || k > consts.len() {
-                bail!("{origin}:{line_no}: the output has no MF{k}");
-            }
-            fll += &format!(
-                "rule: if {} is {} and {} is {} then u is o{k}\n",
-                inputs[0].0,
-                label(0, i, line_no)?,
-                inputs[1].0,
-                label(1, j, line_no)?
-            );
-        }
-        Self::from_fll(&fll, origin)
+        let outputs: HashMap<String, f64> = consts
+            .iter()
+            .enumerate()
+            .map(|(k, &c)| (format!("MF{}", k + 1), c))
+            .collect();
+        let rules = rules
+            .iter()
+            .map(|&(line_no, i, j, k)| {
+                Ok((
+                    line_no,
+                    label(0, i, line_no)?,
+                    label(1, j, line_no)?,
+                    format!("MF{k}"),
+                ))
+            })
+            .collect::<Result<_>>()?;
+        Self::assemble(origin, &inputs, &outputs, rules)
     }
 }
 

@@ -17,6 +17,7 @@ use crate::plant::{ConsistencyPolicy, Plant};
 use crate::simulation::PlantModel;
 use anyhow::{bail, Context, Result};
 use fuzzy::{Fam, Modification, Partition};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -231,6 +232,28 @@ impl WallSpec {
     }
 }
 
+/// The plant of an experiment file at `file`: `plant` relative to the file's directory, with
+/// `overrides` replacing its parameter values.
+///
+/// # Errors
+/// As [`Plant::load`] (with the experiment file named); an override the plant does not have.
+pub(crate) fn experiment_plant(
+    file: &Path,
+    plant: &Path,
+    overrides: &BTreeMap<String, f64>,
+) -> Result<Plant> {
+    let origin = file.display().to_string();
+    let path = file.parent().unwrap_or(Path::new(".")).join(plant);
+    let mut p = Plant::load(&path).with_context(|| format!("{origin}: plant"))?;
+    for (k, v) in overrides {
+        if !p.parameters.contains_key(k) {
+            bail!("{origin}: plant_overrides: the plant has no parameter '{k}'");
+        }
+        p.parameters.insert(k.clone(), *v);
+    }
+    Ok(p)
+}
+
 impl WallSetup {
     /// Load a wall file and build plant and controllers.
     ///
@@ -241,14 +264,7 @@ impl WallSetup {
     pub fn load(path: &Path) -> Result<WallSetup> {
         let spec = WallSpec::load(path)?;
         let origin = path.display().to_string();
-        let plant_path = path.parent().unwrap_or(Path::new(".")).join(&spec.plant);
-        let mut plant = Plant::load(&plant_path).with_context(|| format!("{origin}: plant"))?;
-        for (k, v) in &spec.plant_overrides {
-            if !plant.parameters.contains_key(k) {
-                bail!("{origin}: plant_overrides: the plant has no parameter '{k}'");
-            }
-            plant.parameters.insert(k.clone(), *v);
-        }
+        let plant = experiment_plant(path, &spec.plant, &spec.plant_overrides)?;
         let model = plant.model;
         let mut q_locked = vec![0.0; model.joints.len()];
         for (k, v) in &spec.locked {
@@ -317,5 +333,17 @@ impl WallSetup {
             &self.spec.user(speed),
             &self.spec.loop_at(rate),
         )
+    }
+
+    /// One run per approach speed of the file (in its order), in parallel.
+    ///
+    /// # Errors
+    /// As [`wall::simulate`].
+    pub fn runs(&self, law: &WallLaw, hand: &Hand, rate: f64) -> Result<Vec<wall::Run>> {
+        self.spec
+            .approach
+            .par_iter()
+            .map(|a| self.run(law, hand, a.speed, rate))
+            .collect()
     }
 }

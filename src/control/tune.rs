@@ -15,7 +15,6 @@ use super::fuzzy::Fam;
 use super::wall::{Metrics, WallLaw};
 use super::WallSetup;
 use anyhow::Result;
-use rayon::prelude::*;
 
 /// The outcome of a tuning.
 #[derive(Debug, Clone)]
@@ -30,22 +29,24 @@ pub struct Tuned {
     pub evaluations: usize,
 }
 
+/// Metrics per approach speed of `law` at `rate` with the nominal hand.
+///
+/// # Errors
+/// Simulation failures.
+fn metrics(setup: &WallSetup, law: &WallLaw, rate: f64) -> Result<Vec<Metrics>> {
+    Ok(setup
+        .runs(law, &setup.spec.nominal_hand(), rate)?
+        .into_iter()
+        .map(|r| r.metrics)
+        .collect())
+}
+
 /// PD reference metrics per approach speed at `rate` with the nominal hand.
 ///
 /// # Errors
 /// Simulation failures.
 pub fn reference(setup: &WallSetup, rate: f64) -> Result<Vec<Metrics>> {
-    let hand = setup.spec.nominal_hand();
-    setup
-        .spec
-        .approach
-        .par_iter()
-        .map(|a| {
-            Ok(setup
-                .run(&WallLaw::Pd(setup.spec.pd), &hand, a.speed, rate)?
-                .metrics)
-        })
-        .collect()
+    metrics(setup, &WallLaw::Pd(setup.spec.pd), rate)
 }
 
 /// The objective J of a table (module docs).
@@ -53,15 +54,8 @@ pub fn reference(setup: &WallSetup, rate: f64) -> Result<Vec<Metrics>> {
 /// # Errors
 /// Simulation failures.
 pub fn objective(setup: &WallSetup, fam: &Fam, pd: &[Metrics], rate: f64) -> Result<f64> {
-    let hand = setup.spec.nominal_hand();
-    let law = WallLaw::Fuzzy(fam.clone());
     let f = setup.spec.tune.penetration_factor;
-    let ms: Vec<Metrics> = setup
-        .spec
-        .approach
-        .par_iter()
-        .map(|a| Ok(setup.run(&law, &hand, a.speed, rate)?.metrics))
-        .collect::<Result<_>>()?;
+    let ms = metrics(setup, &WallLaw::Fuzzy(fam.clone()), rate)?;
     Ok(ms
         .iter()
         .zip(pd)

@@ -177,18 +177,9 @@ type Comparison = Vec<(Run, Run)>;
 
 fn compare_at(setup: &WallSetup, fz: &WallLaw, rate: f64) -> Result<Comparison> {
     let hand = setup.spec.nominal_hand();
-    let pd = WallLaw::Pd(setup.spec.pd);
-    setup
-        .spec
-        .approach
-        .par_iter()
-        .map(|a| {
-            Ok((
-                setup.run(&pd, &hand, a.speed, rate)?,
-                setup.run(fz, &hand, a.speed, rate)?,
-            ))
-        })
-        .collect()
+    let pd = setup.runs(&WallLaw::Pd(setup.spec.pd), &hand, rate)?;
+    let fz = setup.runs(fz, &hand, rate)?;
+    Ok(pd.into_iter().zip(fz).collect())
 }
 
 /// `lockstep wall`: PD vs fuzzy table per rate and approach speed, hand sweep, thesis
@@ -364,10 +355,13 @@ pub fn tune_command(args: &WallArgs) -> Result<()> {
         ("hand-made", WallLaw::Fuzzy(setup.modified.clone())),
         ("tuned", WallLaw::Fuzzy(tuned.fam.clone())),
     ];
-    for a in &setup.spec.approach {
-        for (name, law) in &laws {
-            let m = setup.run(law, &hand, a.speed, rate)?.metrics;
-            let _ = writeln!(s, "{:<8} {name:<9} {}", a.name, metric_row(&m));
+    let runs: Vec<Vec<Run>> = laws
+        .iter()
+        .map(|(_, law)| setup.runs(law, &hand, rate))
+        .collect::<Result<_>>()?;
+    for (i, a) in setup.spec.approach.iter().enumerate() {
+        for ((name, _), r) in laws.iter().zip(&runs) {
+            let _ = writeln!(s, "{:<8} {name:<9} {}", a.name, metric_row(&r[i].metrics));
         }
     }
     print!("{s}");
