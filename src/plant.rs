@@ -71,6 +71,33 @@ pub struct PlantFile {
     /// Parameter bounds `[lower, upper]` (SI).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub bounds: BTreeMap<String, [f64; 2]>,
+    /// What was changed and refitted, oldest first (`lockstep diagnose --apply`, `lockstep
+    /// refit`).
+    #[serde(default, rename = "history", skip_serializing_if = "Vec::is_empty")]
+    pub history: Vec<HistoryEntry>,
+}
+
+/// One step of a plant's history: a change (an effect added, parameters refitted), the
+/// data it was fitted on and the RMS position error per joint before and after.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HistoryEntry {
+    /// What changed, e.g. "added spring on q3".
+    pub change: String,
+    /// Configuration of the data.
+    pub configuration: String,
+    /// Data files.
+    #[serde(default)]
+    pub files: Vec<String>,
+    /// Fitted values (SI).
+    #[serde(default)]
+    pub fitted: BTreeMap<String, f64>,
+    /// RMS position error per joint before the change (rad or m).
+    #[serde(default)]
+    pub rms_before: BTreeMap<String, f64>,
+    /// … and after the refit.
+    #[serde(default)]
+    pub rms_after: BTreeMap<String, f64>,
 }
 
 /// A validated plant: model kernels, effects resolved to joint indices, parameter values.
@@ -89,6 +116,8 @@ pub struct Plant {
     pub parameters: BTreeMap<String, f64>,
     /// Bounds `(lower, upper)` by parameter name.
     pub bounds: BTreeMap<String, (f64, f64)>,
+    /// Changes and refits, oldest first.
+    pub history: Vec<HistoryEntry>,
 }
 
 /// One physical-consistency finding of a link of a plant.
@@ -157,6 +186,7 @@ impl Plant {
             effects,
             parameters: BTreeMap::new(),
             bounds: BTreeMap::new(),
+            history: Vec::new(),
         })
     }
 
@@ -198,6 +228,7 @@ impl Plant {
             Plant::new(&spec.model, vec![]).map_err(|e| anyhow::anyhow!("field 'model': {e}"))?;
         plant.file = path.map(Path::to_path_buf);
         plant.description = spec.description.clone();
+        plant.history = spec.history.clone();
         for (i, e) in spec.effects.iter().enumerate() {
             let item = format!("effect {} ({})", i + 1, e.kind);
             let mut effects = Vec::new();
@@ -691,6 +722,7 @@ impl Plant {
                 .iter()
                 .map(|(k, (lo, hi))| (k.clone(), [*lo, *hi]))
                 .collect(),
+            history: self.history.clone(),
         }
     }
 

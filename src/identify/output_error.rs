@@ -847,9 +847,25 @@ impl Problem {
                     && (0..n).all(|j| j == i || correlation[i][j].abs() <= CORRELATION_LIMIT)
             })
             .collect();
-        // Fit per joint over all samples (unweighted), as MATLAB's compare.
+        let joint = self.joint_fits(&trajectories);
+        Ok(Statistics {
+            std_err,
+            relative_std_err: relative,
+            correlation,
+            correlated,
+            at_bound,
+            identifiable,
+            condition,
+            joints: joint,
+        })
+    }
+
+    /// Fit figures per free joint of the files' `trajectories` (one per record, as from
+    /// [`Problem::trajectories`]) over all samples, unweighted, as MATLAB's `compare`.
+    pub fn joint_fits(&self, trajectories: &[Trajectory]) -> Vec<JointFit> {
+        let nf = self.lambda.len();
         let mut joint = vec![JointFit::default(); nf];
-        for (rec, traj) in self.records.iter().zip(&trajectories) {
+        for (rec, traj) in self.records.iter().zip(trajectories) {
             for a in 0..nf {
                 let y = &rec.q[a];
                 let mean = y.iter().sum::<f64>() / y.len() as f64;
@@ -870,16 +886,7 @@ impl Problem {
             jf.rms = (jf.sse / jf.n.max(1) as f64).sqrt();
             jf.nrmse_fit = 100.0 * (1.0 - (jf.sse / jf.sst.max(1e-300)).sqrt());
         }
-        Ok(Statistics {
-            std_err,
-            relative_std_err: relative,
-            correlation,
-            correlated,
-            at_bound,
-            identifiable,
-            condition,
-            joints: joint,
-        })
+        joint
     }
 }
 

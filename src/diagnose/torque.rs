@@ -24,10 +24,10 @@
 //! torque scales θ (its column y⊥ is the residual itself); it shows in output space. Refitting the plant's own parameters (W) is reported first as
 //! "refit existing parameters" with the share of the residual it removes.
 //!
-//! Output-space diagnosis (position-only data through the simulator's sensitivities) is not
-//! here yet.
+//! Position-measured data go through [`super::output`] instead.
 
-use crate::effects::{sign, EffectKind};
+use super::{fit, Finding};
+use crate::effects::{sign, Effect, EffectKind};
 use crate::identify::idim::{predict, Observation};
 use crate::plant::Plant;
 use anyhow::Result;
@@ -41,44 +41,6 @@ type Candidate = (
     Vec<String>,
     Vec<Vec<f64>>,
 );
-
-/// One candidate's fit to a joint's residual.
-#[derive(Debug, Clone)]
-pub struct Finding {
-    /// Joint name.
-    pub joint: String,
-    /// Candidate name (`coulomb`, `stribeck`, `input_coupling from q5`, `refit existing
-    /// parameters`, …).
-    pub name: String,
-    /// The plant effect that implements it (None for "refit existing parameters").
-    pub kind: Option<EffectKind>,
-    /// Source joint of a coupling.
-    pub from: Option<String>,
-    /// Estimated sizes: (symbol, value) in SI units.
-    pub estimate: Vec<(String, f64)>,
-    /// Fraction of the residual energy explained, 1 − SSE/SST.
-    pub explained: f64,
-    /// ΔBIC against "nothing missing" (negative: evidence for the candidate).
-    pub delta_bic: f64,
-    /// ΔBIC < −10 and explained ≥ 5 %.
-    pub significant: bool,
-    /// One line of physics.
-    pub meaning: String,
-}
-
-fn fit(cols: &[Vec<f64>], e: &[f64]) -> Option<(Vec<f64>, f64)> {
-    let n = e.len();
-    let p = cols.len();
-    if n <= p + 1 {
-        return None;
-    }
-    let a = DMatrix::from_fn(n, p, |r, c| cols[c][r]);
-    let b = DVector::from_column_slice(e);
-    let svd = a.clone().svd(true, true);
-    let x = svd.solve(&b, 1e-12 * svd.singular_values.max()).ok()?;
-    let sse = (b - a * &x).norm_squared();
-    Some((x.iter().copied().collect(), sse))
-}
 
 /// Rank the catalogue against the residual of `plant` on the prepared observation `obs`
 /// (one record), per joint, best first.
@@ -120,19 +82,17 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
             continue;
         }
         if 1.0 - sst / sst0 > 1e-6 {
-            let nf = n as f64;
-            let explained = 1.0 - sst / sst0;
-            out.push(Finding {
-                joint: m.joints[j].to_string(),
-                name: "refit existing parameters".into(),
-                kind: None,
-                from: None,
-                estimate: vec![],
-                explained,
-                delta_bic: nf * (sst / nf).ln() + pw as f64 * nf.ln() - nf * (sst0 / nf).ln(),
-                significant: explained >= 0.05,
-                meaning: "the plant's own parameters are not at their least-squares values: refit (identify) before adding effects".into(),
-            });
+            let mut f = Finding::new(
+                m.joints[j],
+                "refit existing parameters".into(),
+                None,
+                None,
+                vec![],
+                (sst, sst0, n, pw),
+            );
+            f.significant = f.explained >= 0.05;
+            f.meaning = "the plant's own parameters are not at their least-squares values: refit (identify) before adding effects".into();
+            out.push(f);
         }
         let q: Vec<f64> = idx.iter().map(|&i| obs.rows[i].q).collect();
         let qd: Vec<f64> = idx.iter().map(|&i| obs.rows[i].qd).collect();
@@ -258,8 +218,6 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
                 ));
             }
         }
-        let nf = n as f64;
-        let bic0 = nf * (sst / nf).ln();
         for (name, kind, from, symbols, cols) in cands {
             let cols: Vec<Vec<f64>> = cols.iter().map(|c| project(c)).collect();
             if cols.iter().all(|c| c.iter().all(|x| x.abs() < 1e-12)) {
@@ -268,57 +226,42 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
             let Some((x, sse)) = fit(&cols, &e) else {
                 continue;
             };
-            let p = cols.len() as f64;
-            let delta_bic = nf * (sse.max(1e-300) / nf).ln() + p * nf.ln() - bic0;
-            let explained = 1.0 - sse / sst;
-            out.push(Finding {
-                joint: m.joints[j].to_string(),
-                meaning: kind.map_or(String::new(), |k| k.meaning().to_string()),
+            let mut f = Finding::new(
+                m.joints[j],
                 name,
                 kind,
-                from: from.map(|k| m.joints[k].to_string()),
-                estimate: symbols.into_iter().zip(x).collect(),
-                explained,
-                delta_bic,
-                significant: delta_bic < -10.0 && explained >= 0.05,
-            });
+                from.map(|k| m.joints[k].to_string()),
+                symbols.into_iter().zip(x.iter().copied()).collect(),
+                (sse, sst, n, cols.len()),
+            );
+            // The plant edit, where the inverse-model coefficients map onto the effect's
+            // parameters: τ = … + Fc sign q̇ + Fv q̇ + offset + Ks (q − qeq); the command
+            // of a coupled joint reaching joint j lowers the torque j needs, c = −G.
+            let effect = match (kind, from) {
+                (Some(EffectKind::InputCoupling), Some(k)) => Some(Effect::coupling(k, j)),
+                (Some(k), None) => Some(Effect::on(k, j)),
+                _ => None,
+            };
+            let values: Option<Vec<f64>> = match kind {
+                Some(EffectKind::Coulomb | EffectKind::Viscous | EffectKind::Offset) => {
+                    Some(vec![x[0]])
+                }
+                Some(EffectKind::Spring) if x[0].abs() > 0.0 => Some(vec![x[0], -x[1] / x[0]]),
+                Some(EffectKind::InputCoupling) => Some(vec![-x[0]]),
+                _ => None,
+            };
+            if let (Some(e), Some(v)) = (effect, values) {
+                f.values = e.parameter_names().into_iter().zip(v).collect();
+                f.bounds = f
+                    .values
+                    .iter()
+                    .map(|(_, v)| (v - 10.0 * v.abs() - 1.0, v + 10.0 * v.abs() + 1.0))
+                    .collect();
+                f.effect = Some(e);
+            }
+            out.push(f);
         }
     }
     out.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     Ok(out)
-}
-
-/// The ranking as text: the top `k` candidates and the verdict.
-pub fn table(findings: &[Finding], k: usize) -> String {
-    let mut s = format!(
-        "{:<4} {:<6} {:<34} {:>10} {:>11}  {}\n",
-        "rank", "joint", "candidate", "explained", "ΔBIC", "estimate"
-    );
-    for (r, f) in findings.iter().take(k).enumerate() {
-        let est = f
-            .estimate
-            .iter()
-            .map(|(n, v)| format!("{n} = {v:.4e}"))
-            .collect::<Vec<_>>()
-            .join(", ");
-        s += &format!(
-            "{:<4} {:<6} {:<34} {:>9.1}% {:>11.1}  {est}{}\n       {}\n",
-            r + 1,
-            f.joint,
-            f.name,
-            100.0 * f.explained,
-            f.delta_bic,
-            if f.significant {
-                ""
-            } else {
-                "  (not significant)"
-            },
-            f.meaning
-        );
-    }
-    match findings.first() {
-        Some(f) if f.significant => s += &format!("most likely missing: {} on {}\n", f.name, f.joint),
-        _ => s += "nothing significant is missing (no candidate has ΔBIC < -10 and explains >= 5 % of the residual)\n",
-    }
-    s
 }

@@ -1,0 +1,651 @@
+//! Which physical effect is missing, in output space: position-measured data, the plant
+//! simulated on the measured torques.
+//!
+//! The residual is r = y − ŷ(plant), the measured minus the simulated positions of every
+//! free joint of every file, stacked (the first `skip` samples of each file left out). Each
+//! candidate of the catalogue changes the plant by one size β (a friction level, a
+//! stiffness, a coupling gain, a gain factor) from the value β₀ at which it has no effect;
+//! its signature is the sensitivity of the simulated positions,
+//!
+//! s = ∂ŷ/∂β ≈ (ŷ(β₀ + δ) − ŷ(β₀ − δ)) / 2δ   (central difference, forward where β₀ − δ
+//! cannot be simulated),
+//!
+//! and r is fitted on s by least squares with β kept in its physical range (a spring's
+//! stiffness, a friction level ≥ 0): β̂ = clamp(β₀ + sᵀr / sᵀs), SSE = ‖r − (β̂ − β₀) s‖².
+//! A second, nonlinear parameter (Stribeck velocity vs, the equilibrium position qeq of a
+//! spring or friction bias) is scanned on a grid and counts as a fitted number in ΔBIC.
+//! The leading candidates are then confirmed: the candidate is added at β̂ and its
+//! parameters refitted by output error ([`crate::identify::output_error::Problem`]), and its
+//! figures become those of the fitted plant (the linearisation understates large effects
+//! such as a 30 % gain error).
+//!
+//! Catalogue (per free joint i; an effect the joint already has is not offered again):
+//! Coulomb (Fc_i), viscous (Fv_i), offset (offset_i), Stribeck/stiction (Fs_i above Fc_i,
+//! vs_i on a grid; on a LuGre or Stribeck joint the existing law's Fs_i, on a Coulomb joint
+//! the law replaced by Stribeck), cable-drag spring (Ks_i, qeq_i on a grid unless a friction
+//! bias fixes it), friction position bias (FrictionBias_i, qeq_i shared with the spring
+//! when there is one), tendon input coupling from each other free joint (G_{j→i}), and a
+//! plant-gain error (Kp_i; added as a gain when the joint has none). Rigid-body parameter
+//! errors are not candidates here: identification refits them.
+
+use super::Finding;
+use crate::effects::{Effect, EffectKind};
+use crate::identify::output_error::{OutputErrorOptions, Problem, Record, TimeWeighting};
+use crate::plant::Plant;
+use crate::simulation::{Hold, Trajectory};
+use anyhow::{anyhow, bail, Result};
+use rayon::prelude::*;
+
+/// Settings of an output-space diagnosis.
+#[derive(Debug, Clone)]
+pub struct OutputOptions {
+    /// RK4 step (s).
+    pub h: f64,
+    /// Hold of the measured torques between samples.
+    pub hold: Hold,
+    /// Divergence bound on |q̇| (rad/s or m/s).
+    pub max_speed: f64,
+    /// Samples skipped at the start of every file (transient).
+    pub skip: usize,
+    /// Leading candidates confirmed by a nonlinear fit (0: linearisation only).
+    pub confirm: usize,
+    /// Most Levenberg–Marquardt iterations of a confirmation fit.
+    pub max_iter: usize,
+}
+
+impl Default for OutputOptions {
+    fn default() -> Self {
+        OutputOptions {
+            h: 1.0 / 6000.0,
+            hold: Hold::Zoh,
+            max_speed: 100.0,
+            skip: 0,
+            confirm: 3,
+            max_iter: 30,
+        }
+    }
+}
+
+/// The result of [`diagnose_output`].
+#[derive(Debug, Clone)]
+pub struct OutputDiagnosis {
+    /// Configuration.
+    pub configuration: String,
+    /// Candidates, best (lowest ΔBIC) first.
+    pub findings: Vec<Finding>,
+    /// Root-mean-square position residual per free joint before any change (rad or m).
+    pub rms: Vec<(String, f64)>,
+    /// Residual samples n (all files and free joints).
+    pub samples: usize,
+    /// Simulations run.
+    pub simulations: usize,
+}
+
+/// The size a candidate changes: a plant parameter, its no-effect value β₀, the
+/// sensitivity step δ and the physical range.
+#[derive(Debug, Clone)]
+struct Size {
+    name: String,
+    zero: f64,
+    step: f64,
+    lo: f64,
+    hi: f64,
+}
+
+/// A candidate plant change with one linear size.
+#[derive(Debug, Clone)]
+struct Candidate {
+    name: String,
+    kind: EffectKind,
+    joint: usize,
+    from: Option<usize>,
+    /// Effect to add (None: an existing effect's parameter changes).
+    effect: Option<Effect>,
+    replaces: Option<EffectKind>,
+    /// Values set with the change (a new effect's other parameters, a grid value).
+    fixed: Vec<(String, f64)>,
+    size: Size,
+    /// A grid-scanned parameter (refitted in the confirmation, counted in ΔBIC): its
+    /// name and range.
+    grid: Option<(String, f64, f64)>,
+}
+
+impl Candidate {
+    /// The plant with the candidate at size `beta`.
+    fn plant(&self, base: &Plant, beta: f64) -> Result<Plant> {
+        let mut p = base.clone();
+        if let Some(e) = self.effect {
+            if let Some(old) = self.replaces {
+                p.effects.retain(|x| !(x.joint == e.joint && x.kind == old));
+            }
+            p.add_effect(e)?;
+        }
+        for (n, v) in &self.fixed {
+            p.parameters.insert(n.clone(), *v);
+        }
+        p.parameters.insert(self.size.name.clone(), beta);
+        Ok(p)
+    }
+}
+
+/// Simulation of plants on the records, stacked into one output vector.
+struct Outputs<'a> {
+    problem: Problem,
+    records: &'a [Record],
+    skip: usize,
+}
+
+impl Outputs<'_> {
+    fn trajectories(&self, plant: &Plant) -> Result<Vec<Trajectory>> {
+        self.records
+            .iter()
+            .map(|r| self.problem.simulate(plant, r).map_err(|e| anyhow!(e.0)))
+            .collect()
+    }
+
+    fn stack(&self, trajectories: &[Trajectory]) -> Vec<f64> {
+        let mut y = Vec::new();
+        for t in trajectories {
+            for qa in &t.q {
+                y.extend_from_slice(&qa[self.skip.min(qa.len())..]);
+            }
+        }
+        y
+    }
+
+    fn measured(&self) -> Vec<f64> {
+        let mut y = Vec::new();
+        for r in self.records {
+            for qa in &r.q {
+                y.extend_from_slice(&qa[self.skip.min(qa.len())..]);
+            }
+        }
+        y
+    }
+
+    fn simulate(&self, plant: &Plant) -> Result<Vec<f64>> {
+        Ok(self.stack(&self.trajectories(plant)?))
+    }
+}
+
+fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+/// Quantile `f` of `v` (sorted copy).
+fn quantile(v: &[f64], f: f64) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[((s.len() - 1) as f64 * f).round() as usize]
+}
+
+/// Rank the catalogue against the position residual of `plant` in configuration
+/// `conf_name` on `records` (prepared by [`crate::identify::sequence::read_record`]),
+/// best first, with the leading `options.confirm` candidates confirmed by a nonlinear fit.
+///
+/// # Errors
+/// Unknown configuration, no records or too few samples after `skip`, a plant parameter
+/// without value, or the plant itself cannot be simulated on a record (file named).
+pub fn diagnose_output(
+    plant: &Plant,
+    conf_name: &str,
+    records: &[Record],
+    options: &OutputOptions,
+) -> Result<OutputDiagnosis> {
+    let m = plant.model;
+    let conf = crate::util::configuration(m, conf_name).map_err(|e| anyhow!("{e}"))?;
+    if records.is_empty() {
+        bail!("configuration '{conf_name}': no measurement files");
+    }
+    let oe = OutputErrorOptions {
+        weighting: TimeWeighting::SkipTransient(options.skip),
+        interest_weight: 1.0,
+        h: options.h,
+        hold: options.hold,
+        max_speed: options.max_speed,
+        max_iter: options.max_iter,
+        horizons: vec![1.0],
+        ..OutputErrorOptions::default()
+    };
+    let problem = Problem::new(plant, conf, vec![], records.to_vec(), &[], oe.clone())?;
+    let out = Outputs {
+        problem,
+        records,
+        skip: options.skip,
+    };
+    let base = out
+        .trajectories(plant)
+        .map_err(|e| anyhow!("the plant itself cannot be simulated: {e:#}"))?;
+    let y = out.measured();
+    let yhat = out.stack(&base);
+    let r: Vec<f64> = y.iter().zip(&yhat).map(|(a, b)| a - b).collect();
+    let n = r.len();
+    let sst: f64 = r.iter().map(|x| x * x).sum();
+    let nf = conf.free.len();
+    let per_joint: Vec<(String, f64)> = (0..nf)
+        .map(|a| {
+            let e: Vec<f64> = records
+                .iter()
+                .zip(&base)
+                .flat_map(|(rec, tr)| {
+                    let s = options.skip.min(rec.q[a].len());
+                    rec.q[a][s..]
+                        .iter()
+                        .zip(&tr.q[a][s..])
+                        .map(|(a, b)| a - b)
+                        .collect::<Vec<_>>()
+                })
+                .collect();
+            (m.joints[conf.free[a]].to_string(), rms(&e))
+        })
+        .collect();
+    let cands = catalogue(plant, conf, records, &base)?;
+    // Sensitivity columns, all candidates in parallel.
+    let columns: Vec<Option<Vec<f64>>> = cands
+        .par_iter()
+        .map(|c| {
+            let at = |b: f64| c.plant(plant, b).and_then(|p| out.simulate(&p));
+            let s = &c.size;
+            let plus = at(s.zero + s.step).ok()?;
+            let (minus, width) = if s.zero - s.step >= s.lo {
+                match at(s.zero - s.step) {
+                    Ok(v) => (v, 2.0 * s.step),
+                    Err(_) => (yhat.clone(), s.step),
+                }
+            } else {
+                (yhat.clone(), s.step)
+            };
+            Some(
+                plus.iter()
+                    .zip(&minus)
+                    .map(|(a, b)| (a - b) / width)
+                    .collect(),
+            )
+        })
+        .collect();
+    let mut simulations = 1 + 2 * cands.len();
+    // Linear fits; a grid-scanned candidate keeps its best grid point.
+    struct Linear {
+        cand: Candidate,
+        beta: f64,
+        sse: f64,
+        p: usize,
+    }
+    let mut best: Vec<Linear> = Vec::new();
+    for (c, col) in cands.into_iter().zip(columns) {
+        let Some(s) = col else { continue };
+        let ss: f64 = s.iter().map(|x| x * x).sum();
+        if ss <= 0.0 || !ss.is_finite() {
+            continue;
+        }
+        let sr: f64 = s.iter().zip(&r).map(|(a, b)| a * b).sum();
+        let beta = (c.size.zero + sr / ss).clamp(c.size.lo, c.size.hi);
+        let d = beta - c.size.zero;
+        let sse: f64 = s.iter().zip(&r).map(|(a, b)| (b - d * a).powi(2)).sum();
+        let p = 1 + usize::from(c.grid.is_some());
+        let key = (c.name.clone(), c.joint, c.from);
+        match best
+            .iter_mut()
+            .find(|b| (b.cand.name.clone(), b.cand.joint, b.cand.from) == key)
+        {
+            Some(b) if b.sse <= sse => {}
+            Some(b) => {
+                *b = Linear {
+                    cand: c,
+                    beta,
+                    sse,
+                    p,
+                }
+            }
+            None => best.push(Linear {
+                cand: c,
+                beta,
+                sse,
+                p,
+            }),
+        }
+    }
+    let finding = |l: &Linear, values: Vec<(String, f64)>, sse: f64, p: usize| -> Finding {
+        let c = &l.cand;
+        let mut f = Finding::new(
+            m.joints[c.joint],
+            c.name.clone(),
+            Some(c.kind),
+            c.from.map(|k| m.joints[k].to_string()),
+            values.clone(),
+            (sse, sst, n, p),
+        );
+        f.effect = c.effect;
+        f.replaces = c.replaces;
+        let range = |name: &str| -> (f64, f64) {
+            if *name == c.size.name {
+                (c.size.lo, c.size.hi)
+            } else if let Some((g, lo, hi)) = c.grid.as_ref().filter(|g| g.0 == name) {
+                let _ = g;
+                (*lo, *hi)
+            } else {
+                let v = values.iter().find(|x| x.0 == name).map_or(0.0, |x| x.1);
+                (v - 10.0 * v.abs() - 1.0, v + 10.0 * v.abs() + 1.0)
+            }
+        };
+        f.bounds = values.iter().map(|(k, _)| range(k)).collect();
+        f.values = values;
+        f
+    };
+    let values_of = |c: &Candidate, beta: f64| -> Vec<(String, f64)> {
+        let mut v: Vec<(String, f64)> = c.fixed.clone();
+        v.push((c.size.name.clone(), beta));
+        v
+    };
+    let mut findings: Vec<Finding> = best
+        .iter()
+        .map(|l| finding(l, values_of(&l.cand, l.beta), l.sse, l.p))
+        .collect();
+    // Confirm the leading candidates by a nonlinear output-error fit of their parameters.
+    let mut order: Vec<usize> = (0..findings.len()).collect();
+    order.sort_by(|&a, &b| findings[a].delta_bic.total_cmp(&findings[b].delta_bic));
+    for &i in order.iter().take(options.confirm) {
+        if findings[i].explained < 0.01 {
+            continue;
+        }
+        let l = &best[i];
+        let c = &l.cand;
+        let mut names = vec![c.size.name.clone()];
+        if let Some((g, _, _)) = &c.grid {
+            names.push(g.clone());
+        }
+        let start = findings[i].apply(plant)?;
+        let Ok(fit) = Problem::new(
+            &start,
+            conf,
+            names.clone(),
+            records.to_vec(),
+            &[],
+            oe.clone(),
+        )
+        .and_then(|p| p.fit(&|_| {})) else {
+            continue;
+        };
+        simulations += fit.evaluations;
+        if !(fit.cost_after < l.sse) {
+            continue;
+        }
+        let mut values = values_of(c, l.beta);
+        for (nm, v) in fit.names.iter().zip(&fit.fitted) {
+            match values.iter_mut().find(|x| x.0 == *nm) {
+                Some(x) => x.1 = *v,
+                None => values.push((nm.clone(), *v)),
+            }
+        }
+        let mut f = finding(l, values, fit.cost_after, names.len());
+        f.confirmed = true;
+        findings[i] = f;
+    }
+    findings.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    Ok(OutputDiagnosis {
+        configuration: conf.name.to_string(),
+        findings,
+        rms: per_joint,
+        samples: n,
+        simulations,
+    })
+}
+
+/// The candidates for the free joints of `conf` (grid points as separate candidates with
+/// the same name).
+fn catalogue(
+    plant: &Plant,
+    conf: &generated::Configuration,
+    records: &[Record],
+    base: &[Trajectory],
+) -> Result<Vec<Candidate>> {
+    use EffectKind as K;
+    let m = plant.model;
+    let mut out = Vec::new();
+    let rms_tau: Vec<f64> = (0..conf.free.len())
+        .map(|a| {
+            rms(&records
+                .iter()
+                .flat_map(|r| r.tau[a].clone())
+                .collect::<Vec<_>>())
+        })
+        .collect();
+    for (a, &j) in conf.free.iter().enumerate() {
+        let has = |k: K| {
+            plant
+                .effects
+                .iter()
+                .any(|e| e.joint == j && e.kind == k && e.from.is_none())
+        };
+        let law = plant
+            .effects
+            .iter()
+            .find(|e| e.joint == j && e.kind.is_friction_law())
+            .map(|e| e.kind);
+        let value = |s: &str| plant.value(&format!("{s}_{j}"));
+        let name = |s: &str| format!("{s}_{j}");
+        let q: Vec<f64> = base.iter().flat_map(|t| t.q[a].clone()).collect();
+        let qd: Vec<f64> = base.iter().flat_map(|t| t.qd[a].clone()).collect();
+        let (qmin, qmax) = q
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                (l.min(x), h.max(x))
+            });
+        let span = (qmax - qmin).max(1e-6);
+        let vmax = qd.iter().fold(0.0f64, |acc, v| acc.max(v.abs())).max(1e-9);
+        let vrms = rms(&qd).max(1e-9);
+        let tau = if rms_tau[a] > 0.0 { rms_tau[a] } else { 1e-3 };
+        let dtau = 0.02 * tau;
+        let big = 100.0 * tau;
+        let size = |n: String, zero: f64, step: f64, lo: f64, hi: f64| Size {
+            name: n,
+            zero,
+            step,
+            lo,
+            hi,
+        };
+        let add =
+            |kind: K, s: Size, fixed: Vec<(String, f64)>, grid: Option<(String, f64, f64)>| {
+                Candidate {
+                    name: kind.to_string(),
+                    kind,
+                    joint: j,
+                    from: None,
+                    effect: Some(Effect::on(kind, j)),
+                    replaces: None,
+                    fixed,
+                    size: s,
+                    grid,
+                }
+            };
+        if law.is_none() {
+            out.push(add(
+                K::Coulomb,
+                size(name("Fc"), 0.0, dtau, 0.0, big),
+                vec![],
+                None,
+            ));
+        }
+        if !has(K::Viscous) && law != Some(K::Lugre) && law != Some(K::AsymmetricFriction) {
+            out.push(add(
+                K::Viscous,
+                size(name("Fv"), 0.0, dtau / vrms, 0.0, big / vrms),
+                vec![],
+                None,
+            ));
+        }
+        if !has(K::Offset) {
+            out.push(add(
+                K::Offset,
+                size(name("offset"), 0.0, dtau, -big, big),
+                vec![],
+                None,
+            ));
+        }
+        // Stribeck / stiction: friction above the Coulomb level near zero velocity.
+        let vs_grid: Vec<f64> = [0.01, 0.03, 0.1, 0.3].iter().map(|f| f * vmax).collect();
+        let vs_range = (1e-3 * vmax, vmax);
+        match law {
+            Some(K::Lugre | K::Stribeck) => {
+                let (fc, fs, vs) = (value("Fc")?, value("Fs")?, value("vs")?);
+                let mut c = Candidate {
+                    name: "stribeck".into(),
+                    kind: K::Stribeck,
+                    joint: j,
+                    from: None,
+                    effect: None,
+                    replaces: None,
+                    fixed: vec![],
+                    size: size(name("Fs"), fs, dtau, fc, big),
+                    grid: None,
+                };
+                if fs - fc > 0.05 * fc.abs() && vs > 1e-6 * vmax {
+                    // The law already has a Stribeck hump: its level may be off.
+                    c.name = "stribeck (Fs off)".into();
+                    out.push(c);
+                } else {
+                    for &v in &vs_grid {
+                        let mut g = c.clone();
+                        g.fixed = vec![(name("vs"), v)];
+                        g.grid = Some((name("vs"), vs_range.0, vs_range.1));
+                        out.push(g);
+                    }
+                }
+            }
+            Some(K::Coulomb) => {
+                let fc = value("Fc")?;
+                for &v in &vs_grid {
+                    out.push(Candidate {
+                        replaces: Some(K::Coulomb),
+                        ..add(
+                            K::Stribeck,
+                            size(name("Fs"), fc, dtau, fc, big),
+                            vec![(name("Fc"), fc), (name("vs"), v)],
+                            Some((name("vs"), vs_range.0, vs_range.1)),
+                        )
+                    });
+                }
+            }
+            Some(_) => {}
+            None => {
+                for &v in &vs_grid {
+                    out.push(add(
+                        K::Stribeck,
+                        size(name("Fs"), 0.0, dtau, 0.0, big),
+                        vec![(name("Fc"), 0.0), (name("vs"), v)],
+                        Some((name("vs"), vs_range.0, vs_range.1)),
+                    ));
+                }
+            }
+        }
+        // Equilibrium positions: the quantiles of the motion and beyond either end.
+        let qeq_grid: Vec<f64> = [0.1, 0.3, 0.5, 0.7, 0.9]
+            .iter()
+            .map(|&f| quantile(&q, f))
+            .chain([qmin - span, qmax + span])
+            .collect();
+        let qeq_range = (qmin - 3.0 * span, qmax + 3.0 * span);
+        let existing_qeq = plant.parameters.get(&name("qeq")).copied();
+        if !has(K::Spring) {
+            let s = size(name("Ks"), 0.0, dtau / span, 0.0, big / span);
+            match (has(K::FrictionBias), existing_qeq) {
+                (true, Some(_)) => out.push(add(K::Spring, s, vec![], None)),
+                _ => {
+                    for &g in &qeq_grid {
+                        out.push(add(
+                            K::Spring,
+                            s.clone(),
+                            vec![(name("qeq"), g)],
+                            Some((name("qeq"), qeq_range.0, qeq_range.1)),
+                        ));
+                    }
+                }
+            }
+        }
+        if !has(K::FrictionBias) && (law.is_some() || has(K::Viscous)) {
+            let s = size(name("FrictionBias"), 1.0, 0.05, 0.0, 20.0);
+            match (has(K::Spring), existing_qeq) {
+                (true, Some(_)) => out.push(add(K::FrictionBias, s, vec![], None)),
+                _ => {
+                    for &g in &qeq_grid[..5] {
+                        out.push(add(
+                            K::FrictionBias,
+                            s.clone(),
+                            vec![(name("qeq"), g)],
+                            Some((name("qeq"), qmin, qmax)),
+                        ));
+                    }
+                }
+            }
+        }
+        // Tendon input coupling from each other driven free joint.
+        for (b, &k) in conf.free.iter().enumerate() {
+            let coupled = plant
+                .effects
+                .iter()
+                .any(|e| e.joint == j && e.from == Some(k));
+            if k == j || coupled || rms_tau[b] <= 0.0 {
+                continue;
+            }
+            let ratio = tau / rms_tau[b];
+            out.push(Candidate {
+                name: format!("input_coupling from {}", m.joints[k]),
+                kind: K::InputCoupling,
+                joint: j,
+                from: Some(k),
+                effect: Some(Effect::coupling(k, j)),
+                replaces: None,
+                fixed: vec![],
+                size: size(
+                    format!("G_{k}to{j}"),
+                    0.0,
+                    0.02 * ratio,
+                    -100.0 * ratio,
+                    100.0 * ratio,
+                ),
+                grid: None,
+            });
+        }
+        // Plant gain: an error of the existing gain, or a gain where there is none.
+        if has(K::Gain) {
+            let kp = value("Kp")?;
+            out.push(Candidate {
+                name: "gain (Kp off)".into(),
+                kind: K::Gain,
+                joint: j,
+                from: None,
+                effect: None,
+                replaces: None,
+                fixed: vec![],
+                size: size(name("Kp"), kp, 0.01 * kp.abs(), 0.1 * kp, 10.0 * kp),
+                grid: None,
+            });
+        } else {
+            out.push(add(
+                K::Gain,
+                size(name("Kp"), 1.0, 0.01, 0.1, 10.0),
+                vec![],
+                None,
+            ));
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::bic;
+
+    #[test]
+    fn quantiles_and_bic() {
+        let v = [3.0, 1.0, 2.0, 5.0, 4.0];
+        assert_eq!(quantile(&v, 0.0), 1.0);
+        assert_eq!(quantile(&v, 0.5), 3.0);
+        assert_eq!(quantile(&v, 1.0), 5.0);
+        // Halving the residual energy over 100 samples with one number: 100 ln ½ + ln 100.
+        let (d, e) = bic(50.0, 100.0, 100, 1);
+        assert!((d - (100.0 * 0.5f64.ln() + 100f64.ln())).abs() < 1e-12);
+        assert!((e - 0.5).abs() < 1e-15);
+    }
+}

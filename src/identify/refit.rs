@@ -1,0 +1,123 @@
+//! Refit after a change: fit chosen parameters of a plant by output error on the files of
+//! one configuration and report the position error per joint before and after (the loop
+//! of diagnosis: add the missing effect, refit, watch the error fall). A [`HistoryEntry`]
+//! records each step in the plant file's `[[history]]` list.
+
+use crate::identify::output_error::{
+    FitResult, JointFit, OutputErrorOptions, Problem, Record, TimeWeighting,
+};
+use crate::plant::{HistoryEntry, Plant};
+use crate::simulation::Hold;
+use anyhow::{anyhow, Result};
+
+/// Settings of a refit.
+#[derive(Debug, Clone)]
+pub struct RefitOptions {
+    /// RK4 step (s).
+    pub h: f64,
+    /// Hold of the measured torques.
+    pub hold: Hold,
+    /// Divergence bound on |q̇| (rad/s or m/s).
+    pub max_speed: f64,
+    /// Samples skipped at the start of every file.
+    pub skip: usize,
+    /// Most Levenberg–Marquardt iterations.
+    pub max_iter: usize,
+    /// Starts (the plant's values, then random points in the bounds).
+    pub starts: usize,
+}
+
+impl Default for RefitOptions {
+    fn default() -> Self {
+        RefitOptions {
+            h: 1.0 / 6000.0,
+            hold: Hold::Zoh,
+            max_speed: 100.0,
+            skip: 0,
+            max_iter: 50,
+            starts: 1,
+        }
+    }
+}
+
+/// Result of [`refit`].
+#[derive(Debug, Clone)]
+pub struct Refit {
+    /// The plant with the fitted values.
+    pub plant: Plant,
+    /// RMS position error per free joint before (joint name, rad or m).
+    pub before: Vec<(String, f64)>,
+    /// … and after.
+    pub after: Vec<(String, f64)>,
+    /// Per-joint figures before (NRMSE fit %, max error).
+    pub joints_before: Vec<JointFit>,
+    /// The output-error fit (values, standard errors, correlations, per-joint figures after).
+    pub fit: FitResult,
+}
+
+impl Refit {
+    /// A history entry for this refit, described by `change`.
+    pub fn history(&self, change: &str, files: &[String]) -> HistoryEntry {
+        HistoryEntry {
+            change: change.to_string(),
+            configuration: self.fit.configuration.clone(),
+            files: files.to_vec(),
+            fitted: self
+                .fit
+                .names
+                .iter()
+                .cloned()
+                .zip(self.fit.fitted.iter().copied())
+                .collect(),
+            rms_before: self.before.iter().cloned().collect(),
+            rms_after: self.after.iter().cloned().collect(),
+        }
+    }
+}
+
+/// Fit `names` of `plant` (each needs a value and bounds) on `records` of configuration
+/// `conf_name` by output error, all joints weighted 1; the "before" figures are those of
+/// `before` (the plant before the change; `plant` itself for a plain refit).
+///
+/// # Errors
+/// Unknown configuration, a parameter without value or bounds (named), either plant cannot
+/// be simulated on a record.
+pub fn refit(
+    before: &Plant,
+    plant: &Plant,
+    conf_name: &str,
+    records: &[Record],
+    names: &[String],
+    options: &RefitOptions,
+) -> Result<Refit> {
+    let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    let oe = OutputErrorOptions {
+        weighting: TimeWeighting::SkipTransient(options.skip),
+        interest_weight: 1.0,
+        h: options.h,
+        hold: options.hold,
+        max_speed: options.max_speed,
+        max_iter: options.max_iter,
+        starts: options.starts,
+        horizons: vec![0.25, 1.0],
+        ..OutputErrorOptions::default()
+    };
+    let problem = Problem::new(plant, conf, names.to_vec(), records.to_vec(), &[], oe)?;
+    let trajectories = records
+        .iter()
+        .map(|r| problem.simulate(before, r))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| anyhow!("the plant before the change: {}", e.0))?;
+    let joints_before = problem.joint_fits(&trajectories);
+    let fit = problem.fit(&|_| {})?;
+    let mut fitted = plant.clone();
+    fit.apply(&mut fitted);
+    let rms = |j: &[JointFit]| j.iter().map(|x| (x.joint.clone(), x.rms)).collect();
+    Ok(Refit {
+        plant: fitted,
+        before: rms(&joints_before),
+        after: rms(&fit.statistics.joints),
+        joints_before,
+        fit,
+    })
+}

@@ -1,0 +1,225 @@
+//! Output-space diagnosis on data with a hidden effect (issue 6): `lockstep excite` and
+//! `lockstep simulate` make position data from a truth plant; the starting plant is the
+//! truth without one effect. Diagnose must rank the hidden effect first; adding it and
+//! refitting its parameters must cut the position error by at least half. With nothing
+//! missing, diagnose must say so.
+
+use lockstep::diagnose::{diagnose_output, Finding, OutputDiagnosis, OutputOptions};
+use lockstep::effects::EffectKind;
+use lockstep::identify::output_error::Record;
+use lockstep::identify::refit::{refit, RefitOptions};
+use lockstep::identify::sequence::read_record;
+use lockstep::plant::Plant;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn lockstep(args: &[&str]) {
+    let o = Command::new(env!("CARGO_BIN_EXE_lockstep"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// The Appendix D coupled-method plant with I4_33 made positive.
+fn base() -> Plant {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants");
+    let text = std::fs::read_to_string(dir.join("freedom6s_appendix_d_coupled.toml"))
+        .unwrap()
+        .replace("I4_33 = -0.00017449", "I4_33 = 0.00017449");
+    let spec = toml::from_str(&text).unwrap();
+    Plant::from_file(spec, None).unwrap()
+}
+
+/// Simulate `truth` on an excitation of `config` (table, test, duration s) with noise
+/// 2e-4 rad and quantisation 1e-4 rad, and read the file back as a record.
+fn data(dir: &Path, truth: &Plant, config: &str, table: &str, test: Option<&str>) -> Record {
+    let tau = dir.join(format!("tau_{config}.csv"));
+    let truth_file = dir.join(format!("truth_{config}.toml"));
+    truth.save(&truth_file).unwrap();
+    let mut args = vec![
+        "excite",
+        "--model",
+        "freedom6s",
+        "--table",
+        table,
+        "--config",
+        config,
+        "--duration",
+        "30",
+        "-o",
+        tau.to_str().unwrap(),
+    ];
+    if let Some(t) = test {
+        args.extend(["--test", t]);
+    }
+    lockstep(&args);
+    let out = dir.join(format!("{config}_run.csv"));
+    lockstep(&[
+        "simulate",
+        "--plant",
+        truth_file.to_str().unwrap(),
+        "--input",
+        tau.to_str().unwrap(),
+        "--noise",
+        "2e-4",
+        "--quantisation",
+        "1e-4",
+        "--seed",
+        "5",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let m = truth.model;
+    let conf = m.configurations.iter().find(|c| c.name == config).unwrap();
+    read_record(&out, m, conf, 0.01).unwrap()
+}
+
+fn show(d: &OutputDiagnosis) -> String {
+    lockstep::diagnose::table(&d.findings, 6)
+}
+
+/// Diagnose, check the first finding, apply it, refit its parameters: (fall of the RMS
+/// position error, the finding).
+fn diagnose_and_fix(
+    start: &Plant,
+    config: &str,
+    record: &Record,
+    expect: (EffectKind, &str, Option<&str>),
+) -> (Plant, f64, Finding) {
+    let d = diagnose_output(
+        start,
+        config,
+        std::slice::from_ref(record),
+        &OutputOptions::default(),
+    )
+    .unwrap();
+    let text = show(&d);
+    eprintln!("{config}:\n{text}simulations {}", d.simulations);
+    let f = d.findings[0].clone();
+    assert!(f.significant, "{text}");
+    assert_eq!(f.kind, Some(expect.0), "{text}");
+    assert_eq!(f.joint, expect.1, "{text}");
+    assert_eq!(f.from.as_deref(), expect.2, "{text}");
+    let applied = f.apply(start).unwrap();
+    let r = refit(
+        start,
+        &applied,
+        config,
+        std::slice::from_ref(record),
+        &f.parameter_names(),
+        &RefitOptions::default(),
+    )
+    .unwrap();
+    eprintln!(
+        "RMS before {:?}, after {:?}, values {:?}",
+        r.before, r.after, r.fit.fitted
+    );
+    let before: f64 = r.before.iter().map(|x| x.1 * x.1).sum::<f64>().sqrt();
+    let after: f64 = r.after.iter().map(|x| x.1 * x.1).sum::<f64>().sqrt();
+    (r.plant, after / before, f)
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lockstep-diag-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn hidden_cable_drag_spring_on_joint_3_c3() {
+    let dir = tmp("c3");
+    let truth = base();
+    let mut start = truth.clone();
+    start
+        .effects
+        .retain(|e| !(e.kind == EffectKind::Spring && e.joint == 3));
+    let rec = data(&dir, &truth, "c3", "4.3", Some("J3"));
+    let (_, ratio, _) = diagnose_and_fix(&start, "c3", &rec, (EffectKind::Spring, "q3", None));
+    assert!(ratio < 0.5, "error ratio {ratio}");
+}
+
+#[test]
+fn hidden_tendon_coupling_5_to_4_k1() {
+    let dir = tmp("k1");
+    let truth = base();
+    let mut start = truth.clone();
+    start
+        .effects
+        .retain(|e| !(e.kind == EffectKind::InputCoupling && e.from == Some(5)));
+    let rec = data(&dir, &truth, "k1", "4.7", None);
+    let (_, ratio, f) = diagnose_and_fix(
+        &start,
+        "k1",
+        &rec,
+        (EffectKind::InputCoupling, "q4", Some("q5")),
+    );
+    assert!(ratio < 0.5, "error ratio {ratio}");
+    let g = f.values.iter().find(|v| v.0 == "G_5to4").unwrap().1;
+    assert!((g + 0.20362).abs() < 0.02, "G_5to4 = {g}");
+}
+
+#[test]
+fn hidden_strong_stribeck_on_joint_5_c2() {
+    let dir = tmp("c2");
+    let mut truth = base();
+    truth.parameters.insert("Fs_5".into(), 0.1);
+    truth.parameters.insert("vs_5".into(), 0.1);
+    let mut start = truth.clone();
+    start.parameters.insert("Fs_5".into(), 0.02);
+    let rec = data(&dir, &truth, "c2", "4.3", Some("J5"));
+    let (_, ratio, _) = diagnose_and_fix(&start, "c2", &rec, (EffectKind::Stribeck, "q5", None));
+    assert!(ratio < 0.5, "error ratio {ratio}");
+}
+
+#[test]
+fn hidden_plant_gain_error_on_joint_2_c4() {
+    let dir = tmp("c4");
+    let mut truth = base();
+    let kp = truth.parameters["Kp_2"];
+    truth.parameters.insert("Kp_2".into(), 1.3 * kp);
+    let start = base();
+    let rec = data(&dir, &truth, "c4", "4.3", Some("J2"));
+    let (_, ratio, f) = diagnose_and_fix(&start, "c4", &rec, (EffectKind::Gain, "q2", None));
+    assert!(ratio < 0.5, "error ratio {ratio}");
+    let fitted = f.values.iter().find(|v| v.0 == "Kp_2").unwrap().1;
+    assert!(
+        (fitted / kp - 1.3).abs() < 0.03,
+        "Kp_2 = {fitted}, truth {}",
+        1.3 * kp
+    );
+}
+
+#[test]
+fn hidden_friction_bias_on_joints_0_and_1_c7() {
+    let dir = tmp("c7");
+    let truth = base();
+    let mut start = truth.clone();
+    start
+        .effects
+        .retain(|e| !(e.kind == EffectKind::FrictionBias && e.joint <= 1));
+    let rec = data(&dir, &truth, "c7", "4.4", Some("J01-1"));
+    let (next, ratio1, f1) =
+        diagnose_and_fix(&start, "c7", &rec, (EffectKind::FrictionBias, "q0", None));
+    let (_, ratio2, _) =
+        diagnose_and_fix(&next, "c7", &rec, (EffectKind::FrictionBias, "q1", None));
+    eprintln!("{f1:?}");
+    assert!(ratio1 * ratio2 < 0.5, "error ratios {ratio1}, {ratio2}");
+}
+
+#[test]
+fn nothing_missing_is_reported_as_nothing_c3() {
+    let dir = tmp("none");
+    let truth = base();
+    let rec = data(&dir, &truth, "c3", "4.3", Some("J3"));
+    let d = diagnose_output(&truth, "c3", &[rec], &OutputOptions::default()).unwrap();
+    let text = show(&d);
+    eprintln!("{text}");
+    assert!(!d.findings[0].significant, "{text}");
+    assert!(text.contains("nothing significant is missing"), "{text}");
+}
