@@ -1,12 +1,15 @@
 //! The `lockstep` command line.
 
-use crate::compare::{compare_torque, plot, write_residual_csv};
 use crate::identify::identifiability::{base_parameters, markdown, occurrence};
 use crate::identify::idim::{least_squares, observation, IdimOptions};
 use crate::identify::output_error::OutputErrorOptions;
 use crate::identify::sequence::SequenceOptions;
 use crate::measurement::Measurement;
 use crate::plant::Plant;
+use crate::report::diagnosis::{
+    apply_finding, compare_command, diagnose, effect_add, refit_command, refit_table,
+    report_command, Inputs, Space,
+};
 use crate::report::fit_table;
 use crate::simulation::Hold;
 use crate::util::write_atomic;
@@ -53,22 +56,74 @@ pub enum Command {
         #[command(flatten)]
         oe: OutputErrorArgs,
     },
-    /// Compare a plant (with parameter values) with measurements: errors, residual CSV, plots.
+    /// Compare a plant with measurements (MATLAB compare and resid): fit, errors and where
+    /// they occur, residual CSVs, plots (residual vs time, position, velocity, torques;
+    /// spectrum; autocorrelation and cross-correlation with 99 % bounds).
     Compare {
         #[command(flatten)]
         common: Common,
+        #[command(flatten)]
+        space: SpaceArgs,
         /// Output directory for residual CSVs and plots.
         #[arg(long, default_value = "lockstep-out/compare")]
         out: PathBuf,
     },
-    /// Name the missing physical effect (torque-measured data, inverse model): rank a
-    /// catalogue of candidate effects by how much of the residual each explains (ΔBIC).
+    /// Name the missing physical effect: rank a catalogue of candidate effects by how much
+    /// of the residual each explains (ΔBIC), in torque space (inverse model) or output space
+    /// (simulated positions). `--apply K --out P.toml` adds finding K, refits it and records
+    /// the step in the plant's history.
     Diagnose {
         #[command(flatten)]
         common: Common,
+        #[command(flatten)]
+        space: SpaceArgs,
         /// Candidates to print.
         #[arg(long, default_value_t = 5)]
         top: usize,
+        /// Add finding K (1 = the first) to the plant and refit its parameters (output
+        /// space).
+        #[arg(long, requires = "out")]
+        apply: Option<usize>,
+        /// With --apply: where to write the changed plant.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Refit chosen parameters by output error; print the error per joint before and after;
+    /// append the step to the plant's history.
+    Refit {
+        #[command(flatten)]
+        common: Common,
+        #[command(flatten)]
+        space: SpaceArgs,
+        /// Parameters to fit (each needs bounds in the plant file), e.g. Ks_3,qeq_3.
+        #[arg(long, value_delimiter = ',', required = true)]
+        params: Vec<String>,
+        /// What changed, for the history (default: "refitted <params>").
+        #[arg(long)]
+        change: Option<String>,
+        /// Plant file to write (default: the plant file itself).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Edit a plant's effects: `effect add KIND --joint q3 --plant P` (or `--from q5 --to
+    /// q4` for input_coupling).
+    Effect {
+        #[command(subcommand)]
+        action: EffectAction,
+    },
+    /// Compare, diagnose and the plant's history in one self-contained HTML report
+    /// (`OUT/report.html`, figures inlined).
+    Report {
+        #[command(flatten)]
+        common: Common,
+        #[command(flatten)]
+        space: SpaceArgs,
+        /// Candidates listed.
+        #[arg(long, default_value_t = 8)]
+        top: usize,
+        /// Output directory.
+        #[arg(long, default_value = "lockstep-out/report")]
+        out: PathBuf,
     },
     /// List the generated models, their joints, parameters and configurations.
     Models,
@@ -198,6 +253,100 @@ pub enum Command {
     },
 }
 
+/// Plant edits.
+#[derive(Debug, Subcommand)]
+pub enum EffectAction {
+    /// Add an effect with neutral values (no effect: levels 0, gain and friction-bias
+    /// factor 1); `--set` and `--bound` give values and bounds.
+    Add {
+        /// Kind: viscous, coulomb, asymmetric_friction, offset, gain, stribeck, lugre,
+        /// spring, friction_bias, input_coupling (alias: coupling).
+        kind: String,
+        /// Plant file.
+        #[arg(long)]
+        plant: PathBuf,
+        /// Joint the effect acts on.
+        #[arg(long)]
+        joint: Option<String>,
+        /// input_coupling: the joint whose command is passed on.
+        #[arg(long)]
+        from: Option<String>,
+        /// input_coupling: the joint that receives it.
+        #[arg(long)]
+        to: Option<String>,
+        /// Values, e.g. Ks_3=0.01,qeq_3=0.2.
+        #[arg(long, value_parser = parse_positions, default_value = "")]
+        set: PositionList,
+        /// Bounds, e.g. Ks_3=0:0.1 (repeatable).
+        #[arg(long, value_parser = parse_bound)]
+        bound: Vec<(String, f64, f64)>,
+        /// Plant file to write (default: the plant file itself).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+/// Where compare, diagnose and refit work, and the output-space settings.
+#[derive(Debug, Clone, Args)]
+pub struct SpaceArgs {
+    /// auto (torque space for a plant whose effects are all linear in their parameters,
+    /// output space otherwise), torque or output.
+    #[arg(long, default_value = "auto")]
+    pub space: String,
+    /// Output space: RK4 step (s); fractions such as 1/6000 accepted.
+    #[arg(long, default_value = "1/6000", value_parser = parse_number)]
+    pub step: f64,
+    /// Output space: samples skipped at the start of each file.
+    #[arg(long, default_value_t = 0)]
+    pub skip: usize,
+    /// Output space: largest motion (rad) allowed of a locked joint in a file.
+    #[arg(long, default_value_t = 0.01)]
+    pub locked_tolerance: f64,
+    /// Output space: initial positions `estimate`d from each file (as MATLAB compare) or
+    /// the first `measured` sample.
+    #[arg(long, default_value = "estimate", value_parser = ["estimate", "measured"])]
+    pub initial: String,
+}
+
+fn parse_bound(s: &str) -> Result<(String, f64, f64), String> {
+    let (n, r) = s
+        .split_once('=')
+        .ok_or_else(|| format!("'{s}': expected name=lower:upper, e.g. Ks_3=0:0.1"))?;
+    let (lo, hi) = r
+        .split_once(':')
+        .ok_or_else(|| format!("'{s}': expected name=lower:upper, e.g. Ks_3=0:0.1"))?;
+    Ok((
+        n.trim().to_string(),
+        parse_number(lo.trim()).map_err(|e| format!("'{s}': {e}"))?,
+        parse_number(hi.trim()).map_err(|e| format!("'{s}': {e}"))?,
+    ))
+}
+
+impl Common {
+    fn inputs(&self, space: &SpaceArgs) -> Result<(Plant, Inputs)> {
+        let (plant, idim) = self.load_plant()?;
+        if !(space.step > 0.0 && space.step.is_finite()) {
+            bail!(
+                "--step: expected a positive step in seconds, got {}",
+                space.step
+            );
+        }
+        Ok((
+            plant,
+            Inputs {
+                data: self.data.clone(),
+                config: self.config.clone(),
+                space: space.space.clone(),
+                idim,
+                h: space.step,
+                skip: space.skip,
+                locked_tolerance: space.locked_tolerance,
+                estimate_initial: space.initial == "estimate",
+            },
+        ))
+    }
+}
+
 /// What `lockstep wall` does besides the comparison.
 #[derive(Debug, Subcommand)]
 pub enum WallAction {
@@ -278,14 +427,9 @@ pub struct Common {
 }
 
 impl Common {
-    fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
+    /// The plant and the IDIM preparation options (checked).
+    fn load_plant(&self) -> Result<(Plant, IdimOptions)> {
         let plant = Plant::load(&self.plant)?;
-        let nj = plant.model.joints.len();
-        let records = self
-            .data
-            .iter()
-            .map(|d| Measurement::read(d, nj))
-            .collect::<Result<Vec<_>, _>>()?;
         if self.order == 0 || self.order > 12 {
             bail!("--order: expected 1 to 12, got {}", self.order);
         }
@@ -294,13 +438,23 @@ impl Common {
         }
         Ok((
             plant,
-            records,
             IdimOptions {
                 cutoff_hz: self.cutoff,
                 filter_order: self.order,
                 decimation: self.decimate,
             },
         ))
+    }
+
+    fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
+        let (plant, opts) = self.load_plant()?;
+        let nj = plant.model.joints.len();
+        let records = self
+            .data
+            .iter()
+            .map(|d| Measurement::read(d, nj))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((plant, records, opts))
     }
 }
 
@@ -521,37 +675,101 @@ pub fn run(cli: Cli) -> Result<()> {
                 println!("wrote {}", out.display());
             }
         }
-        Command::Compare { common, out } => {
-            let (plant, records, opts) = common.load()?;
-            let config = common.config.as_deref().unwrap_or("full");
-            let cmps = compare_torque(&plant, config, &records, &opts)?;
-            println!(
-                "{:<28} {:<6} {:>10} {:>12} {:>12} {:>10} {:>12}",
-                "record", "joint", "error %", "RMSE", "max |e|", "at t (s)", "at qd"
-            );
-            for c in &cmps {
-                let stem = c
-                    .file
-                    .file_stem()
-                    .map(|s| s.to_string_lossy().into_owned())
-                    .unwrap_or_default();
-                let base = out.join(format!("{stem}_{}", c.joint));
-                write_residual_csv(&base.with_extension("csv"), c)?;
-                plot(&base, c, &stem)?;
-                println!(
-                    "{:<28} {:<6} {:>10.3} {:>12.4e} {:>12.4e} {:>10.3} {:>12.4e}",
-                    stem,
-                    c.joint,
-                    c.relative_error,
-                    c.rmse,
-                    c.max_error.0.abs(),
-                    c.max_error.1,
-                    c.max_error.2
-                );
-                let (a, b) = c.sign_step;
-                println!("    residual ~ a*sign(qd) + b + c*qd: a = {a:.4}, b = {b:.4} (a step of 2a at qd = 0 means missing Coulomb friction; b, an offset)");
+        Command::Compare { common, space, out } => {
+            let (plant, inputs) = common.inputs(&space)?;
+            compare_command(&plant, &inputs, &out)?;
+        }
+        Command::Diagnose {
+            common,
+            space,
+            top,
+            apply,
+            out,
+        } => {
+            let (plant, inputs) = common.inputs(&space)?;
+            let results = diagnose(&plant, &inputs)?;
+            for (title, findings) in &results {
+                println!("{title}, plant {}:", plant.name());
+                print!("{}", crate::diagnose::table(findings, top));
             }
-            println!("residual CSVs and plots (PNG, SVG) in {}", out.display());
+            if let (Some(k), Some(out)) = (apply, out) {
+                if Space::choose(&inputs.space, &plant)? != Space::Output {
+                    bail!("--apply works in output space (position data; --space output)");
+                }
+                let r = apply_finding(&plant, &inputs, &results[0].1, k, &out)?;
+                println!("applied finding {k} and refitted:");
+                print!("{}", refit_table(&r));
+                println!(
+                    "wrote {} (history: {} steps)",
+                    out.display(),
+                    plant.history.len() + 1
+                );
+            }
+        }
+        Command::Refit {
+            common,
+            space,
+            params,
+            change,
+            out,
+        } => {
+            let (plant, inputs) = common.inputs(&space)?;
+            let out = out.unwrap_or_else(|| common.plant.clone());
+            let change = change.unwrap_or_else(|| format!("refitted {}", params.join(", ")));
+            let r = refit_command(&plant, &inputs, &params, &change, &out)?;
+            print!("{}", refit_table(&r));
+            println!("wrote {}", out.display());
+        }
+        Command::Effect {
+            action:
+                EffectAction::Add {
+                    kind,
+                    plant,
+                    joint,
+                    from,
+                    to,
+                    set,
+                    bound,
+                    out,
+                },
+        } => {
+            let p = Plant::load(&plant)?;
+            let out = out.unwrap_or_else(|| plant.clone());
+            let kind = if kind == "coupling" {
+                "input_coupling".to_string()
+            } else {
+                kind
+            };
+            let set: Vec<(String, f64)> = set.0.into_iter().collect();
+            let (new, effect) = effect_add(
+                &p,
+                &kind,
+                joint.as_deref(),
+                (from.as_deref(), to.as_deref()),
+                &set,
+                &bound,
+                &out,
+            )?;
+            let added = effect.parameter_names();
+            println!(
+                "added {kind} to {}: {}",
+                out.display(),
+                added
+                    .iter()
+                    .map(|n| format!("{n} = {}", new.parameters[n]))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        Command::Report {
+            common,
+            space,
+            top,
+            out,
+        } => {
+            let (plant, inputs) = common.inputs(&space)?;
+            let path = report_command(&plant, &inputs, &out, top)?;
+            println!("wrote {}", path.display());
         }
         Command::Excite {
             model,
@@ -746,16 +964,6 @@ pub fn run(cli: Cli) -> Result<()> {
                 crate::report::control::tune_command(&bundled_wall_args(args))?
             }
         },
-        Command::Diagnose { common, top } => {
-            let (plant, records, opts) = common.load()?;
-            let config = common.config.as_deref().unwrap_or("full");
-            for m in &records {
-                let obs = observation(&plant, config, std::slice::from_ref(m), &opts)?;
-                let findings = crate::diagnose::diagnose_torque(&plant, &obs)?;
-                println!("{} against plant {}:", m.file.display(), plant.name());
-                print!("{}", crate::diagnose::table(&findings, top));
-            }
-        }
         Command::Models => {
             for m in generated::MODELS {
                 println!(

@@ -1,13 +1,23 @@
-//! Model versus measurement in torque space (inverse model): the measured torque y against
-//! the model's W θ on the same prepared (filtered, differentiated, decimated) data, with the
-//! residual e = y − Wθ, error figures, a residual CSV and plots.
+//! Model versus measurement (anchor: MATLAB's `compare` and `resid`), in two spaces:
+//! - torque space ([`compare_torque`], inverse model): the measured torque y against the
+//!   model's W θ on the same prepared (filtered, differentiated, decimated) data;
+//! - output space ([`compare_output`]): the measured positions against the plant simulated
+//!   on the measured torques.
+//!
+//! Each joint of each file gives a [`Comparison`]: RMSE, NRMSE fit %, relative error, the
+//! largest error and where it occurs (time, position, velocity), and the residual tests of
+//! [`residual_tests`]: autocorrelation (whiteness) and cross-correlation with the inputs
+//! with 99 % bounds, the residual spectrum with the input frequencies. Plots show measured
+//! vs model, the residual against time, position, velocity (by the sign of the velocity)
+//! and the other joints' torques, the spectrum and both correlations.
 
 use crate::identify::idim::{observation, predict, IdimOptions, Observation};
+use crate::identify::output_error::{OutputErrorOptions, Problem, Record};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::plot::{figure, Panel, Series, Style};
 use crate::util::write_atomic_with;
-use anyhow::Result;
+use anyhow::{anyhow, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -37,6 +47,204 @@ pub struct Comparison {
     /// Least-squares fit of the residual to `a·sign(q̇) + b + c·q̇`, as (a, b): a step of 2a
     /// across q̇ = 0 is the signature of missing Coulomb friction, b of a missing offset.
     pub sign_step: (f64, f64),
+    /// NRMSE fit % = 100 (1 − ‖y − ŷ‖/‖y − ȳ‖), as MATLAB's `compare`.
+    pub nrmse_fit: f64,
+    /// Position (rad or m) at the largest |residual|.
+    pub max_error_q: f64,
+    /// Sampling period of `t` (s).
+    pub dt: f64,
+    /// Signals the residual is tested against, by name: in output space every free joint's
+    /// commanded torque (N·m), in torque space the velocity and the other joints' torques.
+    pub inputs: Vec<(String, Vec<f64>)>,
+    /// Unit of y.
+    pub unit: &'static str,
+    /// Residual tests.
+    pub tests: ResidualTests,
+}
+
+/// Residual analysis as MATLAB's `resid`, for N samples of residual e and inputs u.
+///
+/// Autocorrelation ρ_ee(τ) = r_ee(τ)/r_ee(0), r_ee(τ) = (1/N) Σ_t e_t e_{t+τ}, τ = 0..M,
+/// with the 99 % whiteness bound ±2.58/√N; cross-correlation ρ_eu(τ) = r_eu(τ)/√(r_ee(0)
+/// r_uu(0)), r_eu(τ) = (1/N) Σ_t e_{t+τ} u_t, τ = −M..M, with the 99 % bound
+/// 2.58 √(Σ_{k=−M}^{M} ρ_ee(k) ρ_uu(k) / N) (Ljung, System Identification, 16.6); the
+/// residual amplitude spectrum (Hann-windowed periodogram) with the inputs' spectral peaks.
+#[derive(Debug, Clone, Default)]
+pub struct ResidualTests {
+    /// Largest lag M.
+    pub max_lag: usize,
+    /// ρ_ee(τ), τ = 0..M.
+    pub autocorrelation: Vec<f64>,
+    /// Whiteness bound 2.58/√N.
+    pub autocorrelation_bound: f64,
+    /// Per input: name, ρ_eu(τ) for τ = −M..M, bound.
+    pub cross_correlation: Vec<(String, Vec<f64>, f64)>,
+    /// Frequencies (Hz) and residual amplitude spectrum.
+    pub spectrum: (Vec<f64>, Vec<f64>),
+    /// Frequencies (Hz) of the inputs' spectral peaks.
+    pub input_frequencies: Vec<f64>,
+    /// Lags τ ≥ 1 where |ρ_ee| exceeds the bound (a white residual has about 1 % of them).
+    pub lags_outside: usize,
+    /// Inputs whose cross-correlation leaves its bound at some lag.
+    pub correlated_inputs: Vec<String>,
+}
+
+impl ResidualTests {
+    /// One line for a reader: is the residual white, does it depend on an input.
+    pub fn verdict(&self) -> String {
+        let white = if self.lags_outside * 20 <= self.max_lag {
+            "the residual is white (the model explains the dynamics)".to_string()
+        } else {
+            format!(
+                "the residual is not white ({} of {} lags outside ±{:.3}): dynamics the model lacks",
+                self.lags_outside, self.max_lag, self.autocorrelation_bound
+            )
+        };
+        if self.correlated_inputs.is_empty() {
+            format!("{white}; no correlation with the inputs")
+        } else {
+            format!(
+                "{white}; it correlates with {} (an input path is missing or wrong: gain, coupling, friction)",
+                self.correlated_inputs.join(", ")
+            )
+        }
+    }
+}
+
+fn correlation(a: &[f64], b: &[f64], lag: isize) -> f64 {
+    let n = a.len().min(b.len());
+    let mut s = 0.0;
+    for t in 0..n {
+        let k = t as isize + lag;
+        if k >= 0 && (k as usize) < n {
+            s += a[k as usize] * b[t];
+        }
+    }
+    s / n as f64
+}
+
+fn demean(v: &[f64]) -> Vec<f64> {
+    let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    v.iter().map(|x| x - m).collect()
+}
+
+/// Amplitude spectrum of `x` sampled at `dt` (Hann window, at most 4096 samples by
+/// decimation in time; frequencies up to the Nyquist frequency): (f in Hz, amplitude).
+pub fn amplitude_spectrum(x: &[f64], dt: f64) -> (Vec<f64>, Vec<f64>) {
+    let step = x.len().div_ceil(4096).max(1);
+    let v: Vec<f64> = demean(&x.iter().step_by(step).copied().collect::<Vec<_>>());
+    let n = v.len();
+    if n < 4 {
+        return (vec![], vec![]);
+    }
+    let dtn = dt * step as f64;
+    let w: Vec<f64> = (0..n)
+        .map(|k| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * k as f64 / (n - 1) as f64).cos())
+        .collect();
+    let gain: f64 = w.iter().sum();
+    let mut f = Vec::with_capacity(n / 2);
+    let mut a = Vec::with_capacity(n / 2);
+    for m in 0..=n / 2 {
+        let (mut re, mut im) = (0.0, 0.0);
+        let dphi = -2.0 * std::f64::consts::PI * m as f64 / n as f64;
+        let (sd, cd) = dphi.sin_cos();
+        let (mut s, mut c) = (0.0f64, 1.0f64);
+        for k in 0..n {
+            re += w[k] * v[k] * c;
+            im += w[k] * v[k] * s;
+            let c2 = c * cd - s * sd;
+            s = s * cd + c * sd;
+            c = c2;
+        }
+        f.push(m as f64 / (n as f64 * dtn));
+        a.push(2.0 * (re * re + im * im).sqrt() / gain);
+    }
+    (f, a)
+}
+
+/// Frequencies of the largest local maxima of an amplitude spectrum (at most `k`, each at
+/// least a tenth of the largest).
+fn peaks(f: &[f64], a: &[f64], k: usize) -> Vec<f64> {
+    let top = a.iter().skip(1).fold(0.0f64, |m, &x| m.max(x));
+    let mut p: Vec<(f64, f64)> = (1..a.len().saturating_sub(1))
+        .filter(|&i| a[i] >= a[i - 1] && a[i] > a[i + 1] && a[i] >= 0.1 * top && top > 0.0)
+        .map(|i| (f[i], a[i]))
+        .collect();
+    p.sort_by(|x, y| y.1.total_cmp(&x.1));
+    p.truncate(k);
+    p.into_iter().map(|x| x.0).collect()
+}
+
+/// The residual tests of residual `e` (sampling period `dt`) against `inputs`, lags up to
+/// `max_lag` (MATLAB's default 25).
+pub fn residual_tests(
+    e: &[f64],
+    inputs: &[(String, Vec<f64>)],
+    dt: f64,
+    max_lag: usize,
+) -> ResidualTests {
+    let n = e.len();
+    let e0 = demean(e);
+    let ree0 = correlation(&e0, &e0, 0);
+    let m = max_lag.min(n.saturating_sub(2));
+    let acf: Vec<f64> = (0..=m)
+        .map(|k| {
+            if ree0 > 0.0 {
+                correlation(&e0, &e0, k as isize) / ree0
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let bound = 2.58 / (n.max(1) as f64).sqrt();
+    let lags_outside = acf.iter().skip(1).filter(|x| x.abs() > bound).count();
+    let mut ccf = Vec::new();
+    let mut correlated = Vec::new();
+    for (name, u) in inputs {
+        if u.len() != n {
+            continue;
+        }
+        let u0 = demean(u);
+        let ruu0 = correlation(&u0, &u0, 0);
+        if ruu0 <= 0.0 || ree0 <= 0.0 {
+            continue;
+        }
+        let norm = (ree0 * ruu0).sqrt();
+        let c: Vec<f64> = (-(m as isize)..=m as isize)
+            .map(|k| correlation(&e0, &u0, k) / norm)
+            .collect();
+        let p: f64 = (-(m as isize)..=m as isize)
+            .map(|k| {
+                let k = k.unsigned_abs();
+                acf[k] * correlation(&u0, &u0, k as isize) / ruu0
+            })
+            .sum();
+        let b = 2.58 * (p.abs() / n as f64).sqrt();
+        if c.iter().any(|x| x.abs() > b) {
+            correlated.push(name.clone());
+        }
+        ccf.push((name.clone(), c, b));
+    }
+    let spectrum = amplitude_spectrum(e, dt);
+    let mut input_frequencies: Vec<f64> = Vec::new();
+    for (_, u) in inputs.iter().filter(|(n, _)| n.starts_with("tau")) {
+        let (f, a) = amplitude_spectrum(u, dt);
+        for x in peaks(&f, &a, 3) {
+            if !input_frequencies.iter().any(|y| (y - x).abs() < 1e-9) {
+                input_frequencies.push(x);
+            }
+        }
+    }
+    ResidualTests {
+        max_lag: m,
+        autocorrelation: acf,
+        autocorrelation_bound: bound,
+        cross_correlation: ccf,
+        spectrum,
+        input_frequencies,
+        lags_outside,
+        correlated_inputs: correlated,
+    }
 }
 
 impl Comparison {
@@ -78,34 +286,134 @@ pub fn compare_observation(
     let yhat = predict(plant, obs)?;
     let mut joints: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
     joints.dedup();
-    let mut out = Vec::new();
-    for j in joints {
-        let idx: Vec<usize> = (0..obs.rows.len())
+    let column = |j: usize, f: &dyn Fn(usize) -> f64| -> Vec<f64> {
+        (0..obs.rows.len())
             .filter(|&i| obs.rows[i].joint == j)
-            .collect();
-        let y: Vec<f64> = idx.iter().map(|&i| obs.y[i]).collect();
-        let yh: Vec<f64> = idx.iter().map(|&i| yhat[i]).collect();
-        let t: Vec<f64> = idx.iter().map(|&i| obs.rows[i].t).collect();
-        let qd: Vec<f64> = idx.iter().map(|&i| obs.rows[i].qd).collect();
-        let q: Vec<f64> = idx.iter().map(|&i| obs.rows[i].q).collect();
-        let e: Vec<f64> = y.iter().zip(&yh).map(|(a, b)| a - b).collect();
-        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        let imax = (0..e.len())
-            .max_by(|&a, &b| e[a].abs().total_cmp(&e[b].abs()))
-            .unwrap_or(0);
-        out.push(Comparison {
-            file: file.to_path_buf(),
-            joint: plant.model.joints[j].to_string(),
-            relative_error: 100.0 * norm(&e) / norm(&y),
-            rmse: norm(&e) / (e.len() as f64).sqrt(),
-            max_error: (e[imax], t[imax], qd[imax]),
-            sign_step: sign_fit(&e, &qd),
-            t,
-            q,
-            qd,
-            y,
-            yhat: yh,
-        });
+            .map(f)
+            .collect()
+    };
+    let mut out = Vec::new();
+    for &j in &joints {
+        let t = column(j, &|i| obs.rows[i].t);
+        let qd = column(j, &|i| obs.rows[i].qd);
+        let mut inputs = vec![("qd".to_string(), qd.clone())];
+        for &k in joints.iter().filter(|&&k| k != j) {
+            inputs.push((format!("tau{k}"), column(k, &|i| obs.y[i])));
+        }
+        let dt = if t.len() > 1 { t[1] - t[0] } else { 1.0 };
+        out.push(comparison(
+            file,
+            plant.model.joints[j],
+            Signals {
+                q: column(j, &|i| obs.rows[i].q),
+                y: column(j, &|i| obs.y[i]),
+                yhat: column(j, &|i| yhat[i]),
+                t,
+                qd,
+                dt,
+                inputs,
+            },
+            "N·m or N",
+        ));
+    }
+    Ok(out)
+}
+
+/// The signals of one joint of one record.
+struct Signals {
+    t: Vec<f64>,
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    y: Vec<f64>,
+    yhat: Vec<f64>,
+    dt: f64,
+    inputs: Vec<(String, Vec<f64>)>,
+}
+
+fn comparison(file: &Path, joint: &str, s: Signals, unit: &'static str) -> Comparison {
+    let e: Vec<f64> = s.y.iter().zip(&s.yhat).map(|(a, b)| a - b).collect();
+    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let imax = (0..e.len())
+        .max_by(|&a, &b| e[a].abs().total_cmp(&e[b].abs()))
+        .unwrap_or(0);
+    let mean = s.y.iter().sum::<f64>() / s.y.len().max(1) as f64;
+    let spread: Vec<f64> = s.y.iter().map(|x| x - mean).collect();
+    let tests = residual_tests(&e, &s.inputs, s.dt, 25);
+    Comparison {
+        file: file.to_path_buf(),
+        joint: joint.to_string(),
+        relative_error: 100.0 * norm(&e) / norm(&s.y),
+        rmse: norm(&e) / (e.len().max(1) as f64).sqrt(),
+        max_error: (e[imax], s.t[imax], s.qd[imax]),
+        max_error_q: s.q[imax],
+        sign_step: sign_fit(&e, &s.qd),
+        nrmse_fit: 100.0 * (1.0 - norm(&e) / norm(&spread).max(1e-300)),
+        dt: s.dt,
+        inputs: s.inputs,
+        unit,
+        tests,
+        t: s.t,
+        q: s.q,
+        qd: s.qd,
+        y: s.y,
+        yhat: s.yhat,
+    }
+}
+
+/// Compare the plant simulated on each record's measured torques with its measured
+/// positions (output space), one [`Comparison`] per free joint and record; the simulation
+/// starts at rest (z = 0) at the first measured position, or, with `estimate_initial`, at
+/// the initial position that fits the file best
+/// ([`Problem::estimate_initial_positions`], as MATLAB `compare`); RK4 step `h`.
+///
+/// # Errors
+/// Unknown configuration, a parameter without value, a simulation that diverges (file,
+/// time and joint named).
+pub fn compare_output(
+    plant: &Plant,
+    conf_name: &str,
+    records: &[Record],
+    h: f64,
+    estimate_initial: bool,
+) -> Result<Vec<Comparison>> {
+    let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    let options = OutputErrorOptions {
+        h,
+        ..OutputErrorOptions::default()
+    };
+    let problem = Problem::new(plant, conf, vec![], records.to_vec(), &[], options)?;
+    let records = if estimate_initial {
+        problem
+            .estimate_initial_positions(plant)
+            .map_err(|e| anyhow!(e.0))?
+    } else {
+        records.to_vec()
+    };
+    let mut out = Vec::new();
+    for r in &records {
+        let traj = problem.simulate(plant, r).map_err(|e| anyhow!(e.0))?;
+        for (a, &j) in conf.free.iter().enumerate() {
+            let inputs = conf
+                .free
+                .iter()
+                .zip(&r.tau)
+                .map(|(k, u)| (format!("tau{k}"), u.clone()))
+                .collect();
+            out.push(comparison(
+                &r.file,
+                plant.model.joints[j],
+                Signals {
+                    t: r.t.clone(),
+                    q: r.q[a].clone(),
+                    qd: traj.qd[a].clone(),
+                    y: r.q[a].clone(),
+                    yhat: traj.q[a].clone(),
+                    dt: r.dt,
+                    inputs,
+                },
+                "rad or m",
+            ));
+        }
     }
     Ok(out)
 }
@@ -150,61 +458,130 @@ pub fn write_residual_csv(path: &Path, c: &Comparison) -> Result<()> {
     })
 }
 
-/// Plot measured vs model, residual vs time, residual vs velocity (`<stem>.svg`, `.png`).
+/// Plot a comparison (`<stem>.svg`, `.png`): measured vs model, the residual against time,
+/// position, velocity (by its sign) and the other joints' torques, the residual spectrum
+/// with the input frequencies marked, the autocorrelation and the cross-correlations with
+/// their 99 % bounds.
 ///
 /// # Errors
 /// As [`figure`].
 pub fn plot(stem: &Path, c: &Comparison, title: &str) -> Result<[PathBuf; 2]> {
     let e = c.residual();
-    let unit = "N·m or N";
-    figure(
-        stem,
-        &[
-            Panel {
-                title: format!(
-                    "{title}: measured vs model ({}, error {:.2} %)",
-                    c.joint, c.relative_error
-                ),
-                x_label: "t (s)".into(),
-                y_label: format!("torque ({unit})"),
-                series: vec![
-                    Series {
-                        name: "measured".into(),
-                        x: c.t.clone(),
-                        y: c.y.clone(),
-                        style: Style::Line,
-                    },
-                    Series {
-                        name: "model".into(),
-                        x: c.t.clone(),
-                        y: c.yhat.clone(),
-                        style: Style::Line,
-                    },
-                ],
-            },
-            Panel {
-                title: "residual vs time".into(),
-                x_label: "t (s)".into(),
-                y_label: format!("residual ({unit})"),
-                series: vec![Series {
-                    name: "y − ŷ".into(),
-                    x: c.t.clone(),
-                    y: e.clone(),
-                    style: Style::Line,
-                }],
-            },
-            Panel {
-                title: "residual vs velocity".into(),
-                x_label: "velocity (rad/s or m/s)".into(),
-                y_label: format!("residual ({unit})"),
-                series: vec![Series {
-                    name: "y − ŷ".into(),
-                    x: c.qd.clone(),
-                    y: e,
-                    style: Style::Points,
-                }],
-            },
+    let unit = c.unit;
+    let line = |name: &str, x: Vec<f64>, y: Vec<f64>| Series {
+        name: name.into(),
+        x,
+        y,
+        style: Style::Line,
+    };
+    let points = |name: &str, x: Vec<f64>, y: Vec<f64>| Series {
+        name: name.into(),
+        x,
+        y,
+        style: Style::Points,
+    };
+    let panel = |title: String, x: &str, y: &str, series: Vec<Series>| Panel {
+        title,
+        x_label: x.into(),
+        y_label: y.into(),
+        series,
+    };
+    let ylab = format!("residual ({unit})");
+    let by_sign = |positive: bool| -> (Vec<f64>, Vec<f64>) {
+        (0..e.len())
+            .filter(|&i| (c.qd[i] > 0.0) == positive && c.qd[i] != 0.0)
+            .map(|i| (c.qd[i], e[i]))
+            .unzip()
+    };
+    let (vp, ep) = by_sign(true);
+    let (vn, en) = by_sign(false);
+    let mut panels = vec![
+        panel(
+            format!(
+                "{title}: measured vs model ({}, NRMSE fit {:.1} %, RMSE {:.3e})",
+                c.joint, c.nrmse_fit, c.rmse
+            ),
+            "t (s)",
+            unit,
+            vec![
+                line("measured", c.t.clone(), c.y.clone()),
+                line("model", c.t.clone(), c.yhat.clone()),
+            ],
+        ),
+        panel(
+            format!(
+                "residual vs time (largest {:.3e} at t = {:.2} s)",
+                c.max_error.0, c.max_error.1
+            ),
+            "t (s)",
+            &ylab,
+            vec![line("y − ŷ", c.t.clone(), e.clone())],
+        ),
+        panel(
+            "residual vs position".into(),
+            "position (rad or m)",
+            &ylab,
+            vec![points("y − ŷ", c.q.clone(), e.clone())],
+        ),
+        panel(
+            "residual vs velocity (a step at 0: Coulomb friction; a hump: Stribeck)".into(),
+            "velocity (rad/s or m/s)",
+            &ylab,
+            vec![points("q̇ > 0", vp, ep), points("q̇ < 0", vn, en)],
+        ),
+    ];
+    for (name, u) in c.inputs.iter().filter(|(n, _)| n.starts_with("tau")) {
+        panels.push(panel(
+            format!("residual vs {name} (a slope: gain or input coupling)"),
+            &format!("{name} (N·m or N)"),
+            &ylab,
+            vec![points("y − ŷ", u.clone(), e.clone())],
+        ));
+    }
+    let (f, a) = &c.tests.spectrum;
+    let top = a.iter().fold(0.0f64, |m, &x| m.max(x));
+    let mut spec = vec![line("|E(f)|", f.clone(), a.clone())];
+    for (i, &fi) in c.tests.input_frequencies.iter().enumerate() {
+        spec.push(line(
+            if i == 0 { "input frequencies" } else { "" },
+            vec![fi, fi],
+            vec![0.0, top],
+        ));
+    }
+    panels.push(panel(
+        "residual amplitude spectrum".into(),
+        "frequency (Hz)",
+        unit,
+        spec,
+    ));
+    let m = c.tests.max_lag;
+    let lags: Vec<f64> = (0..=m).map(|k| k as f64).collect();
+    let b = c.tests.autocorrelation_bound;
+    panels.push(panel(
+        format!(
+            "residual autocorrelation ({} of {} lags outside the 99 % bound)",
+            c.tests.lags_outside, c.tests.max_lag
+        ),
+        "lag (samples)",
+        "ρ_ee",
+        vec![
+            line("ρ_ee", lags.clone(), c.tests.autocorrelation.clone()),
+            line("99 % bound", vec![0.0, m as f64], vec![b, b]),
+            line("", vec![0.0, m as f64], vec![-b, -b]),
         ],
-        1000,
-    )
+    ));
+    let both: Vec<f64> = (-(m as isize)..=m as isize).map(|k| k as f64).collect();
+    for (name, r, b) in &c.tests.cross_correlation {
+        panels.push(panel(
+            format!("cross-correlation of the residual with {name}"),
+            "lag (samples)",
+            "ρ_eu",
+            vec![
+                line("ρ_eu", both.clone(), r.clone()),
+                line("99 % bound", vec![-(m as f64), m as f64], vec![*b, *b]),
+                line("", vec![-(m as f64), m as f64], vec![-*b, -*b]),
+            ],
+        ));
+    }
+    figure(stem, &panels, 1000)
 }

@@ -10,7 +10,7 @@ use lockstep::identify::output_error::Record;
 use lockstep::identify::refit::{refit, RefitOptions};
 use lockstep::identify::sequence::read_record;
 use lockstep::plant::Plant;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 fn lockstep(args: &[&str]) {
@@ -125,34 +125,32 @@ fn diagnose_and_fix(
     (r.plant, after / before, f)
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("lockstep-diag-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmp() -> tempfile::TempDir {
+    tempfile::tempdir().unwrap()
 }
 
 #[test]
 fn hidden_cable_drag_spring_on_joint_3_c3() {
-    let dir = tmp("c3");
+    let dir = tmp();
     let truth = base();
     let mut start = truth.clone();
     start
         .effects
         .retain(|e| !(e.kind == EffectKind::Spring && e.joint == 3));
-    let rec = data(&dir, &truth, "c3", "4.3", Some("J3"));
+    let rec = data(dir.path(), &truth, "c3", "4.3", Some("J3"));
     let (_, ratio, _) = diagnose_and_fix(&start, "c3", &rec, (EffectKind::Spring, "q3", None));
     assert!(ratio < 0.5, "error ratio {ratio}");
 }
 
 #[test]
 fn hidden_tendon_coupling_5_to_4_k1() {
-    let dir = tmp("k1");
+    let dir = tmp();
     let truth = base();
     let mut start = truth.clone();
     start
         .effects
         .retain(|e| !(e.kind == EffectKind::InputCoupling && e.from == Some(5)));
-    let rec = data(&dir, &truth, "k1", "4.7", None);
+    let rec = data(dir.path(), &truth, "k1", "4.7", None);
     let (_, ratio, f) = diagnose_and_fix(
         &start,
         "k1",
@@ -166,25 +164,25 @@ fn hidden_tendon_coupling_5_to_4_k1() {
 
 #[test]
 fn hidden_strong_stribeck_on_joint_5_c2() {
-    let dir = tmp("c2");
+    let dir = tmp();
     let mut truth = base();
     truth.parameters.insert("Fs_5".into(), 0.1);
     truth.parameters.insert("vs_5".into(), 0.1);
     let mut start = truth.clone();
     start.parameters.insert("Fs_5".into(), 0.02);
-    let rec = data(&dir, &truth, "c2", "4.3", Some("J5"));
+    let rec = data(dir.path(), &truth, "c2", "4.3", Some("J5"));
     let (_, ratio, _) = diagnose_and_fix(&start, "c2", &rec, (EffectKind::Stribeck, "q5", None));
     assert!(ratio < 0.5, "error ratio {ratio}");
 }
 
 #[test]
 fn hidden_plant_gain_error_on_joint_2_c4() {
-    let dir = tmp("c4");
+    let dir = tmp();
     let mut truth = base();
     let kp = truth.parameters["Kp_2"];
     truth.parameters.insert("Kp_2".into(), 1.3 * kp);
     let start = base();
-    let rec = data(&dir, &truth, "c4", "4.3", Some("J2"));
+    let rec = data(dir.path(), &truth, "c4", "4.3", Some("J2"));
     let (_, ratio, f) = diagnose_and_fix(&start, "c4", &rec, (EffectKind::Gain, "q2", None));
     assert!(ratio < 0.5, "error ratio {ratio}");
     let fitted = f.values.iter().find(|v| v.0 == "Kp_2").unwrap().1;
@@ -197,13 +195,13 @@ fn hidden_plant_gain_error_on_joint_2_c4() {
 
 #[test]
 fn hidden_friction_bias_on_joints_0_and_1_c7() {
-    let dir = tmp("c7");
+    let dir = tmp();
     let truth = base();
     let mut start = truth.clone();
     start
         .effects
         .retain(|e| !(e.kind == EffectKind::FrictionBias && e.joint <= 1));
-    let rec = data(&dir, &truth, "c7", "4.4", Some("J01-1"));
+    let rec = data(dir.path(), &truth, "c7", "4.4", Some("J01-1"));
     let (next, ratio1, f1) =
         diagnose_and_fix(&start, "c7", &rec, (EffectKind::FrictionBias, "q0", None));
     let (_, ratio2, _) =
@@ -214,12 +212,182 @@ fn hidden_friction_bias_on_joints_0_and_1_c7() {
 
 #[test]
 fn nothing_missing_is_reported_as_nothing_c3() {
-    let dir = tmp("none");
+    let dir = tmp();
     let truth = base();
-    let rec = data(&dir, &truth, "c3", "4.3", Some("J3"));
+    let rec = data(dir.path(), &truth, "c3", "4.3", Some("J3"));
     let d = diagnose_output(&truth, "c3", &[rec], &OutputOptions::default()).unwrap();
     let text = show(&d);
     eprintln!("{text}");
     assert!(!d.findings[0].significant, "{text}");
     assert!(text.contains("nothing significant is missing"), "{text}");
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_lockstep"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn stdout_ok(o: &std::process::Output) -> String {
+    assert!(
+        o.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn refused(o: &std::process::Output, needles: &[&str]) {
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    for n in needles {
+        assert!(err.contains(n), "'{n}' not in: {err}");
+    }
+}
+
+/// The loop as a user runs it: diagnose --apply, the report with its history, and the hand
+/// route effect add → refit; bad edits refused with the item named.
+#[test]
+fn the_loop_on_the_command_line_c3() {
+    let dir = tmp();
+    let d = dir.path();
+    let truth = base();
+    let mut start = truth.clone();
+    start
+        .effects
+        .retain(|e| !(e.kind == EffectKind::Spring && e.joint == 3));
+    start.parameters.remove("Ks_3");
+    start.parameters.remove("qeq_3");
+    start.bounds.remove("Ks_3");
+    start.bounds.remove("qeq_3");
+    let start_file = d.join("start.toml");
+    start.save(&start_file).unwrap();
+    data(d, &truth, "c3", "4.3", Some("J3"));
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let run_csv = s(&d.join("c3_run.csv"));
+    let fixed = s(&d.join("fixed.toml"));
+    let out = stdout_ok(&run(&[
+        "diagnose",
+        "--plant",
+        &s(&start_file),
+        "--data",
+        &run_csv,
+        "--apply",
+        "1",
+        "--out",
+        &fixed,
+    ]));
+    assert!(out.contains("most likely missing: spring on q3"), "{out}");
+    let p = Plant::load(Path::new(&fixed)).unwrap();
+    assert_eq!(p.history.len(), 1);
+    let h = &p.history[0];
+    assert_eq!(h.change, "added spring on q3");
+    assert!(h.rms_after["q3"] < 0.01 * h.rms_before["q3"], "{h:?}");
+    assert!((h.fitted["Ks_3"] / 0.0064599 - 1.0).abs() < 0.05, "{h:?}");
+    // The report: self-contained (figures inlined, nothing fetched), with the history.
+    let rep = d.join("rep");
+    stdout_ok(&run(&[
+        "report",
+        "--plant",
+        &fixed,
+        "--data",
+        &run_csv,
+        "--out",
+        &s(&rep),
+    ]));
+    let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
+    for needle in [
+        "<svg",
+        "Compare",
+        "Diagnose",
+        "History",
+        "added spring on q3",
+        "NRMSE fit",
+    ] {
+        assert!(html.contains(needle), "report lacks {needle}");
+    }
+    assert!(!html.contains("src=\"http") && !html.contains("<link") && !html.contains("<script"));
+    // By hand: add the spring with bounds, refit it.
+    let hand = s(&d.join("hand.toml"));
+    let o = stdout_ok(&run(&[
+        "effect",
+        "add",
+        "spring",
+        "--joint",
+        "q3",
+        "--plant",
+        &s(&start_file),
+        "--set",
+        "qeq_3=0.1",
+        "--bound",
+        "Ks_3=0:0.1",
+        "--bound",
+        "qeq_3=-2:2",
+        "--out",
+        &hand,
+    ]));
+    assert!(o.contains("Ks_3 = 0") && o.contains("qeq_3 = 0.1"), "{o}");
+    let o = stdout_ok(&run(&[
+        "refit",
+        "--plant",
+        &hand,
+        "--data",
+        &run_csv,
+        "--params",
+        "Ks_3,qeq_3",
+    ]));
+    let p = Plant::load(Path::new(&hand)).unwrap();
+    let h = &p.history[0];
+    assert!(h.rms_after["q3"] < 0.5 * h.rms_before["q3"], "{o}");
+    // Refusals.
+    let st = s(&start_file);
+    refused(
+        &run(&[
+            "effect",
+            "add",
+            "frobnicate",
+            "--joint",
+            "q3",
+            "--plant",
+            &st,
+        ]),
+        &["unknown effect 'frobnicate'", "input_coupling"],
+    );
+    refused(
+        &run(&["effect", "add", "spring", "--joint", "q9", "--plant", &st]),
+        &["--joint: unknown joint 'q9'"],
+    );
+    refused(
+        &run(&["effect", "add", "gain", "--joint", "q3", "--plant", &st]),
+        &["conflicts with 'gain'"],
+    );
+    refused(
+        &run(&["effect", "add", "coupling", "--plant", &st, "--from", "q5"]),
+        &["needs --from and --to"],
+    );
+    refused(
+        &run(&[
+            "effect", "add", "offset", "--joint", "q3", "--plant", &st, "--set", "Kx_3=1",
+        ]),
+        &["--set Kx_3", "offset_3"],
+    );
+    refused(
+        &run(&[
+            "refit", "--plant", &st, "--data", &run_csv, "--params", "Fs_9",
+        ]),
+        &["Fs_9"],
+    );
+    refused(
+        &run(&[
+            "refit", "--plant", &st, "--data", &run_csv, "--params", "Fc_3",
+        ]),
+        &["'Fc_3'", "no bounds"],
+    );
+    // The start plant file is untouched by the refused edits.
+    assert_eq!(
+        Plant::load(&start_file).unwrap().effects.len(),
+        start.effects.len()
+    );
 }

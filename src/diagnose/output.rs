@@ -51,6 +51,9 @@ pub struct OutputOptions {
     pub confirm: usize,
     /// Most Levenberg–Marquardt iterations of a confirmation fit.
     pub max_iter: usize,
+    /// Estimate the free joints' initial positions from each file (as MATLAB `compare`)
+    /// instead of taking the first noisy sample.
+    pub estimate_initial: bool,
 }
 
 impl Default for OutputOptions {
@@ -62,6 +65,7 @@ impl Default for OutputOptions {
             skip: 0,
             confirm: 3,
             max_iter: 30,
+            estimate_initial: true,
         }
     }
 }
@@ -207,7 +211,17 @@ pub fn diagnose_output(
         horizons: vec![1.0],
         ..OutputErrorOptions::default()
     };
-    let problem = Problem::new(plant, conf, vec![], records.to_vec(), &[], oe.clone())?;
+    let mut problem = Problem::new(plant, conf, vec![], records.to_vec(), &[], oe.clone())?;
+    let estimated;
+    let records = if options.estimate_initial {
+        estimated = problem
+            .estimate_initial_positions(plant)
+            .map_err(|e| anyhow!("the plant itself cannot be simulated: {}", e.0))?;
+        problem = Problem::new(plant, conf, vec![], estimated.clone(), &[], oe.clone())?;
+        &estimated[..]
+    } else {
+        records
+    };
     let out = Outputs {
         problem,
         records,
@@ -320,8 +334,7 @@ pub fn diagnose_output(
         let range = |name: &str| -> (f64, f64) {
             if *name == c.size.name {
                 (c.size.lo, c.size.hi)
-            } else if let Some((g, lo, hi)) = c.grid.as_ref().filter(|g| g.0 == name) {
-                let _ = g;
+            } else if let Some((_, lo, hi)) = c.grid.as_ref().filter(|g| g.0 == name) {
                 (*lo, *hi)
             } else {
                 let v = values.iter().find(|x| x.0 == name).map_or(0.0, |x| x.1);
@@ -367,7 +380,7 @@ pub fn diagnose_output(
             continue;
         };
         simulations += fit.evaluations;
-        if !(fit.cost_after < l.sse) {
+        if fit.cost_after.is_nan() || fit.cost_after >= l.sse {
             continue;
         }
         let mut values = values_of(c, l.beta);

@@ -435,6 +435,58 @@ impl Problem {
             .collect()
     }
 
+    /// The records with the free joints' initial positions estimated (MATLAB `compare`'s
+    /// `InitialCondition = 'e'`): the first measured sample carries the position noise, and
+    /// with friction holding the joint an initial error persists for seconds. One
+    /// Gauss–Newton step of the free joints' q(0) on the whole file's position residual of
+    /// `plant` (central differences, ±1e-3 rad), run per file.
+    ///
+    /// # Errors
+    /// A simulation fails (file named).
+    pub fn estimate_initial_positions(&self, plant: &Plant) -> Result<Vec<Record>, TrialFailure> {
+        let nf = self.conf.free.len();
+        let delta = 1e-3;
+        self.records
+            .par_iter()
+            .map(|r| {
+                let stack =
+                    |t: &Trajectory| -> Vec<f64> { t.q.iter().flatten().copied().collect() };
+                let y: Vec<f64> = r.q.iter().flatten().copied().collect();
+                let base = stack(&self.simulate(plant, r)?);
+                let mut cols = Vec::with_capacity(nf);
+                for a in 0..nf {
+                    let at = |d: f64| {
+                        let mut rr = r.clone();
+                        rr.q_all[self.conf.free[a]] += d;
+                        self.simulate(plant, &rr).map(|t| stack(&t))
+                    };
+                    let (p, m) = (at(delta)?, at(-delta)?);
+                    cols.push(
+                        p.iter()
+                            .zip(&m)
+                            .map(|(x, z)| (x - z) / (2.0 * delta))
+                            .collect::<Vec<f64>>(),
+                    );
+                }
+                let a = DMatrix::from_fn(y.len(), nf, |i, c| cols[c][i]);
+                let e = nalgebra::DVector::from_iterator(
+                    y.len(),
+                    y.iter().zip(&base).map(|(u, v)| u - v),
+                );
+                let mut out = r.clone();
+                if let Ok(d) = a.svd(true, true).solve(&e, 1e-12) {
+                    for (k, &j) in self.conf.free.iter().enumerate() {
+                        // A step beyond ±10 δ is not a noise correction: keep the sample.
+                        if d[k].abs() <= 10.0 * delta {
+                            out.q_all[j] += d[k];
+                        }
+                    }
+                }
+                Ok(out)
+            })
+            .collect()
+    }
+
     /// Residual vector (length [`Problem::residual_count`]) of the files' trajectories.
     fn residuals_of(&self, trajectories: &[Trajectory]) -> Vec<f64> {
         let mut r = vec![0.0; self.m];

@@ -25,6 +25,9 @@ pub struct RefitOptions {
     pub max_iter: usize,
     /// Starts (the plant's values, then random points in the bounds).
     pub starts: usize,
+    /// Estimate the free joints' initial positions of each file with the plant before the
+    /// change ([`Problem::estimate_initial_positions`]).
+    pub estimate_initial: bool,
 }
 
 impl Default for RefitOptions {
@@ -36,6 +39,7 @@ impl Default for RefitOptions {
             skip: 0,
             max_iter: 50,
             starts: 1,
+            estimate_initial: true,
         }
     }
 }
@@ -102,8 +106,22 @@ pub fn refit(
         horizons: vec![0.25, 1.0],
         ..OutputErrorOptions::default()
     };
-    let problem = Problem::new(plant, conf, names.to_vec(), records.to_vec(), &[], oe)?;
-    let trajectories = records
+    let mut problem = Problem::new(
+        plant,
+        conf,
+        names.to_vec(),
+        records.to_vec(),
+        &[],
+        oe.clone(),
+    )?;
+    if options.estimate_initial {
+        let estimated = problem
+            .estimate_initial_positions(before)
+            .map_err(|e| anyhow!("the plant before the change: {}", e.0))?;
+        problem = Problem::new(plant, conf, names.to_vec(), estimated, &[], oe)?;
+    }
+    let trajectories = problem
+        .records
         .iter()
         .map(|r| problem.simulate(before, r))
         .collect::<Result<Vec<_>, _>>()

@@ -1,5 +1,8 @@
-//! Reporting: tables for the terminal and Markdown, figures ([`plot`]).
+//! Reporting: tables for the terminal and Markdown, figures ([`plot`]), the wall and
+//! closed-loop reports ([`control`]), the model-versus-measurement loop and its HTML report
+//! ([`diagnosis`]).
 pub mod control;
+pub mod diagnosis;
 pub mod plot;
 
 use crate::identify::idim::Fit;

@@ -117,9 +117,11 @@ where
                     .draw_series(pts.map(|p| Circle::new(p, 1, color.filled())))
                     .map_err(|e| anyhow!("{e:?}"))?,
             };
-            anno.label(s.name.clone()).legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
-            });
+            if !s.name.is_empty() {
+                anno.label(s.name.clone()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+                });
+            }
         }
         chart
             .configure_series_labels()

@@ -1,0 +1,635 @@
+//! The model-versus-measurement loop on the command line: `compare`, `diagnose` (with
+//! `--apply` to add the leading finding and refit it), `refit`, `effect add`, and the
+//! self-contained HTML report that collects them with the plant's history.
+
+use crate::compare::{compare_observation, compare_output, plot, write_residual_csv, Comparison};
+use crate::diagnose::{diagnose_output, diagnose_torque, Finding, OutputOptions};
+use crate::effects::{Effect, EffectKind};
+use crate::identify::idim::{observation, IdimOptions};
+use crate::identify::output_error::Record;
+use crate::identify::refit::{refit, Refit, RefitOptions};
+use crate::identify::sequence::{discover, read_record};
+use crate::measurement::Measurement;
+use crate::plant::{HistoryEntry, Plant};
+use crate::report::plot::{figure, Panel, Series, Style};
+use crate::util::write_atomic;
+use anyhow::{anyhow, bail, Context, Result};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Where model and measurement are compared.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Space {
+    /// Inverse model on torque-measured data.
+    Torque,
+    /// Simulated positions on position-measured data.
+    Output,
+}
+
+impl Space {
+    /// `torque`, `output`, or `auto`: torque space when every effect of the plant is linear
+    /// in its parameters (an IDIM plant), output space otherwise.
+    ///
+    /// # Errors
+    /// Another word.
+    pub fn choose(requested: &str, plant: &Plant) -> Result<Space> {
+        match requested {
+            "torque" => Ok(Space::Torque),
+            "output" => Ok(Space::Output),
+            "auto" => Ok(if plant.effects.iter().all(|e| e.kind.is_linear()) {
+                Space::Torque
+            } else {
+                Space::Output
+            }),
+            other => bail!("--space: expected auto, torque or output, got '{other}'"),
+        }
+    }
+}
+
+/// What the loop's commands need besides the plant: data, configuration, space settings.
+#[derive(Debug, Clone)]
+pub struct Inputs {
+    /// Measurement files or directories.
+    pub data: Vec<PathBuf>,
+    /// Configuration (default: the side files', else `full` in torque space).
+    pub config: Option<String>,
+    /// Space requested (auto, torque, output).
+    pub space: String,
+    /// Torque space: preparation of the records.
+    pub idim: IdimOptions,
+    /// Output space: RK4 step (s).
+    pub h: f64,
+    /// Output space: samples skipped at the start of each file.
+    pub skip: usize,
+    /// Output space: largest motion (rad) of a locked joint.
+    pub locked_tolerance: f64,
+    /// Output space: estimate the initial positions (else the first samples).
+    pub estimate_initial: bool,
+}
+
+/// Position records of one configuration: `config` or the files' own (side file or file
+/// name prefix), which must agree.
+///
+/// # Errors
+/// A path that does not exist, files without a configuration or of different
+/// configurations, unreadable records (file and column named).
+pub fn output_records(plant: &Plant, inputs: &Inputs) -> Result<(String, Vec<Record>)> {
+    let m = plant.model;
+    let (files, ignored) = discover(&inputs.data, m)?;
+    let config = match &inputs.config {
+        Some(c) => c.clone(),
+        None => {
+            if let Some(why) = ignored.first() {
+                bail!("{why} (or give --config)");
+            }
+            let mut cs: Vec<&str> = files.iter().map(|f| f.config.as_str()).collect();
+            cs.dedup();
+            match cs.as_slice() {
+                [c] => c.to_string(),
+                [] => bail!("no measurement files (*.csv, *.mat) in {:?}", inputs.data),
+                many => bail!(
+                    "the files are of several configurations ({}): give one with --config",
+                    many.join(", ")
+                ),
+            }
+        }
+    };
+    let conf = crate::util::configuration(m, &config).map_err(|e| anyhow!("--config: {e}"))?;
+    // Files named directly are used as given; from directories, the files of this
+    // configuration.
+    let paths: Vec<PathBuf> = inputs
+        .data
+        .iter()
+        .flat_map(|p| {
+            if p.is_dir() {
+                files
+                    .iter()
+                    .filter(|f| f.path.starts_with(p) && f.config == config)
+                    .map(|f| f.path.clone())
+                    .collect()
+            } else {
+                vec![p.clone()]
+            }
+        })
+        .collect();
+    let records = paths
+        .iter()
+        .map(|p| read_record(p, m, conf, inputs.locked_tolerance))
+        .collect::<Result<Vec<_>>>()?;
+    if records.is_empty() {
+        bail!("no measurement files for configuration '{config}'");
+    }
+    Ok((config, records))
+}
+
+fn torque_records(plant: &Plant, inputs: &Inputs) -> Result<Vec<Measurement>> {
+    let nj = plant.model.joints.len();
+    Ok(inputs
+        .data
+        .iter()
+        .map(|d| Measurement::read(d, nj))
+        .collect::<Result<Vec<_>, _>>()?)
+}
+
+fn stem(p: &Path) -> String {
+    p.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Compare, print the table and write residual CSVs and figures under `out`; returns the
+/// comparisons and the SVG figure of each.
+///
+/// # Errors
+/// As [`compare_output`] / [`crate::compare::compare_torque`], and I/O (path named).
+pub fn compare_command(
+    plant: &Plant,
+    inputs: &Inputs,
+    out: &Path,
+) -> Result<Vec<(Comparison, PathBuf)>> {
+    let space = Space::choose(&inputs.space, plant)?;
+    let cmps = match space {
+        Space::Output => {
+            let (config, records) = output_records(plant, inputs)?;
+            println!("output space (simulated positions), configuration {config}");
+            compare_output(plant, &config, &records, inputs.h, inputs.estimate_initial)?
+        }
+        Space::Torque => {
+            let config = inputs.config.as_deref().unwrap_or("full");
+            println!("torque space (inverse model), configuration {config}");
+            let mut v = Vec::new();
+            for m in torque_records(plant, inputs)? {
+                let obs = observation(plant, config, std::slice::from_ref(&m), &inputs.idim)?;
+                v.extend(compare_observation(plant, &obs, &m.file)?);
+            }
+            v
+        }
+    };
+    println!(
+        "{:<24} {:<5} {:>8} {:>9} {:>11} {:>11} {:>9} {:>10} {:>10}",
+        "record", "joint", "fit %", "error %", "RMSE", "max |e|", "at t (s)", "at q", "at qd"
+    );
+    let mut outv = Vec::new();
+    for c in cmps {
+        let s = stem(&c.file);
+        let base = out.join(format!("{s}_{}", c.joint));
+        write_residual_csv(&base.with_extension("csv"), &c)?;
+        let [svg, _] = plot(&base, &c, &s)?;
+        println!(
+            "{:<24} {:<5} {:>8.2} {:>9.3} {:>11.4e} {:>11.4e} {:>9.3} {:>10.4} {:>10.4}",
+            s,
+            c.joint,
+            c.nrmse_fit,
+            c.relative_error,
+            c.rmse,
+            c.max_error.0.abs(),
+            c.max_error.1,
+            c.max_error_q,
+            c.max_error.2
+        );
+        println!("    {}", c.tests.verdict());
+        if space == Space::Torque {
+            let (a, b) = c.sign_step;
+            println!("    residual ~ a*sign(qd) + b + c*qd: a = {a:.4}, b = {b:.4} (a step of 2a at qd = 0 means missing Coulomb friction; b, an offset)");
+        }
+        outv.push((c, svg));
+    }
+    println!("residual CSVs and plots (PNG, SVG) in {}", out.display());
+    Ok(outv)
+}
+
+/// Diagnose: the ranked findings, per record in torque space, for all records together in
+/// output space (with the configuration).
+///
+/// # Errors
+/// As [`diagnose_output`] / [`diagnose_torque`].
+pub fn diagnose(plant: &Plant, inputs: &Inputs) -> Result<Vec<(String, Vec<Finding>)>> {
+    match Space::choose(&inputs.space, plant)? {
+        Space::Output => {
+            let (config, records) = output_records(plant, inputs)?;
+            let d = diagnose_output(
+                plant,
+                &config,
+                &records,
+                &OutputOptions {
+                    h: inputs.h,
+                    skip: inputs.skip,
+                    estimate_initial: inputs.estimate_initial,
+                    ..OutputOptions::default()
+                },
+            )?;
+            let files: Vec<String> = records.iter().map(|r| stem(&r.file)).collect();
+            Ok(vec![(
+                format!(
+                    "configuration {config}, {} ({} residual samples, {} simulations)",
+                    files.join(", "),
+                    d.samples,
+                    d.simulations
+                ),
+                d.findings,
+            )])
+        }
+        Space::Torque => {
+            let config = inputs.config.as_deref().unwrap_or("full");
+            torque_records(plant, inputs)?
+                .iter()
+                .map(|m| {
+                    let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
+                    Ok((stem(&m.file), diagnose_torque(plant, &obs)?))
+                })
+                .collect()
+        }
+    }
+}
+
+fn refit_options(inputs: &Inputs) -> RefitOptions {
+    RefitOptions {
+        h: inputs.h,
+        skip: inputs.skip,
+        estimate_initial: inputs.estimate_initial,
+        ..RefitOptions::default()
+    }
+}
+
+/// The before/after table of a refit.
+pub fn refit_table(r: &Refit) -> String {
+    let mut s = format!(
+        "{:<6} {:>13} {:>13} {:>8}\n",
+        "joint", "RMS before", "RMS after", "fall %"
+    );
+    for ((j, b), (_, a)) in r.before.iter().zip(&r.after) {
+        s += &format!(
+            "{:<6} {:>13.4e} {:>13.4e} {:>8.1}\n",
+            j,
+            b,
+            a,
+            100.0 * (1.0 - a / b.max(1e-300))
+        );
+    }
+    for (n, v) in r.fit.names.iter().zip(&r.fit.fitted) {
+        s += &format!("  {n} = {v:.6e}\n");
+    }
+    s
+}
+
+/// `diagnose --apply k`: add finding `k` (1-based) of an output-space diagnosis to the
+/// plant, refit its parameters, record the step in the plant's history and save the plant
+/// to `out`.
+///
+/// # Errors
+/// No such finding, a finding that is not a plant edit, the refit fails, I/O.
+pub fn apply_finding(
+    plant: &Plant,
+    inputs: &Inputs,
+    findings: &[Finding],
+    k: usize,
+    out: &Path,
+) -> Result<Refit> {
+    let f = findings
+        .get(k.wrapping_sub(1))
+        .ok_or_else(|| anyhow!("--apply {k}: there are {} findings", findings.len()))?;
+    let changed = f.apply(plant)?;
+    let (config, records) = output_records(plant, inputs)?;
+    let r = refit(
+        plant,
+        &changed,
+        &config,
+        &records,
+        &f.parameter_names(),
+        &refit_options(inputs),
+    )?;
+    let what = match (&f.effect, &f.from) {
+        (Some(_), Some(from)) => format!("added {} from {from} to {}", f.name, f.joint),
+        (Some(_), None) => format!("added {} on {}", f.name, f.joint),
+        (None, _) => format!("refitted {} on {}", f.name, f.joint),
+    };
+    save_with_history(&r, &what, &records, out)?;
+    Ok(r)
+}
+
+fn save_with_history(r: &Refit, change: &str, records: &[Record], out: &Path) -> Result<()> {
+    let files: Vec<String> = records
+        .iter()
+        .map(|x| x.file.display().to_string())
+        .collect();
+    let mut p = r.plant.clone();
+    p.history.push(r.history(change, &files));
+    p.save(out)
+}
+
+/// `lockstep refit`: fit `names` of the plant on the data, print before/after, append the
+/// step to the history, save to `out`.
+///
+/// # Errors
+/// As [`refit`]; I/O.
+pub fn refit_command(
+    plant: &Plant,
+    inputs: &Inputs,
+    names: &[String],
+    change: &str,
+    out: &Path,
+) -> Result<Refit> {
+    if names.is_empty() {
+        bail!("--params: name the parameters to refit, e.g. --params Ks_3,qeq_3");
+    }
+    let (config, records) = output_records(plant, inputs)?;
+    let r = refit(
+        plant,
+        plant,
+        &config,
+        &records,
+        names,
+        &refit_options(inputs),
+    )?;
+    save_with_history(&r, change, &records, out)?;
+    Ok(r)
+}
+
+/// Default value of a new effect's parameter: no effect where that exists (levels 0, gain
+/// and friction-bias factor 1), small positive friction levels for LuGre (it divides by
+/// g(v)), vs = 0.1, and an existing qeq shared with the spring or friction bias.
+fn neutral(symbol: &str, existing: Option<f64>) -> f64 {
+    match symbol {
+        "Kp" | "FrictionBias" => 1.0,
+        "vs" => 0.1,
+        "sigma0" => 1.0,
+        "Fc" | "Fs" => 1e-3,
+        "qeq" => existing.unwrap_or(0.0),
+        _ => 0.0,
+    }
+}
+
+/// `lockstep effect add`: add an effect of `kind` on `joint` (or a coupling `from` → `to`)
+/// with neutral values, then `set` (name → value) and `bounds` (name → [lo, hi]); save to
+/// `out`. Returns the new plant and the effect added.
+///
+/// # Errors
+/// Unknown kind or joint, missing --joint / --from/--to, a conflicting effect on the joint,
+/// a set or bound for a parameter the plant does not have, a value outside its bounds.
+pub fn effect_add(
+    plant: &Plant,
+    kind: &str,
+    joint: Option<&str>,
+    from_to: (Option<&str>, Option<&str>),
+    set: &[(String, f64)],
+    bounds: &[(String, f64, f64)],
+    out: &Path,
+) -> Result<(Plant, Effect)> {
+    let k: EffectKind = serde_json::from_value(serde_json::Value::String(kind.replace('-', "_")))
+        .map_err(|_| {
+        anyhow!(
+            "unknown effect '{kind}' (expected one of: {})",
+            EffectKind::ALL
+                .iter()
+                .map(|k| k.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })?;
+    let m = plant.model;
+    let index = |name: &str, opt: &str| -> Result<usize> {
+        m.joints.iter().position(|j| *j == name).ok_or_else(|| {
+            anyhow!(
+                "{opt}: unknown joint '{name}' (model '{}' has {})",
+                m.name,
+                m.joints.join(", ")
+            )
+        })
+    };
+    let e = if k.is_pairwise() {
+        let (Some(f), Some(t)) = from_to else {
+            bail!("input_coupling needs --from and --to (e.g. --from q5 --to q4)");
+        };
+        Effect::coupling(index(f, "--from")?, index(t, "--to")?)
+    } else {
+        let Some(j) = joint else {
+            bail!("{k} needs --joint (e.g. --joint q3)");
+        };
+        Effect::on(k, index(j, "--joint")?)
+    };
+    let mut p = plant.clone();
+    p.add_effect(e)?;
+    let names = e.parameter_names();
+    for (n, sym) in names.iter().zip(k.symbols()) {
+        if !p.parameters.contains_key(n) {
+            p.parameters.insert(n.clone(), neutral(sym, None));
+        }
+    }
+    for (n, v) in set {
+        if !p.known_names().contains(n) {
+            bail!(
+                "--set {n}: the plant has no parameter '{n}' (the new effect's are {})",
+                names.join(", ")
+            );
+        }
+        p.parameters.insert(n.clone(), *v);
+    }
+    for (n, lo, hi) in bounds {
+        if !p.known_names().contains(n) {
+            bail!("--bound {n}: the plant has no parameter '{n}'");
+        }
+        if lo > hi {
+            bail!("--bound {n}: lower {lo} is above upper {hi}");
+        }
+        p.bounds.insert(n.clone(), (*lo, *hi));
+    }
+    // Validate as a file would be.
+    let checked = Plant::from_file(p.to_file(), None)?;
+    checked.save(out)?;
+    Ok((checked, e))
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+fn inline_svg(path: &Path) -> Result<String> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let start = text.find("<svg").unwrap_or(0);
+    Ok(format!(
+        "<div class=\"fig\">{}</div>\n",
+        text[start..].replacen("<svg", "<svg style=\"max-width:100%;height:auto\"", 1)
+    ))
+}
+
+fn findings_html(title: &str, findings: &[Finding], top: usize) -> String {
+    let mut s = format!(
+        "<h3>{}</h3>\n<table><tr><th>rank</th><th>joint</th><th>candidate</th><th>explained</th><th>ΔBIC</th><th>estimate</th><th>meaning</th></tr>\n",
+        esc(title)
+    );
+    for (i, f) in findings.iter().take(top).enumerate() {
+        let est = f
+            .estimate
+            .iter()
+            .map(|(n, v)| format!("{n} = {v:.4e}"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let _ = writeln!(
+            s,
+            "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.1} %</td><td>{:.1}</td><td>{}{}</td><td>{}</td></tr>",
+            if f.significant { "sig" } else { "ns" },
+            i + 1,
+            esc(&f.joint),
+            esc(&f.name),
+            100.0 * f.explained,
+            f.delta_bic,
+            esc(&est),
+            if f.confirmed { " (fitted)" } else { "" },
+            esc(&f.meaning)
+        );
+    }
+    s += "</table>\n";
+    s += &match findings.first() {
+        Some(f) if f.significant => format!(
+            "<p class=\"verdict\">Most likely missing: <b>{}</b> on {}.</p>\n",
+            esc(&f.name),
+            esc(&f.joint)
+        ),
+        _ => "<p class=\"verdict\">Nothing significant is missing (no candidate has ΔBIC &lt; −10 and explains ≥ 5 % of the residual).</p>\n".into(),
+    };
+    s
+}
+
+fn history_html(history: &[HistoryEntry], out: &Path) -> Result<String> {
+    if history.is_empty() {
+        return Ok("<p>No changes recorded yet: <code>lockstep diagnose --apply 1</code> or <code>lockstep refit</code> add entries.</p>\n".into());
+    }
+    let mut s = "<table><tr><th>step</th><th>change</th><th>configuration</th><th>fitted</th><th>RMS before → after (per joint)</th></tr>\n".to_string();
+    for (i, h) in history.iter().enumerate() {
+        let fitted = h
+            .fitted
+            .iter()
+            .map(|(n, v)| format!("{n} = {v:.4e}"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let rms = h
+            .rms_before
+            .iter()
+            .map(|(j, b)| {
+                let a = h.rms_after.get(j).copied().unwrap_or(f64::NAN);
+                format!(
+                    "{j}: {b:.3e} → {a:.3e} ({:.1} % less)",
+                    100.0 * (1.0 - a / b)
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("<br>");
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            i + 1,
+            esc(&h.change),
+            esc(&h.configuration),
+            esc(&fitted),
+            rms
+        );
+    }
+    s += "</table>\n";
+    // The error per joint along the history (log10 of the RMS).
+    let mut joints: Vec<String> = Vec::new();
+    for h in history {
+        for j in h.rms_before.keys() {
+            if !joints.contains(j) {
+                joints.push(j.clone());
+            }
+        }
+    }
+    let series: Vec<Series> = joints
+        .iter()
+        .map(|j| {
+            let mut x = Vec::new();
+            let mut y = Vec::new();
+            for (i, h) in history.iter().enumerate() {
+                if let (Some(b), Some(a)) = (h.rms_before.get(j), h.rms_after.get(j)) {
+                    x.extend([i as f64, i as f64 + 1.0]);
+                    y.extend([b.log10(), a.log10()]);
+                }
+            }
+            Series {
+                name: j.clone(),
+                x,
+                y,
+                style: Style::Line,
+            }
+        })
+        .collect();
+    let [svg, _] = figure(
+        &out.join("history"),
+        &[Panel {
+            title: "RMS error per joint before and after each step".into(),
+            x_label: "step".into(),
+            y_label: "log10 RMS error".into(),
+            series,
+        }],
+        900,
+    )?;
+    s += &inline_svg(&svg)?;
+    Ok(s)
+}
+
+/// `lockstep report`: compare, diagnose and the plant's history in one self-contained HTML
+/// file (`out/report.html`, figures inlined as SVG; also written beside it as SVG and PNG).
+///
+/// # Errors
+/// As the commands it runs; I/O (path named).
+pub fn report_command(plant: &Plant, inputs: &Inputs, out: &Path, top: usize) -> Result<PathBuf> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let cmps = compare_command(plant, inputs, out)?;
+    let diag = diagnose(plant, inputs)?;
+    let space = Space::choose(&inputs.space, plant)?;
+    let mut h = String::new();
+    h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
+    let _ = writeln!(h, "<title>lockstep report: {}</title>", esc(&plant.name()));
+    h += "<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:4px 8px;font-size:14px;text-align:left}th{background:#f0f0f0}tr.sig td{background:#fff4e0}tr.ns td{color:#777}.verdict{font-size:16px}.fig{margin:1em 0;border:1px solid #eee}code{background:#f4f4f4;padding:1px 4px}</style>\n</head><body>\n";
+    let _ = writeln!(
+        h,
+        "<h1>Model versus measurement</h1>\n<p>Plant <code>{}</code> (model {}), {} space; data: {}.</p>",
+        esc(&plant.name()),
+        plant.model.name,
+        if space == Space::Output {
+            "output (simulated positions)"
+        } else {
+            "torque (inverse model)"
+        },
+        esc(&inputs
+            .data
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", "))
+    );
+    h += "<h2>Compare</h2>\n<table><tr><th>record</th><th>joint</th><th>NRMSE fit</th><th>RMSE</th><th>max |e|</th><th>at t (s)</th><th>at q</th><th>at q̇</th><th>residual tests</th></tr>\n";
+    for (c, _) in &cmps {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{:.2} %</td><td>{:.4e}</td><td>{:.4e}</td><td>{:.3}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td></tr>",
+            esc(&stem(&c.file)),
+            esc(&c.joint),
+            c.nrmse_fit,
+            c.rmse,
+            c.max_error.0.abs(),
+            c.max_error.1,
+            c.max_error_q,
+            c.max_error.2,
+            esc(&c.tests.verdict())
+        );
+    }
+    h += "</table>\n";
+    for (c, svg) in &cmps {
+        let _ = writeln!(h, "<h3>{} — {}</h3>", esc(&stem(&c.file)), esc(&c.joint));
+        h += &inline_svg(svg)?;
+    }
+    h += "<h2>Diagnose</h2>\n<p>Candidate effects ranked by ΔBIC = n ln(SSE/SST) + p ln n; significant when ΔBIC &lt; −10 and at least 5 % of the residual is explained.</p>\n";
+    for (title, f) in &diag {
+        h += &findings_html(title, f, top);
+    }
+    h += "<h2>History</h2>\n";
+    h += &history_html(&plant.history, out)?;
+    h += "</body></html>\n";
+    let path = out.join("report.html");
+    write_atomic(&path, h.as_bytes())?;
+    Ok(path)
+}
