@@ -135,6 +135,15 @@ impl Finding {
         Ok(p)
     }
 
+    /// The estimate as `name = value, …`.
+    pub fn estimate_text(&self) -> String {
+        self.estimate
+            .iter()
+            .map(|(n, v)| format!("{n} = {v:.4e}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     /// Names of the plant parameters the finding sets (to refit after applying it).
     pub fn parameter_names(&self) -> Vec<String> {
         self.values.iter().map(|(n, _)| n.clone()).collect()
@@ -176,12 +185,7 @@ pub fn table(findings: &[Finding], k: usize) -> String {
         "rank", "joint", "candidate", "explained", "ΔBIC", "estimate"
     );
     for (r, f) in findings.iter().take(k).enumerate() {
-        let est = f
-            .estimate
-            .iter()
-            .map(|(n, v)| format!("{n} = {v:.4e}"))
-            .collect::<Vec<_>>()
-            .join(", ");
+        let est = f.estimate_text();
         s += &format!(
             "{:<4} {:<6} {:<36} {:>9.1}% {:>11.1}  {est}{}{}\n       {}\n",
             r + 1,

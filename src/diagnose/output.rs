@@ -30,42 +30,31 @@
 
 use super::Finding;
 use crate::effects::{Effect, EffectKind};
-use crate::identify::output_error::{OutputErrorOptions, Problem, Record, TimeWeighting};
+use crate::identify::output_error::{Problem, Record};
+use crate::identify::refit::RefitOptions;
 use crate::plant::Plant;
-use crate::simulation::{Hold, Trajectory};
+use crate::simulation::Trajectory;
 use anyhow::{anyhow, bail, Result};
 use rayon::prelude::*;
 
 /// Settings of an output-space diagnosis.
 #[derive(Debug, Clone)]
 pub struct OutputOptions {
-    /// RK4 step (s).
-    pub h: f64,
-    /// Hold of the measured torques between samples.
-    pub hold: Hold,
-    /// Divergence bound on |q̇| (rad/s or m/s).
-    pub max_speed: f64,
-    /// Samples skipped at the start of every file (transient).
-    pub skip: usize,
+    /// Simulation and fit settings (RK4 step, hold, transient skip, initial positions,
+    /// iterations of a confirmation fit).
+    pub fit: RefitOptions,
     /// Leading candidates confirmed by a nonlinear fit (0: linearisation only).
     pub confirm: usize,
-    /// Most Levenberg–Marquardt iterations of a confirmation fit.
-    pub max_iter: usize,
-    /// Estimate the free joints' initial positions from each file (as MATLAB `compare`)
-    /// instead of taking the first noisy sample.
-    pub estimate_initial: bool,
 }
 
 impl Default for OutputOptions {
     fn default() -> Self {
         OutputOptions {
-            h: 1.0 / 6000.0,
-            hold: Hold::Zoh,
-            max_speed: 100.0,
-            skip: 0,
+            fit: RefitOptions {
+                max_iter: 30,
+                ..RefitOptions::default()
+            },
             confirm: 3,
-            max_iter: 30,
-            estimate_initial: true,
         }
     }
 }
@@ -201,19 +190,10 @@ pub fn diagnose_output(
     if records.is_empty() {
         bail!("configuration '{conf_name}': no measurement files");
     }
-    let oe = OutputErrorOptions {
-        weighting: TimeWeighting::SkipTransient(options.skip),
-        interest_weight: 1.0,
-        h: options.h,
-        hold: options.hold,
-        max_speed: options.max_speed,
-        max_iter: options.max_iter,
-        horizons: vec![1.0],
-        ..OutputErrorOptions::default()
-    };
+    let oe = options.fit.output_error(vec![1.0]);
     let mut problem = Problem::new(plant, conf, vec![], records.to_vec(), &[], oe.clone())?;
     let estimated;
-    let records = if options.estimate_initial {
+    let records = if options.fit.estimate_initial {
         estimated = problem
             .estimate_initial_positions(plant)
             .map_err(|e| anyhow!("the plant itself cannot be simulated: {}", e.0))?;
@@ -225,7 +205,7 @@ pub fn diagnose_output(
     let out = Outputs {
         problem,
         records,
-        skip: options.skip,
+        skip: options.fit.skip,
     };
     let base = out
         .trajectories(plant)
@@ -242,7 +222,7 @@ pub fn diagnose_output(
                 .iter()
                 .zip(&base)
                 .flat_map(|(rec, tr)| {
-                    let s = options.skip.min(rec.q[a].len());
+                    let s = options.fit.skip.min(rec.q[a].len());
                     rec.q[a][s..]
                         .iter()
                         .zip(&tr.q[a][s..])

@@ -44,6 +44,24 @@ impl Default for RefitOptions {
     }
 }
 
+impl RefitOptions {
+    /// The output-error settings of these options: joints weighted 1, the first `skip`
+    /// samples of each file left out, growing `horizons`.
+    pub fn output_error(&self, horizons: Vec<f64>) -> OutputErrorOptions {
+        OutputErrorOptions {
+            weighting: TimeWeighting::SkipTransient(self.skip),
+            interest_weight: 1.0,
+            h: self.h,
+            hold: self.hold,
+            max_speed: self.max_speed,
+            max_iter: self.max_iter,
+            starts: self.starts,
+            horizons,
+            ..OutputErrorOptions::default()
+        }
+    }
+}
+
 /// Result of [`refit`].
 #[derive(Debug, Clone)]
 pub struct Refit {
@@ -95,17 +113,7 @@ pub fn refit(
     options: &RefitOptions,
 ) -> Result<Refit> {
     let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
-    let oe = OutputErrorOptions {
-        weighting: TimeWeighting::SkipTransient(options.skip),
-        interest_weight: 1.0,
-        h: options.h,
-        hold: options.hold,
-        max_speed: options.max_speed,
-        max_iter: options.max_iter,
-        starts: options.starts,
-        horizons: vec![0.25, 1.0],
-        ..OutputErrorOptions::default()
-    };
+    let oe = options.output_error(vec![0.25, 1.0]);
     let mut problem = Problem::new(
         plant,
         conf,

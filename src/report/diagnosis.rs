@@ -212,9 +212,10 @@ pub fn diagnose(plant: &Plant, inputs: &Inputs) -> Result<Vec<(String, Vec<Findi
                 &config,
                 &records,
                 &OutputOptions {
-                    h: inputs.h,
-                    skip: inputs.skip,
-                    estimate_initial: inputs.estimate_initial,
+                    fit: RefitOptions {
+                        max_iter: OutputOptions::default().fit.max_iter,
+                        ..refit_options(inputs)
+                    },
                     ..OutputOptions::default()
                 },
             )?;
@@ -461,12 +462,7 @@ fn findings_html(title: &str, findings: &[Finding], top: usize) -> String {
         esc(title)
     );
     for (i, f) in findings.iter().take(top).enumerate() {
-        let est = f
-            .estimate
-            .iter()
-            .map(|(n, v)| format!("{n} = {v:.4e}"))
-            .collect::<Vec<_>>()
-            .join(", ");
+        let est = f.estimate_text();
         let _ = writeln!(
             s,
             "<tr class=\"{}\"><td>{}</td><td>{}</td><td>{}</td><td>{:.1} %</td><td>{:.1}</td><td>{}{}</td><td>{}</td></tr>",
