@@ -348,7 +348,8 @@ pub fn diagnose_output(
             names.push(g.clone());
         }
         let start = findings[i].apply(plant)?;
-        let Ok(fit) = Problem::new(
+        // The candidate plant's own initial positions (a nuisance of each model).
+        let problem = Problem::new(
             &start,
             conf,
             names.clone(),
@@ -356,7 +357,17 @@ pub fn diagnose_output(
             &[],
             oe.clone(),
         )
-        .and_then(|p| p.fit(&|_| {})) else {
+        .and_then(|p| {
+            if options.fit.estimate_initial {
+                let r = p
+                    .estimate_initial_positions(&start)
+                    .map_err(|e| anyhow!(e.0))?;
+                Problem::new(&start, conf, names.clone(), r, &[], oe.clone())
+            } else {
+                Ok(p)
+            }
+        });
+        let Ok(fit) = problem.and_then(|p| p.fit(&|_| {})) else {
             continue;
         };
         simulations += fit.evaluations;

@@ -25,8 +25,9 @@ pub struct RefitOptions {
     pub max_iter: usize,
     /// Starts (the plant's values, then random points in the bounds).
     pub starts: usize,
-    /// Estimate the free joints' initial positions of each file with the plant before the
-    /// change ([`Problem::estimate_initial_positions`]).
+    /// Estimate the free joints' initial positions of each file
+    /// ([`Problem::estimate_initial_positions`]): with the plant before the change for the
+    /// "before" figures, with the changed plant for the fit.
     pub estimate_initial: bool,
 }
 
@@ -114,7 +115,7 @@ pub fn refit(
 ) -> Result<Refit> {
     let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
     let oe = options.output_error(vec![0.25, 1.0]);
-    let mut problem = Problem::new(
+    let problem = Problem::new(
         plant,
         conf,
         names.to_vec(),
@@ -122,19 +123,32 @@ pub fn refit(
         &[],
         oe.clone(),
     )?;
-    if options.estimate_initial {
-        let estimated = problem
+    // The initial positions are a nuisance of each model: estimated for the plant before
+    // the change (its figures) and for the changed plant (the fit).
+    let (before_problem, problem) = if options.estimate_initial {
+        let for_before = problem
             .estimate_initial_positions(before)
             .map_err(|e| anyhow!("the plant before the change: {}", e.0))?;
-        problem = Problem::new(plant, conf, names.to_vec(), estimated, &[], oe)?;
-    }
-    let trajectories = problem
+        let for_fit = problem
+            .estimate_initial_positions(plant)
+            .map_err(|e| anyhow!("the changed plant: {}", e.0))?;
+        (
+            Problem::new(plant, conf, names.to_vec(), for_before, &[], oe.clone())?,
+            Problem::new(plant, conf, names.to_vec(), for_fit, &[], oe)?,
+        )
+    } else {
+        (
+            Problem::new(plant, conf, names.to_vec(), records.to_vec(), &[], oe)?,
+            problem,
+        )
+    };
+    let trajectories = before_problem
         .records
         .iter()
-        .map(|r| problem.simulate(before, r))
+        .map(|r| before_problem.simulate(before, r))
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| anyhow!("the plant before the change: {}", e.0))?;
-    let joints_before = problem.joint_fits(&trajectories);
+    let joints_before = before_problem.joint_fits(&trajectories);
     let fit = problem.fit(&|_| {})?;
     let mut fitted = plant.clone();
     fit.apply(&mut fitted);
