@@ -8,7 +8,7 @@ use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::diagnosis::{
     apply_finding, compare_command, diagnose, effect_add, refit_command, refit_table,
-    report_command, Inputs, Space,
+    report_command, Inputs,
 };
 use crate::report::fit_table;
 use crate::simulation::Hold;
@@ -677,7 +677,7 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         Command::Compare { common, space, out } => {
             let (plant, inputs) = common.inputs(&space)?;
-            compare_command(&plant, &inputs, &out)?;
+            compare_command(&plant, &inputs, &inputs.load(&plant)?, &out)?;
         }
         Command::Diagnose {
             common,
@@ -687,16 +687,14 @@ pub fn run(cli: Cli) -> Result<()> {
             out,
         } => {
             let (plant, inputs) = common.inputs(&space)?;
-            let results = diagnose(&plant, &inputs)?;
+            let data = inputs.load(&plant)?;
+            let results = diagnose(&plant, &inputs, &data)?;
             for (title, findings) in &results {
                 println!("{title}, plant {}:", plant.name());
                 print!("{}", crate::diagnose::table(findings, top));
             }
             if let (Some(k), Some(out)) = (apply, out) {
-                if Space::choose(&inputs.space, &plant)? != Space::Output {
-                    bail!("--apply works in output space (position data; --space output)");
-                }
-                let r = apply_finding(&plant, &inputs, &results[0].1, k, &out)?;
+                let r = apply_finding(&plant, &inputs, &data, &results[0].1, k, &out)?;
                 println!("applied finding {k} and refitted:");
                 print!("{}", refit_table(&r));
                 println!(

@@ -392,13 +392,13 @@ pub fn compare_output(
     let mut out = Vec::new();
     for r in &records {
         let traj = problem.simulate(plant, r).map_err(|e| anyhow!(e.0))?;
+        let inputs: Vec<(String, Vec<f64>)> = conf
+            .free
+            .iter()
+            .zip(&r.tau)
+            .map(|(k, u)| (format!("tau{k}"), u.clone()))
+            .collect();
         for (a, &j) in conf.free.iter().enumerate() {
-            let inputs = conf
-                .free
-                .iter()
-                .zip(&r.tau)
-                .map(|(k, u)| (format!("tau{k}"), u.clone()))
-                .collect();
             out.push(comparison(
                 &r.file,
                 plant.model.joints[j],
@@ -409,7 +409,7 @@ pub fn compare_output(
                     y: r.q[a].clone(),
                     yhat: traj.q[a].clone(),
                     dt: r.dt,
-                    inputs,
+                    inputs: inputs.clone(),
                 },
                 "rad or m",
             ));

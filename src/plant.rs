@@ -335,6 +335,29 @@ impl Plant {
         Ok(())
     }
 
+    /// True when joint `j` has an effect of `kind` of its own (an input coupling counts
+    /// only through [`Plant::has_coupling`]).
+    pub fn has_effect(&self, j: usize, kind: EffectKind) -> bool {
+        self.effects
+            .iter()
+            .any(|e| e.joint == j && e.kind == kind && e.from.is_none())
+    }
+
+    /// True when the command of joint `from` already reaches joint `to`.
+    pub fn has_coupling(&self, from: usize, to: usize) -> bool {
+        self.effects
+            .iter()
+            .any(|e| e.joint == to && e.from == Some(from))
+    }
+
+    /// The friction law (Coulomb, asymmetric, Stribeck, LuGre) of joint `j`, if any.
+    pub fn friction_law(&self, j: usize) -> Option<EffectKind> {
+        self.effects
+            .iter()
+            .find(|e| e.joint == j && e.kind.is_friction_law())
+            .map(|e| e.kind)
+    }
+
     /// Effect parameter names, each once, in effect order (a spring and a friction bias on
     /// one joint share `qeq_i`).
     pub fn effect_parameter_names(&self) -> Vec<String> {

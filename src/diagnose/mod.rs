@@ -79,7 +79,6 @@ pub struct Finding {
 impl Finding {
     /// A finding with the figures and meaning filled from a fit of `p` numbers leaving
     /// `sse` of `sst` over `n` samples.
-    #[allow(clippy::too_many_arguments)]
     fn new(
         joint: &str,
         name: String,

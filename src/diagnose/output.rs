@@ -30,7 +30,7 @@
 
 use super::Finding;
 use crate::effects::{Effect, EffectKind};
-use crate::identify::output_error::{Problem, Record};
+use crate::identify::output_error::{JointFit, Problem, Record};
 use crate::identify::refit::RefitOptions;
 use crate::plant::Plant;
 use crate::simulation::Trajectory;
@@ -66,8 +66,9 @@ pub struct OutputDiagnosis {
     pub configuration: String,
     /// Candidates, best (lowest ΔBIC) first.
     pub findings: Vec<Finding>,
-    /// Root-mean-square position residual per free joint before any change (rad or m).
-    pub rms: Vec<(String, f64)>,
+    /// Fit figures per free joint of the plant as it is (RMS, max, NRMSE fit; all samples,
+    /// as `compare` reports them).
+    pub joints: Vec<JointFit>,
     /// Residual samples n (all files and free joints).
     pub samples: usize,
     /// Simulations run.
@@ -122,15 +123,15 @@ impl Candidate {
 }
 
 /// Simulation of plants on the records, stacked into one output vector.
-struct Outputs<'a> {
+struct Outputs {
     problem: Problem,
-    records: &'a [Record],
     skip: usize,
 }
 
-impl Outputs<'_> {
+impl Outputs {
     fn trajectories(&self, plant: &Plant) -> Result<Vec<Trajectory>> {
-        self.records
+        self.problem
+            .records
             .iter()
             .map(|r| self.problem.simulate(plant, r).map_err(|e| anyhow!(e.0)))
             .collect()
@@ -148,7 +149,7 @@ impl Outputs<'_> {
 
     fn measured(&self) -> Vec<f64> {
         let mut y = Vec::new();
-        for r in self.records {
+        for r in &self.problem.records {
             for qa in &r.q {
                 y.extend_from_slice(&qa[self.skip.min(qa.len())..]);
             }
@@ -192,21 +193,16 @@ pub fn diagnose_output(
     }
     let oe = options.fit.output_error(vec![1.0]);
     let mut problem = Problem::new(plant, conf, vec![], records.to_vec(), &[], oe.clone())?;
-    let estimated;
-    let records = if options.fit.estimate_initial {
-        estimated = problem
-            .estimate_initial_positions(plant)
+    if options.fit.estimate_initial {
+        problem = problem
+            .with_initial_positions_of(plant)
             .map_err(|e| anyhow!("the plant itself cannot be simulated: {}", e.0))?;
-        problem = Problem::new(plant, conf, vec![], estimated.clone(), &[], oe.clone())?;
-        &estimated[..]
-    } else {
-        records
-    };
+    }
     let out = Outputs {
         problem,
-        records,
         skip: options.fit.skip,
     };
+    let records = &out.problem.records;
     let base = out
         .trajectories(plant)
         .map_err(|e| anyhow!("the plant itself cannot be simulated: {e:#}"))?;
@@ -215,24 +211,7 @@ pub fn diagnose_output(
     let r: Vec<f64> = y.iter().zip(&yhat).map(|(a, b)| a - b).collect();
     let n = r.len();
     let sst: f64 = r.iter().map(|x| x * x).sum();
-    let nf = conf.free.len();
-    let per_joint: Vec<(String, f64)> = (0..nf)
-        .map(|a| {
-            let e: Vec<f64> = records
-                .iter()
-                .zip(&base)
-                .flat_map(|(rec, tr)| {
-                    let s = options.fit.skip.min(rec.q[a].len());
-                    rec.q[a][s..]
-                        .iter()
-                        .zip(&tr.q[a][s..])
-                        .map(|(a, b)| a - b)
-                        .collect::<Vec<_>>()
-                })
-                .collect();
-            (m.joints[conf.free[a]].to_string(), rms(&e))
-        })
-        .collect();
+    let joints = out.problem.joint_fits(&base);
     let cands = catalogue(plant, conf, records, &base)?;
     // Sensitivity columns, all candidates in parallel.
     let columns: Vec<Option<Vec<f64>>> = cands
@@ -277,10 +256,9 @@ pub fn diagnose_output(
         let d = beta - c.size.zero;
         let sse: f64 = s.iter().zip(&r).map(|(a, b)| (b - d * a).powi(2)).sum();
         let p = 1 + usize::from(c.grid.is_some());
-        let key = (c.name.clone(), c.joint, c.from);
         match best
             .iter_mut()
-            .find(|b| (b.cand.name.clone(), b.cand.joint, b.cand.from) == key)
+            .find(|b| (&b.cand.name, b.cand.joint, b.cand.from) == (&c.name, c.joint, c.from))
         {
             Some(b) if b.sse <= sse => {}
             Some(b) => {
@@ -359,10 +337,8 @@ pub fn diagnose_output(
         )
         .and_then(|p| {
             if options.fit.estimate_initial {
-                let r = p
-                    .estimate_initial_positions(&start)
-                    .map_err(|e| anyhow!(e.0))?;
-                Problem::new(&start, conf, names.clone(), r, &[], oe.clone())
+                p.with_initial_positions_of(&start)
+                    .map_err(|e| anyhow!(e.0))
             } else {
                 Ok(p)
             }
@@ -389,7 +365,7 @@ pub fn diagnose_output(
     Ok(OutputDiagnosis {
         configuration: conf.name.to_string(),
         findings,
-        rms: per_joint,
+        joints,
         samples: n,
         simulations,
     })
@@ -415,17 +391,8 @@ fn catalogue(
         })
         .collect();
     for (a, &j) in conf.free.iter().enumerate() {
-        let has = |k: K| {
-            plant
-                .effects
-                .iter()
-                .any(|e| e.joint == j && e.kind == k && e.from.is_none())
-        };
-        let law = plant
-            .effects
-            .iter()
-            .find(|e| e.joint == j && e.kind.is_friction_law())
-            .map(|e| e.kind);
+        let has = |k: K| plant.has_effect(j, k);
+        let law = plant.friction_law(j);
         let value = |s: &str| plant.value(&format!("{s}_{j}"));
         let name = |s: &str| format!("{s}_{j}");
         let q: Vec<f64> = base.iter().flat_map(|t| t.q[a].clone()).collect();
@@ -584,11 +551,7 @@ fn catalogue(
         }
         // Tendon input coupling from each other driven free joint.
         for (b, &k) in conf.free.iter().enumerate() {
-            let coupled = plant
-                .effects
-                .iter()
-                .any(|e| e.joint == j && e.from == Some(k));
-            if k == j || coupled || rms_tau[b] <= 0.0 {
+            if k == j || plant.has_coupling(k, j) || rms_tau[b] <= 0.0 {
                 continue;
             }
             let ratio = tau / rms_tau[b];

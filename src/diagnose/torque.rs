@@ -96,19 +96,10 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
         }
         let q: Vec<f64> = idx.iter().map(|&i| obs.rows[i].q).collect();
         let qd: Vec<f64> = idx.iter().map(|&i| obs.rows[i].qd).collect();
-        let has = |k: EffectKind| {
-            plant
-                .effects
-                .iter()
-                .any(|x| x.joint == j && x.kind == k && x.from.is_none())
-        };
-        let has_friction = plant
-            .effects
-            .iter()
-            .any(|x| x.joint == j && x.kind.is_friction_law());
+        let has = |k: EffectKind| plant.has_effect(j, k);
         // (name, kind, from, symbols, columns)
         let mut cands: Vec<Candidate> = Vec::new();
-        if !has_friction {
+        if plant.friction_law(j).is_none() {
             cands.push((
                 "coulomb".into(),
                 Some(EffectKind::Coulomb),

@@ -148,6 +148,7 @@ pub struct Progress {
 
 /// The fit problem of one configuration: which parameters, within which bounds, on which
 /// files, with which weights.
+#[derive(Clone)]
 pub struct Problem {
     plant: Plant,
     conf: &'static Configuration,
@@ -485,6 +486,18 @@ impl Problem {
                 Ok(out)
             })
             .collect()
+    }
+
+    /// The same problem on the records with the initial positions `plant` fits best
+    /// ([`Problem::estimate_initial_positions`]).
+    ///
+    /// # Errors
+    /// A simulation fails (file named).
+    pub fn with_initial_positions_of(&self, plant: &Plant) -> Result<Problem, TrialFailure> {
+        Ok(Problem {
+            records: self.estimate_initial_positions(plant)?,
+            ..self.clone()
+        })
     }
 
     /// Residual vector (length [`Problem::residual_count`]) of the files' trajectories.

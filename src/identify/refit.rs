@@ -115,32 +115,20 @@ pub fn refit(
 ) -> Result<Refit> {
     let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
     let oe = options.output_error(vec![0.25, 1.0]);
-    let problem = Problem::new(
-        plant,
-        conf,
-        names.to_vec(),
-        records.to_vec(),
-        &[],
-        oe.clone(),
-    )?;
+    let problem = Problem::new(plant, conf, names.to_vec(), records.to_vec(), &[], oe)?;
     // The initial positions are a nuisance of each model: estimated for the plant before
     // the change (its figures) and for the changed plant (the fit).
     let (before_problem, problem) = if options.estimate_initial {
-        let for_before = problem
-            .estimate_initial_positions(before)
-            .map_err(|e| anyhow!("the plant before the change: {}", e.0))?;
-        let for_fit = problem
-            .estimate_initial_positions(plant)
-            .map_err(|e| anyhow!("the changed plant: {}", e.0))?;
         (
-            Problem::new(plant, conf, names.to_vec(), for_before, &[], oe.clone())?,
-            Problem::new(plant, conf, names.to_vec(), for_fit, &[], oe)?,
+            problem
+                .with_initial_positions_of(before)
+                .map_err(|e| anyhow!("the plant before the change: {}", e.0))?,
+            problem
+                .with_initial_positions_of(plant)
+                .map_err(|e| anyhow!("the changed plant: {}", e.0))?,
         )
     } else {
-        (
-            Problem::new(plant, conf, names.to_vec(), records.to_vec(), &[], oe)?,
-            problem,
-        )
+        (problem.clone(), problem)
     };
     let trajectories = before_problem
         .records

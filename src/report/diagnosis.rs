@@ -122,13 +122,49 @@ pub fn output_records(plant: &Plant, inputs: &Inputs) -> Result<(String, Vec<Rec
     Ok((config, records))
 }
 
-fn torque_records(plant: &Plant, inputs: &Inputs) -> Result<Vec<Measurement>> {
-    let nj = plant.model.joints.len();
-    Ok(inputs
-        .data
-        .iter()
-        .map(|d| Measurement::read(d, nj))
-        .collect::<Result<Vec<_>, _>>()?)
+/// Measurements read once for the loop's commands, in the space they are compared in.
+#[derive(Debug, Clone)]
+pub enum Data {
+    /// Position records of one configuration (output space).
+    Output {
+        /// Configuration.
+        config: String,
+        /// Records.
+        records: Vec<Record>,
+    },
+    /// Torque-measured records (torque space).
+    Torque {
+        /// Configuration (default `full`).
+        config: String,
+        /// Records.
+        records: Vec<Measurement>,
+    },
+}
+
+impl Inputs {
+    /// Read the data in the space [`Space::choose`] picks for `plant`.
+    ///
+    /// # Errors
+    /// As [`output_records`], or an unreadable torque-measured file (file, row, column).
+    pub fn load(&self, plant: &Plant) -> Result<Data> {
+        Ok(match Space::choose(&self.space, plant)? {
+            Space::Output => {
+                let (config, records) = output_records(plant, self)?;
+                Data::Output { config, records }
+            }
+            Space::Torque => {
+                let nj = plant.model.joints.len();
+                Data::Torque {
+                    config: self.config.clone().unwrap_or_else(|| "full".into()),
+                    records: self
+                        .data
+                        .iter()
+                        .map(|d| Measurement::read(d, nj))
+                        .collect::<Result<Vec<_>, _>>()?,
+                }
+            }
+        })
+    }
 }
 
 fn stem(p: &Path) -> String {
@@ -145,21 +181,19 @@ fn stem(p: &Path) -> String {
 pub fn compare_command(
     plant: &Plant,
     inputs: &Inputs,
+    data: &Data,
     out: &Path,
 ) -> Result<Vec<(Comparison, PathBuf)>> {
-    let space = Space::choose(&inputs.space, plant)?;
-    let cmps = match space {
-        Space::Output => {
-            let (config, records) = output_records(plant, inputs)?;
+    let cmps = match data {
+        Data::Output { config, records } => {
             println!("output space (simulated positions), configuration {config}");
-            compare_output(plant, &config, &records, inputs.h, inputs.estimate_initial)?
+            compare_output(plant, config, records, inputs.h, inputs.estimate_initial)?
         }
-        Space::Torque => {
-            let config = inputs.config.as_deref().unwrap_or("full");
+        Data::Torque { config, records } => {
             println!("torque space (inverse model), configuration {config}");
             let mut v = Vec::new();
-            for m in torque_records(plant, inputs)? {
-                let obs = observation(plant, config, std::slice::from_ref(&m), &inputs.idim)?;
+            for m in records {
+                let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
                 v.extend(compare_observation(plant, &obs, &m.file)?);
             }
             v
@@ -188,7 +222,7 @@ pub fn compare_command(
             c.max_error.2
         );
         println!("    {}", c.tests.verdict());
-        if space == Space::Torque {
+        if matches!(data, Data::Torque { .. }) {
             let (a, b) = c.sign_step;
             println!("    residual ~ a*sign(qd) + b + c*qd: a = {a:.4}, b = {b:.4} (a step of 2a at qd = 0 means missing Coulomb friction; b, an offset)");
         }
@@ -203,14 +237,17 @@ pub fn compare_command(
 ///
 /// # Errors
 /// As [`diagnose_output`] / [`diagnose_torque`].
-pub fn diagnose(plant: &Plant, inputs: &Inputs) -> Result<Vec<(String, Vec<Finding>)>> {
-    match Space::choose(&inputs.space, plant)? {
-        Space::Output => {
-            let (config, records) = output_records(plant, inputs)?;
+pub fn diagnose(
+    plant: &Plant,
+    inputs: &Inputs,
+    data: &Data,
+) -> Result<Vec<(String, Vec<Finding>)>> {
+    match data {
+        Data::Output { config, records } => {
             let d = diagnose_output(
                 plant,
-                &config,
-                &records,
+                config,
+                records,
                 &OutputOptions {
                     fit: RefitOptions {
                         max_iter: OutputOptions::default().fit.max_iter,
@@ -230,16 +267,13 @@ pub fn diagnose(plant: &Plant, inputs: &Inputs) -> Result<Vec<(String, Vec<Findi
                 d.findings,
             )])
         }
-        Space::Torque => {
-            let config = inputs.config.as_deref().unwrap_or("full");
-            torque_records(plant, inputs)?
-                .iter()
-                .map(|m| {
-                    let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
-                    Ok((stem(&m.file), diagnose_torque(plant, &obs)?))
-                })
-                .collect()
-        }
+        Data::Torque { config, records } => records
+            .iter()
+            .map(|m| {
+                let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
+                Ok((stem(&m.file), diagnose_torque(plant, &obs)?))
+            })
+            .collect(),
     }
 }
 
@@ -278,24 +312,28 @@ pub fn refit_table(r: &Refit) -> String {
 /// to `out`.
 ///
 /// # Errors
-/// No such finding, a finding that is not a plant edit, the refit fails, I/O.
+/// Torque-space data, no such finding, a finding that is not a plant edit, the refit
+/// fails, I/O.
 pub fn apply_finding(
     plant: &Plant,
     inputs: &Inputs,
+    data: &Data,
     findings: &[Finding],
     k: usize,
     out: &Path,
 ) -> Result<Refit> {
+    let Data::Output { config, records } = data else {
+        bail!("--apply works in output space (position data; --space output)");
+    };
     let f = findings
         .get(k.wrapping_sub(1))
         .ok_or_else(|| anyhow!("--apply {k}: there are {} findings", findings.len()))?;
     let changed = f.apply(plant)?;
-    let (config, records) = output_records(plant, inputs)?;
     let r = refit(
         plant,
         &changed,
-        &config,
-        &records,
+        config,
+        records,
         &f.parameter_names(),
         &refit_options(inputs),
     )?;
@@ -304,7 +342,7 @@ pub fn apply_finding(
         (Some(_), None) => format!("added {} on {}", f.name, f.joint),
         (None, _) => format!("refitted {} on {}", f.name, f.joint),
     };
-    save_with_history(&r, &what, &records, out)?;
+    save_with_history(&r, &what, records, out)?;
     Ok(r)
 }
 
@@ -416,8 +454,9 @@ pub fn effect_add(
             p.parameters.insert(n.clone(), neutral(sym, None));
         }
     }
+    let known = p.known_names();
     for (n, v) in set {
-        if !p.known_names().contains(n) {
+        if !known.contains(n) {
             bail!(
                 "--set {n}: the plant has no parameter '{n}' (the new effect's are {})",
                 names.join(", ")
@@ -426,7 +465,7 @@ pub fn effect_add(
         p.parameters.insert(n.clone(), *v);
     }
     for (n, lo, hi) in bounds {
-        if !p.known_names().contains(n) {
+        if !known.contains(n) {
             bail!("--bound {n}: the plant has no parameter '{n}'");
         }
         if lo > hi {
@@ -573,9 +612,9 @@ fn history_html(history: &[HistoryEntry], out: &Path) -> Result<String> {
 /// As the commands it runs; I/O (path named).
 pub fn report_command(plant: &Plant, inputs: &Inputs, out: &Path, top: usize) -> Result<PathBuf> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let cmps = compare_command(plant, inputs, out)?;
-    let diag = diagnose(plant, inputs)?;
-    let space = Space::choose(&inputs.space, plant)?;
+    let data = inputs.load(plant)?;
+    let cmps = compare_command(plant, inputs, &data, out)?;
+    let diag = diagnose(plant, inputs, &data)?;
     let mut h = String::new();
     h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
     let _ = writeln!(h, "<title>lockstep report: {}</title>", esc(&plant.name()));
@@ -585,7 +624,7 @@ pub fn report_command(plant: &Plant, inputs: &Inputs, out: &Path, top: usize) ->
         "<h1>Model versus measurement</h1>\n<p>Plant <code>{}</code> (model {}), {} space; data: {}.</p>",
         esc(&plant.name()),
         plant.model.name,
-        if space == Space::Output {
+        if matches!(data, Data::Output { .. }) {
             "output (simulated positions)"
         } else {
             "torque (inverse model)"
