@@ -493,10 +493,18 @@ pub struct OutputErrorArgs {
     /// Most iterations per start.
     #[arg(long, default_value_t = 100)]
     pub max_iter: usize,
-    /// Growing horizons: fit on these fractions of every file in turn, each stage starting
-    /// where the last ended; the last must be 1 (`--horizons 1`: the whole files at once).
+    /// Multiple-shooting warm-up before the horizons: fit on every file cut into segments
+    /// of these lengths (s) in turn, each segment simulated from the measured state at its
+    /// start (velocities from the positions), e.g. `--segments 1,4 --horizons 1`; `none`:
+    /// no segments.
+    #[arg(long, default_value = "none")]
+    pub segments: String,
+    /// Growing horizons: fit on these fractions of every file in turn (after the skipped
+    /// transient), each simulated from the file's start and starting where the last stage
+    /// ended; the last must be 1 (`--horizons 1`: the whole files at once).
     #[arg(long, default_value = "0.05,0.1,0.25,0.5,1", value_delimiter = ',')]
     pub horizons: Vec<f64>,
+
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
@@ -538,6 +546,18 @@ impl OutputErrorArgs {
                 self.horizons
             );
         }
+        let segments: Vec<f64> = match self.segments.trim() {
+            "" | "none" => Vec::new(),
+            list => list
+                .split(',')
+                .map(|x| match x.trim().parse::<f64>() {
+                    Ok(s) if s > 0.0 && s.is_finite() => Ok(s),
+                    _ => Err(anyhow::anyhow!(
+                        "--segments: expected 'none' or positive lengths in seconds such as 1,4, got '{x}'"
+                    )),
+                })
+                .collect::<Result<_>>()?,
+        };
         let hold = match self.hold.as_str() {
             "zoh" => Hold::Zoh,
             "linear" => Hold::Linear,
@@ -554,6 +574,7 @@ impl OutputErrorArgs {
             starts: self.starts,
             seed: self.seed,
             horizons: self.horizons.clone(),
+            segments,
             ..OutputErrorOptions::default()
         })
     }
@@ -581,10 +602,10 @@ fn identify_sequence(
     let last = std::sync::Mutex::new((String::new(), usize::MAX));
     let report = crate::identify::sequence::run(&plant, &common.data, &opts, &|step, p| {
         let msg = format!(
-            "{step} · start {}/{} · horizon {:.0} % · iteration {} · {} evaluations · cost {:.4e} · {:.0} s",
+            "{step} · start {}/{} · {} · iteration {} · {} evaluations · cost {:.4e} · {:.0} s",
             p.start + 1,
             p.starts,
-            100.0 * p.horizon,
+            p.stage,
             p.iteration,
             p.evaluations,
             p.cost,

@@ -49,6 +49,16 @@ impl LuGre {
         (self.sigma0 * z + self.sigma1 * zd + self.sigma2 * v, zd)
     }
 
+    /// Bristle deflection of steady sliding at velocity `v` (ż = 0): z = g(v) sign(v) / σ0
+    /// (rad; 0 at rest).
+    pub fn sliding_deflection(&self, v: f64) -> f64 {
+        if v == 0.0 || self.sigma0 <= 0.0 {
+            0.0
+        } else {
+            self.g(v) * v.signum() / self.sigma0
+        }
+    }
+
     /// Steady-state friction at constant velocity: g(v) sign(v) + σ2 v.
     pub fn steady_state(&self, v: f64) -> f64 {
         if v == 0.0 {

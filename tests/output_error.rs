@@ -420,3 +420,54 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
     fails(&run(&ob, &data, "k1"), &["outside.toml", "G_4to5"]);
     assert!(!d.path().join("out").exists(), "nothing may be written");
 }
+
+/// Multiple shooting (`Problem::segmented`): every file cut into segments simulated from
+/// the measured state at their starts. The start velocity (from 100 Hz positions) and the
+/// sliding bristles are estimates, so at the truth a segment does not reach the noise
+/// floor (≈ 1e-2 rad on joint 3, 50 σ: a warm-up, not the fit), but the truth is still far
+/// below a start with the step's parameters 25 % off.
+#[test]
+fn segments_start_from_the_measured_state_and_separate_the_truth_from_a_far_start() {
+    let d = tempfile::tempdir().unwrap();
+    let truth_file = truth(d.path());
+    make_data(d.path(), &truth_file, "4.3", Some("J3"), "c3", "40");
+    let truth = Plant::load(&truth_file).unwrap();
+    let steps = plan(&truth, "isolated").unwrap();
+    let names = steps[2].fitted.clone();
+    assert_eq!(steps[2].config, "c3");
+    let start = d.path().join("start.toml");
+    perturbed_start(&truth_file, &names, &start);
+    let mut plant = Plant::load(&start).unwrap();
+    let off: Vec<f64> = names.iter().map(|n| plant.parameters[n]).collect();
+    for n in &names {
+        plant.parameters.insert(n.clone(), truth.parameters[n]);
+    }
+    let conf = plant.model.configuration("c3").unwrap();
+    let rec = read_record(&d.path().join("data/c3_run.csv"), plant.model, conf, 0.01).unwrap();
+    let n = rec.t.len();
+    let p = Problem::new(
+        &plant,
+        conf,
+        names.clone(),
+        vec![rec],
+        &[3],
+        OutputErrorOptions {
+            h: 1.0 / 12000.0,
+            ..OutputErrorOptions::default()
+        },
+    )
+    .unwrap();
+    let at_truth: Vec<f64> = names.iter().map(|k| truth.parameters[k]).collect();
+    for (seconds, segments) in [(1.0, 40), (4.0, 10)] {
+        let s = p.segmented(seconds);
+        // One residual per sample of the free joint, each segment's first left out.
+        assert_eq!(s.residual_count(), n - segments, "{seconds} s");
+        let rms = |x: &[f64]| (s.cost(x) / s.residual_count() as f64).sqrt() / 50.0;
+        let (e_truth, e_off) = (rms(&at_truth), rms(&off));
+        println!(
+            "segments of {seconds} s: RMS at the truth {e_truth:.3e} rad, 25 % off {e_off:.3e} rad"
+        );
+        assert!(e_truth < 2.0e-2, "{e_truth}");
+        assert!(e_off > 10.0 * e_truth, "{e_off} vs {e_truth}");
+    }
+}

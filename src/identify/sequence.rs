@@ -249,6 +249,7 @@ pub fn read_record(
         tau,
         q,
         q_all,
+        qd0: None,
     })
 }
 
