@@ -1033,11 +1033,13 @@ impl Problem {
         let relative: Vec<f64> = (0..n)
             .map(|i| std_err[i] / p[i].abs().max(1e-300))
             .collect();
+        let only_with = self.structural_companions(p)?;
         let identifiable: Vec<bool> = (0..n)
             .map(|i| {
                 relative[i].is_finite()
                     && relative[i] <= RELATIVE_STD_LIMIT
                     && !at_bound[i]
+                    && only_with[i].is_empty()
                     && (0..n).all(|j| j == i || correlation[i][j].abs() <= CORRELATION_LIMIT)
             })
             .collect();
@@ -1049,9 +1051,97 @@ impl Problem {
             correlated,
             at_bound,
             identifiable,
+            only_with,
             condition,
             joints: joint,
         })
+    }
+
+    /// For every fitted parameter, the other fitted rigid-body symbols it can trade with
+    /// without changing any output (empty: none). The configuration's dynamics depend on
+    /// the rigid body only through its base parameters β (Gautier 1990,
+    /// [`base_parameters`](super::identifiability::base_parameters)); a direction of the
+    /// fitted symbols s (mass, centroid, inertia about the centroid) with ∂β/∂s · v = 0
+    /// changes no simulated position, however well the linearised statistics seem to
+    /// determine it from a finite-difference Jacobian. ∂β/∂s by central differences (exact:
+    /// β is at most quadratic in each symbol), columns scaled by the symbols' values
+    /// (relative changes; the bound width for a zero value); null
+    /// directions are the eigenvectors of GᵀG below 1e-12 of the largest eigenvalue, and a
+    /// symbol with a component above 0.05 in one is listed with the others there.
+    ///
+    /// # Errors
+    /// The plant's barycentric parameters cannot be formed.
+    fn structural_companions(&self, p: &[f64]) -> Result<Vec<Vec<String>>> {
+        let n = p.len();
+        let mut out = vec![Vec::new(); n];
+        let model = self.plant.model;
+        let rigid: Vec<usize> = (0..n)
+            .filter(|&i| model.inertial_symbols.contains(&self.names[i].as_str()))
+            .collect();
+        if rigid.is_empty() {
+            return Ok(out);
+        }
+        let bases = super::identifiability::base_parameters(model, self.conf);
+        let index = |name: &str| model.params.iter().position(|x| *x == name);
+        // β_k = p_kept + Σ c p_dependent, as (index, coefficient) lists.
+        let combos: Vec<Vec<(usize, f64)>> = bases
+            .base
+            .iter()
+            .map(|b| {
+                let mut t: Vec<(usize, f64)> =
+                    index(&b.name).map(|j| (j, 1.0)).into_iter().collect();
+                t.extend(
+                    b.terms
+                        .iter()
+                        .filter_map(|(c, d)| index(d).map(|j| (j, *c))),
+                );
+                t
+            })
+            .collect();
+        let beta = |x: &[f64]| -> Result<Vec<f64>> {
+            let bary = self.plant_at(x).barycentric(Some(self.conf))?;
+            Ok(combos
+                .iter()
+                .map(|t| t.iter().map(|&(j, c)| c * bary[j]).sum())
+                .collect())
+        };
+        let mut g = DMatrix::zeros(combos.len(), rigid.len());
+        for (c, &i) in rigid.iter().enumerate() {
+            // Relative changes (the accuracy a user reads), the bound width for a zero value.
+            let width = self.upper[i] - self.lower[i];
+            let scale = if p[i].abs() > 1e-9 * width {
+                p[i].abs()
+            } else {
+                width
+            };
+            let h = 1e-6 * scale;
+            let mut xp = p.to_vec();
+            xp[i] += h;
+            let mut xm = p.to_vec();
+            xm[i] -= h;
+            let (bp, bm) = (beta(&xp)?, beta(&xm)?);
+            for k in 0..combos.len() {
+                g[(k, c)] = (bp[k] - bm[k]) / (2.0 * h) * scale;
+            }
+        }
+        let eig = (g.transpose() * &g).symmetric_eigen();
+        let largest = eig.eigenvalues.amax();
+        for (k, &ev) in eig.eigenvalues.iter().enumerate() {
+            if ev > 1e-12 * largest {
+                continue;
+            }
+            let v = eig.eigenvectors.column(k);
+            let members: Vec<usize> = (0..rigid.len()).filter(|&c| v[c].abs() > 0.05).collect();
+            for &c in &members {
+                for &d in &members {
+                    let other = &self.names[rigid[d]];
+                    if d != c && !out[rigid[c]].contains(other) {
+                        out[rigid[c]].push(other.clone());
+                    }
+                }
+            }
+        }
+        Ok(out)
     }
 
     /// Fit figures per free joint of the files' `trajectories` (one per record, as from
@@ -1148,8 +1238,12 @@ pub struct Statistics {
     pub correlated: Vec<(String, String, f64)>,
     /// At (within 1e-4 of the width of) a bound.
     pub at_bound: Vec<bool>,
-    /// σ/|p| ≤ [`RELATIVE_STD_LIMIT`], not at a bound, no correlation above the limit.
+    /// σ/|p| ≤ [`RELATIVE_STD_LIMIT`], not at a bound, no correlation above the limit, not
+    /// structurally tied to other fitted symbols (`only_with` empty).
     pub identifiable: Vec<bool>,
+    /// Per parameter, the other fitted rigid-body symbols it trades with exactly: the
+    /// configuration's outputs determine only combinations of them (its base parameters).
+    pub only_with: Vec<Vec<String>>,
     /// Condition number of the column-scaled JᵀJ.
     pub condition: f64,
     /// Per free joint.

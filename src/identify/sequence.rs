@@ -503,6 +503,12 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                     100.0 * super::output_error::RELATIVE_STD_LIMIT
                 ));
             }
+            if !stats.only_with[i].is_empty() {
+                why.push(format!(
+                    "only in combination with {} (base parameters)",
+                    stats.only_with[i].join(", ")
+                ));
+            }
             for (a, b, c) in &stats.correlated {
                 if *a == f.names[i] || *b == f.names[i] {
                     let other = if *a == f.names[i] { b } else { a };
