@@ -319,10 +319,16 @@ fn the_coupled_plan_follows_figure_4_2_and_identifies_effects_where_their_joints
     assert_eq!(steps[1].interest, [3]);
     assert_eq!(steps[4].interest, [0]);
     assert!(steps[4].fitted.iter().any(|x| x == "FrictionBias_0"));
-    // Every rigid-body symbol is fitted at most once over the sequence.
+    // Every rigid-body symbol is fitted first at most once over the sequence; later only
+    // when carried because an earlier step could not separate it.
     let mut all: Vec<&String> = steps
         .iter()
-        .flat_map(|s| s.fitted.iter().chain(&s.held))
+        .flat_map(|s| {
+            s.fitted
+                .iter()
+                .filter(|n| !s.carried.contains(n))
+                .chain(&s.held)
+        })
         .collect();
     let n = all.len();
     all.sort();
@@ -332,6 +338,23 @@ fn the_coupled_plan_follows_figure_4_2_and_identifies_effects_where_their_joints
     let iso = plan(&plant, "isolated").unwrap();
     assert_eq!(iso.len(), 7);
     assert!(iso[6].interest.is_empty(), "c7 frees no new joint");
+    // c1 (the wrist alone) sees link 7 only through m7·x7, m7·y7 and the inertia about its
+    // axis: m7, x7, y7 are carried into c2 (joint 5 alone does not separate them either)
+    // and c3; from c4 on no link-7 symbol is carried.
+    assert!(iso[0].carried.is_empty());
+    assert_eq!(iso[1].carried, ["m7", "x7", "y7"]);
+    for n in ["m7", "x7", "y7"] {
+        assert!(
+            iso[2].carried.iter().any(|x| x == n),
+            "{:?}",
+            iso[2].carried
+        );
+        assert!(
+            iso[3].carried.iter().all(|x| x != n),
+            "{:?}",
+            iso[3].carried
+        );
+    }
 }
 
 #[test]

@@ -306,6 +306,95 @@ pub fn base_parameters(model: &Model, conf: &Configuration) -> BaseParameters {
     }
 }
 
+/// For each of `names` (parameters of `plant`), the other rigid-body symbols among `names`
+/// it trades with exactly in configuration `conf` (empty: none; always empty for a name
+/// that is not an inertial symbol).
+///
+/// The configuration's dynamics depend on the rigid body only through its base parameters
+/// β ([`base_parameters`], Gautier 1990); a direction v of the symbols s (mass, centroid,
+/// inertia about the centroid) with ∂β/∂s · v = 0 changes no torque and no simulated
+/// position, however well linearised statistics from a finite-difference Jacobian seem to
+/// determine it. G = ∂β/∂s by central differences (exact: β is at most quadratic in each
+/// symbol), columns in relative terms (scaled by |s|, or by `width(i)` for a zero value);
+/// null directions are the eigenvectors of GᵀG below 1e-12 of its largest eigenvalue, and
+/// the symbols with a component above 0.05 in one are listed with each other.
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing).
+pub fn structural_companions(
+    plant: &crate::plant::Plant,
+    conf: &Configuration,
+    names: &[String],
+    width: &dyn Fn(usize) -> f64,
+) -> anyhow::Result<Vec<Vec<String>>> {
+    let n = names.len();
+    let mut out = vec![Vec::new(); n];
+    let model = plant.model;
+    let rigid: Vec<usize> = (0..n)
+        .filter(|&i| model.inertial_symbols.contains(&names[i].as_str()))
+        .collect();
+    if rigid.is_empty() {
+        return Ok(out);
+    }
+    let bases = base_parameters(model, conf);
+    let index = |name: &str| model.params.iter().position(|x| *x == name);
+    // β_k = p_kept + Σ c p_dependent, as (index, coefficient) lists.
+    let combos: Vec<Vec<(usize, f64)>> = bases
+        .base
+        .iter()
+        .map(|b| {
+            let mut t: Vec<(usize, f64)> = index(&b.name).map(|j| (j, 1.0)).into_iter().collect();
+            t.extend(
+                b.terms
+                    .iter()
+                    .filter_map(|(c, d)| index(d).map(|j| (j, *c))),
+            );
+            t
+        })
+        .collect();
+    let beta = |name: &str, v: f64| -> anyhow::Result<Vec<f64>> {
+        let mut at = plant.clone();
+        at.parameters.insert(name.to_string(), v);
+        let bary = at.barycentric(Some(conf))?;
+        Ok(combos
+            .iter()
+            .map(|t| t.iter().map(|&(j, c)| c * bary[j]).sum())
+            .collect())
+    };
+    let mut g = DMatrix::zeros(combos.len(), rigid.len());
+    for (c, &i) in rigid.iter().enumerate() {
+        let v = plant.value(&names[i])?;
+        let scale = if v.abs() > 1e-9 * width(i) {
+            v.abs()
+        } else {
+            width(i)
+        };
+        let h = 1e-6 * scale;
+        let (bp, bm) = (beta(&names[i], v + h)?, beta(&names[i], v - h)?);
+        for k in 0..combos.len() {
+            g[(k, c)] = (bp[k] - bm[k]) / (2.0 * h) * scale;
+        }
+    }
+    let eig = (g.transpose() * &g).symmetric_eigen();
+    let largest = eig.eigenvalues.amax();
+    for (k, &ev) in eig.eigenvalues.iter().enumerate() {
+        if ev > 1e-12 * largest {
+            continue;
+        }
+        let v = eig.eigenvectors.column(k);
+        let members: Vec<usize> = (0..rigid.len()).filter(|&c| v[c].abs() > 0.05).collect();
+        for &c in &members {
+            for &d in &members {
+                let other = &names[rigid[d]];
+                if d != c && !out[rigid[c]].contains(other) {
+                    out[rigid[c]].push(other.clone());
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
 /// The occurrence table and base parameters as Markdown.
 pub fn markdown(occ: &Occurrence, bases: &[BaseParameters]) -> String {
     let mut s = format!("# Parameters of model `{}`\n\n", occ.model);

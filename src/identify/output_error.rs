@@ -1057,91 +1057,18 @@ impl Problem {
         })
     }
 
-    /// For every fitted parameter, the other fitted rigid-body symbols it can trade with
-    /// without changing any output (empty: none). The configuration's dynamics depend on
-    /// the rigid body only through its base parameters β (Gautier 1990,
-    /// [`base_parameters`](super::identifiability::base_parameters)); a direction of the
-    /// fitted symbols s (mass, centroid, inertia about the centroid) with ∂β/∂s · v = 0
-    /// changes no simulated position, however well the linearised statistics seem to
-    /// determine it from a finite-difference Jacobian. ∂β/∂s by central differences (exact:
-    /// β is at most quadratic in each symbol), columns scaled by the symbols' values
-    /// (relative changes; the bound width for a zero value); null
-    /// directions are the eigenvectors of GᵀG below 1e-12 of the largest eigenvalue, and a
-    /// symbol with a component above 0.05 in one is listed with the others there.
+    /// For every fitted parameter, the other fitted rigid-body symbols it trades with
+    /// exactly at `p` ([`structural_companions`](super::identifiability::structural_companions)).
     ///
     /// # Errors
     /// The plant's barycentric parameters cannot be formed.
     fn structural_companions(&self, p: &[f64]) -> Result<Vec<Vec<String>>> {
-        let n = p.len();
-        let mut out = vec![Vec::new(); n];
-        let model = self.plant.model;
-        let rigid: Vec<usize> = (0..n)
-            .filter(|&i| model.inertial_symbols.contains(&self.names[i].as_str()))
-            .collect();
-        if rigid.is_empty() {
-            return Ok(out);
-        }
-        let bases = super::identifiability::base_parameters(model, self.conf);
-        let index = |name: &str| model.params.iter().position(|x| *x == name);
-        // β_k = p_kept + Σ c p_dependent, as (index, coefficient) lists.
-        let combos: Vec<Vec<(usize, f64)>> = bases
-            .base
-            .iter()
-            .map(|b| {
-                let mut t: Vec<(usize, f64)> =
-                    index(&b.name).map(|j| (j, 1.0)).into_iter().collect();
-                t.extend(
-                    b.terms
-                        .iter()
-                        .filter_map(|(c, d)| index(d).map(|j| (j, *c))),
-                );
-                t
-            })
-            .collect();
-        let beta = |x: &[f64]| -> Result<Vec<f64>> {
-            let bary = self.plant_at(x).barycentric(Some(self.conf))?;
-            Ok(combos
-                .iter()
-                .map(|t| t.iter().map(|&(j, c)| c * bary[j]).sum())
-                .collect())
-        };
-        let mut g = DMatrix::zeros(combos.len(), rigid.len());
-        for (c, &i) in rigid.iter().enumerate() {
-            // Relative changes (the accuracy a user reads), the bound width for a zero value.
-            let width = self.upper[i] - self.lower[i];
-            let scale = if p[i].abs() > 1e-9 * width {
-                p[i].abs()
-            } else {
-                width
-            };
-            let h = 1e-6 * scale;
-            let mut xp = p.to_vec();
-            xp[i] += h;
-            let mut xm = p.to_vec();
-            xm[i] -= h;
-            let (bp, bm) = (beta(&xp)?, beta(&xm)?);
-            for k in 0..combos.len() {
-                g[(k, c)] = (bp[k] - bm[k]) / (2.0 * h) * scale;
-            }
-        }
-        let eig = (g.transpose() * &g).symmetric_eigen();
-        let largest = eig.eigenvalues.amax();
-        for (k, &ev) in eig.eigenvalues.iter().enumerate() {
-            if ev > 1e-12 * largest {
-                continue;
-            }
-            let v = eig.eigenvectors.column(k);
-            let members: Vec<usize> = (0..rigid.len()).filter(|&c| v[c].abs() > 0.05).collect();
-            for &c in &members {
-                for &d in &members {
-                    let other = &self.names[rigid[d]];
-                    if d != c && !out[rigid[c]].contains(other) {
-                        out[rigid[c]].push(other.clone());
-                    }
-                }
-            }
-        }
-        Ok(out)
+        super::identifiability::structural_companions(
+            &self.plant_at(p),
+            self.conf,
+            &self.names,
+            &|i| self.upper[i] - self.lower[i],
+        )
     }
 
     /// Fit figures per free joint of the files' `trajectories` (one per record, as from

@@ -9,7 +9,7 @@
 //! free. After every step the updated plant and the report are written atomically, so an
 //! interrupted run (Ctrl-C) leaves the last completed step's results intact.
 
-use super::identifiability::occurrence;
+use super::identifiability::{occurrence, structural_companions};
 use super::output_error::{FitResult, OutputErrorOptions, Problem, Progress, Record};
 use crate::measurement::{check_sampling, Table};
 use crate::plant::Plant;
@@ -31,6 +31,12 @@ pub struct Step {
     pub interest: Vec<usize>,
     /// Parameters fitted here: rigid-body quantities, then effect parameters.
     pub fitted: Vec<String>,
+    /// Of `fitted`, the rigid-body symbols carried from earlier steps: there they entered
+    /// only in exact combinations with others (their base parameters,
+    /// [`structural_companions`]; known from the plan), or — added by [`run`] — the fit
+    /// did not call them identifiable; they stay free until a configuration determines
+    /// them.
+    pub carried: Vec<String>,
     /// Parameters that first appear here but are held (bounds with lower = upper).
     pub held: Vec<String>,
 }
@@ -57,6 +63,8 @@ pub fn plan(plant: &Plant, sequence: &str) -> Result<Vec<Step>> {
     let mut seen_free: Vec<usize> = Vec::new();
     let mut effect_done: Vec<String> = Vec::new();
     let mut steps = Vec::new();
+    // Rigid-body symbols that the steps so far could not separate from others.
+    let mut tied: Vec<String> = Vec::new();
     for (cname, first) in &seq.steps {
         let conf = crate::util::configuration(model, cname)?;
         let interest: Vec<usize> = conf
@@ -76,6 +84,17 @@ pub fn plan(plant: &Plant, sequence: &str) -> Result<Vec<Step>> {
             }
             names.push(s.clone());
         }
+        let column = occ.configurations.iter().position(|c| c == cname);
+        let appears = |s: &str| {
+            let row = occ.names.iter().position(|n| n == s);
+            matches!((row, column), (Some(r), Some(c)) if occ.appears[r][c])
+        };
+        let carried: Vec<String> = tied
+            .iter()
+            .filter(|s| appears(s) && !names.contains(s))
+            .cloned()
+            .collect();
+        names.extend(carried.iter().cloned());
         for e in &plant.effects {
             let joints_free =
                 conf.free.contains(&e.joint) && e.from.is_none_or(|f| conf.free.contains(&f));
@@ -93,11 +112,24 @@ pub fn plan(plant: &Plant, sequence: &str) -> Result<Vec<Step>> {
             .into_iter()
             .partition(|n| plant.bounds.get(n).is_some_and(|&(lo, hi)| lo == hi));
         seen_free.extend(interest.iter().copied());
+        let companions = structural_companions(plant, conf, &fitted, &|i| {
+            plant
+                .bounds
+                .get(&fitted[i])
+                .map_or(1.0, |&(lo, hi)| (hi - lo).abs().max(1e-300))
+        })?;
+        tied.retain(|s| !fitted.contains(s));
+        for (n, c) in fitted.iter().zip(&companions) {
+            if !c.is_empty() {
+                tied.push(n.clone());
+            }
+        }
         steps.push(Step {
             config: cname.clone(),
             free: conf.free.to_vec(),
             interest,
             fitted,
+            carried,
             held,
         });
     }
@@ -373,6 +405,9 @@ pub fn run(
         }
     }
     let mut current = plant.clone();
+    // Rigid-body symbols a completed step fitted but did not determine.
+    let mut undetermined: Vec<String> = Vec::new();
+    let occ = occurrence(model);
     let mut report = SequenceReport {
         sequence: opts.sequence.clone(),
         plant: plant.name(),
@@ -380,7 +415,20 @@ pub fn run(
         steps: Vec::new(),
         ignored,
     };
-    for (s, first) in steps.into_iter().zip(checked) {
+    for (mut s, first) in steps.into_iter().zip(checked) {
+        // Symbols an earlier step of this run fitted but could not determine (not called
+        // identifiable: tied, poorly determined or at a bound) stay free where they appear
+        // again: held at an arbitrary point of their uncertain direction they would bias
+        // every later step.
+        let column = occ.configurations.iter().position(|c| *c == s.config);
+        for n in &undetermined {
+            let row = occ.names.iter().position(|x| x == n);
+            let appears = matches!((row, column), (Some(r), Some(c)) if occ.appears[r][c]);
+            if appears && !s.fitted.contains(n) {
+                s.fitted.push(n.clone());
+                s.carried.push(n.clone());
+            }
+        }
         // The checked problem's files, with the plant as the earlier steps left it.
         let problem = Problem::new(
             &current,
@@ -389,10 +437,17 @@ pub fn run(
             first.records,
             &s.interest,
             opts.fit.clone(),
-        )?;
+        )
+        .with_context(|| format!("step '{}'", s.config))?;
         let cname = s.config.clone();
         let fit = problem.fit(&|p| progress(&cname, p))?;
         fit.apply(&mut current);
+        undetermined.retain(|n| !fit.names.contains(n));
+        for (i, n) in fit.names.iter().enumerate() {
+            if model.inertial_symbols.contains(&n.as_str()) && !fit.statistics.identifiable[i] {
+                undetermined.push(n.clone());
+            }
+        }
         report.steps.push(StepReport { step: s, fit });
         current.description = format!(
             "{} — identified by lockstep ({} method, steps {})",
@@ -480,6 +535,13 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
             f.best_start,
             f.starts.get(f.best_start).map(|x| x.status.as_str()).unwrap_or("")
         );
+        if !st.step.carried.is_empty() {
+            let _ = writeln!(
+                s,
+                "Carried from earlier steps, which did not determine them: {}.\n",
+                st.step.carried.join(", ")
+            );
+        }
         if !st.step.held.is_empty() {
             let _ = writeln!(
                 s,
