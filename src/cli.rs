@@ -493,10 +493,11 @@ pub struct OutputErrorArgs {
     /// Most iterations per start.
     #[arg(long, default_value_t = 100)]
     pub max_iter: usize,
-    /// Multiple-shooting warm-up before the horizons: fit on every file cut into segments
-    /// of these lengths (s) in turn, each segment simulated from the measured state at its
-    /// start (velocities from the positions), e.g. `--segments 1,4 --horizons 1`; `none`:
-    /// no segments.
+    /// Multiple-shooting warm-up, e.g. `--segments 1,4`: one more start from the plant's
+    /// values fits every file cut into segments of these lengths (s) in turn, each segment
+    /// simulated from the measured state at its start (velocities from the positions), then
+    /// the whole files; it runs beside the start through the horizons and the lower cost
+    /// wins. `none`: only the horizons.
     #[arg(long, default_value = "none")]
     pub segments: String,
     /// Growing horizons: fit on these fractions of every file in turn (after the skipped

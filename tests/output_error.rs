@@ -557,3 +557,67 @@ fn symbols_that_enter_only_through_base_parameters_are_not_called_identifiable()
         assert!(stats.only_with[at(n)].is_empty(), "{n}");
     }
 }
+
+/// `--segments`: one more start from the plant's values goes through the segment stages and
+/// then the whole files, beside the start through the horizons; the report lists both and
+/// keeps the lower cost. Short data and few iterations: this checks the plumbing, the
+/// recovery is measured elsewhere.
+#[test]
+fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() {
+    let d = tempfile::tempdir().unwrap();
+    let truth_file = truth(d.path());
+    make_data(d.path(), &truth_file, "4.3", Some("J3"), "c3", "12");
+    let truth = Plant::load(&truth_file).unwrap();
+    let names = plan(&truth, "isolated").unwrap()[2].fitted.clone();
+    let start = d.path().join("start.toml");
+    perturbed_start(&truth_file, &names, &start);
+    let out_dir = d.path().join("out");
+    ok(&lockstep(&[
+        "identify",
+        "--method",
+        "isolated",
+        "--plant",
+        start.to_str().unwrap(),
+        "--data",
+        d.path().join("data").to_str().unwrap(),
+        "--config",
+        "c3",
+        "--step",
+        "1/12000",
+        "--segments",
+        "1,4",
+        "--horizons",
+        "0.5,1",
+        "--max-iter",
+        "3",
+        "--out",
+        out_dir.to_str().unwrap(),
+    ]));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("report.json")).unwrap())
+            .unwrap();
+    let fit = &report["steps"][0]["fit"];
+    let starts = fit["starts"].as_array().unwrap();
+    assert_eq!(starts.len(), 2);
+    assert_eq!(starts[0]["through_segments"], false);
+    assert_eq!(starts[1]["through_segments"], true);
+    let cost = |s: &serde_json::Value| s["cost"].as_f64().unwrap();
+    let best = fit["cost_after"].as_f64().unwrap();
+    assert_eq!(best, cost(&starts[0]).min(cost(&starts[1])));
+    assert!(best < fit["cost_before"].as_f64().unwrap());
+    // Bad lengths are refused by name.
+    fails(
+        &lockstep(&[
+            "identify",
+            "--method",
+            "isolated",
+            "--plant",
+            start.to_str().unwrap(),
+            "--data",
+            d.path().join("data").to_str().unwrap(),
+            "--segments",
+            "1,-4",
+        ]),
+        &["--segments", "'-4'"],
+    );
+}

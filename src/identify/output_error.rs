@@ -9,9 +9,10 @@
 //! u ∈ [0, 1]ⁿ with p = lo + u (hi − lo), and a fitted Stribeck level as
 //! Fs = max(Fc, lo_Fs) + u (hi_Fs − max(Fc, lo_Fs)).
 //!
-//! Stages: the fit may first run on every file cut into short segments simulated from the
-//! measured state ([`Problem::segmented`], multiple shooting), then on growing horizons
-//! of the files ([`Stage`]); only the last stage, the whole files, is the cost itself.
+//! Stages ([`Stage`]): a start runs on growing horizons of the files, or — the extra start
+//! of [`OutputErrorOptions::segments`] — on every file cut into short segments simulated
+//! from the measured state ([`Problem::segmented`], multiple shooting); both end on the
+//! whole files, the cost itself.
 //!
 //! Optimiser: bounded Levenberg–Marquardt (MINPACK/CMPFIT, crate `rmpfit`) with the
 //! Jacobian by forward finite differences, one simulation per column, run in parallel
@@ -81,7 +82,8 @@ pub struct OutputErrorOptions {
     pub ftol: f64,
     /// Most Levenberg–Marquardt iterations per start.
     pub max_iter: usize,
-    /// Starts: the plant's current values, then `starts − 1` random points in the bounds.
+    /// Starts: the plant's current values, then `starts − 1` random points in the bounds
+    /// (all through the horizons; plus one through the segments when `segments` is set).
     pub starts: usize,
     /// Seed of the random starts.
     pub seed: u64,
@@ -92,9 +94,12 @@ pub struct OutputErrorOptions {
     /// output-error horizon has local minima that a short one does not; the last entry
     /// must be 1).
     pub horizons: Vec<f64>,
-    /// Multiple-shooting stages run before the horizons: segment lengths (s), each stage
-    /// fitting every file cut into segments simulated from the measured state at their
-    /// starts ([`Problem::segmented`]). Empty: none.
+    /// Multiple-shooting warm-up: segment lengths (s). When not empty, a second start from
+    /// the plant's values fits every file cut into segments of each length in turn
+    /// (simulated from the measured state at their starts, [`Problem::segmented`]) and
+    /// then the whole files; it runs beside the start through the horizons and the lower
+    /// final cost wins (neither warm-up reaches the noise floor on every step of the
+    /// Freedom 6S sequence alone). Empty: no such start.
     pub segments: Vec<f64>,
 }
 
@@ -696,15 +701,16 @@ impl Problem {
             .map(|k| self.plant.parameters[k])
             .collect();
         let mut rng = generated::inertia::Xorshift(self.options.seed.max(1));
-        let starts: Vec<Vec<f64>> = (0..self.options.starts.max(1))
-            .map(|s| {
-                if s == 0 {
-                    self.to_scaled(&p0)
-                } else {
-                    (0..n).map(|_| rng.uniform(0.0, 1.0)).collect()
-                }
-            })
-            .collect();
+        // (start point, through the segments): the plant's values through the horizons,
+        // the plant's values through the segments when there are any, then random points
+        // through the horizons.
+        let mut starts: Vec<(Vec<f64>, bool)> = vec![(self.to_scaled(&p0), false)];
+        if !self.options.segments.is_empty() {
+            starts.push((self.to_scaled(&p0), true));
+        }
+        for _ in 1..self.options.starts.max(1) {
+            starts.push(((0..n).map(|_| rng.uniform(0.0, 1.0)).collect(), false));
+        }
         let cost_before = self.cost(&p0);
         let evaluations = AtomicUsize::new(0);
         let jacobians = AtomicUsize::new(0);
@@ -712,7 +718,7 @@ impl Problem {
         let runs: Vec<StartRun> = starts
             .into_par_iter()
             .enumerate()
-            .map(|(s, u0)| {
+            .map(|(s, (u0, through_segments))| {
                 let mut u = u0.clone();
                 let start_cost = match self.residuals(&self.to_physical(&u0)) {
                     Ok(r) => r.iter().map(|x| x * x).sum(),
@@ -725,18 +731,27 @@ impl Problem {
                             iterations: 0,
                             status: format!("the start cannot be simulated: {}", why.0),
                             diverged: 0,
+                            through_segments,
                         }
                     }
                 };
                 let mut iterations = 0;
                 let mut diverged = 0;
                 let mut status = String::new();
-                let stages = self
-                    .options
-                    .segments
-                    .iter()
-                    .map(|&s| Stage::Segments(s))
-                    .chain(self.options.horizons.iter().map(|&h| Stage::Horizon(h)));
+                let stages: Vec<Stage> = if through_segments {
+                    self.options
+                        .segments
+                        .iter()
+                        .map(|&s| Stage::Segments(s))
+                        .chain([Stage::Horizon(1.0)])
+                        .collect()
+                } else {
+                    self.options
+                        .horizons
+                        .iter()
+                        .map(|&h| Stage::Horizon(h))
+                        .collect()
+                };
                 for stage in stages {
                     let staged;
                     let problem = match stage {
@@ -829,6 +844,7 @@ impl Problem {
                     iterations,
                     status,
                     diverged,
+                    through_segments,
                 }
             })
             .collect();
@@ -865,6 +881,7 @@ impl Problem {
                     iterations: r.iterations,
                     status: r.status.clone(),
                     diverged: r.diverged,
+                    through_segments: r.through_segments,
                 })
                 .collect(),
             best_start: best.start,
@@ -1192,10 +1209,13 @@ pub struct StartSummary {
     pub status: String,
     /// Trial points whose simulation diverged (rejected by the optimiser).
     pub diverged: usize,
+    /// Warmed up through the segments (else through the horizons).
+    pub through_segments: bool,
 }
 
 #[derive(Debug, Clone)]
 struct StartRun {
+    through_segments: bool,
     start: usize,
     u: Vec<f64>,
     start_cost: f64,
