@@ -183,6 +183,46 @@ fn fit_c1(d: &Path) -> (serde_json::Value, Plant, PathBuf) {
     )
 }
 
+/// The fit problem of isolated step `step` (0 = c1) on 40 s of Table 4.3's `test` chirp:
+/// the problem with the plant at the truth, the fitted parameters' true values, and their
+/// values in the ±25 % start of [`perturbed_start`].
+fn problem_at_truth(d: &Path, test: &str, step: usize) -> (Problem, Vec<f64>, Vec<f64>) {
+    let truth_file = truth(d);
+    let truth = Plant::load(&truth_file).unwrap();
+    let s = plan(&truth, "isolated").unwrap().swap_remove(step);
+    make_data(d, &truth_file, "4.3", Some(test), &s.config, "40");
+    let start = d.join("start.toml");
+    perturbed_start(&truth_file, &s.fitted, &start);
+    // The start's bounds, the truth's values.
+    let mut plant = Plant::load(&start).unwrap();
+    let off: Vec<f64> = s.fitted.iter().map(|n| plant.parameters[n]).collect();
+    let at_truth: Vec<f64> = s.fitted.iter().map(|n| truth.parameters[n]).collect();
+    for (n, &v) in s.fitted.iter().zip(&at_truth) {
+        plant.parameters.insert(n.clone(), v);
+    }
+    let conf = truth.model.configuration(&s.config).unwrap();
+    let rec = read_record(
+        &d.join(format!("data/{}_run.csv", s.config)),
+        truth.model,
+        conf,
+        0.01,
+    )
+    .unwrap();
+    let p = Problem::new(
+        &plant,
+        conf,
+        s.fitted.clone(),
+        vec![rec],
+        &s.interest,
+        OutputErrorOptions {
+            h: 1.0 / 12000.0,
+            ..OutputErrorOptions::default()
+        },
+    )
+    .unwrap();
+    (p, at_truth, off)
+}
+
 fn column<T: serde::de::DeserializeOwned>(fit: &serde_json::Value, path: &[&str]) -> T {
     let mut v = fit;
     for p in path {
@@ -459,35 +499,8 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
 #[test]
 fn segments_start_from_the_measured_state_and_separate_the_truth_from_a_far_start() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    make_data(d.path(), &truth_file, "4.3", Some("J3"), "c3", "40");
-    let truth = Plant::load(&truth_file).unwrap();
-    let steps = plan(&truth, "isolated").unwrap();
-    let names = steps[2].fitted.clone();
-    assert_eq!(steps[2].config, "c3");
-    let start = d.path().join("start.toml");
-    perturbed_start(&truth_file, &names, &start);
-    let mut plant = Plant::load(&start).unwrap();
-    let off: Vec<f64> = names.iter().map(|n| plant.parameters[n]).collect();
-    for n in &names {
-        plant.parameters.insert(n.clone(), truth.parameters[n]);
-    }
-    let conf = plant.model.configuration("c3").unwrap();
-    let rec = read_record(&d.path().join("data/c3_run.csv"), plant.model, conf, 0.01).unwrap();
-    let n = rec.t.len();
-    let p = Problem::new(
-        &plant,
-        conf,
-        names.clone(),
-        vec![rec],
-        &[3],
-        OutputErrorOptions {
-            h: 1.0 / 12000.0,
-            ..OutputErrorOptions::default()
-        },
-    )
-    .unwrap();
-    let at_truth: Vec<f64> = names.iter().map(|k| truth.parameters[k]).collect();
+    let (p, at_truth, off) = problem_at_truth(d.path(), "J3", 2);
+    let n = p.records[0].t.len();
     for (seconds, segments) in [(1.0, 40), (4.0, 10)] {
         let s = p.segmented(seconds);
         // One residual per sample of the free joint, each segment's first left out.
@@ -512,31 +525,8 @@ fn segments_start_from_the_measured_state_and_separate_the_truth_from_a_far_star
 #[test]
 fn symbols_that_enter_only_through_base_parameters_are_not_called_identifiable() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "40");
-    let truth = Plant::load(&truth_file).unwrap();
-    let names = plan(&truth, "isolated").unwrap()[0].fitted.clone();
-    let start = d.path().join("start.toml");
-    perturbed_start(&truth_file, &names, &start);
-    let mut plant = Plant::load(&start).unwrap();
-    for n in &names {
-        plant.parameters.insert(n.clone(), truth.parameters[n]);
-    }
-    let conf = plant.model.configuration("c1").unwrap();
-    let rec = read_record(&d.path().join("data/c1_run.csv"), plant.model, conf, 0.01).unwrap();
-    let p = Problem::new(
-        &plant,
-        conf,
-        names.clone(),
-        vec![rec],
-        &[4],
-        OutputErrorOptions {
-            h: 1.0 / 12000.0,
-            ..OutputErrorOptions::default()
-        },
-    )
-    .unwrap();
-    let x: Vec<f64> = names.iter().map(|k| truth.parameters[k]).collect();
+    let (p, x, _) = problem_at_truth(d.path(), "J4", 0);
+    let names = &p.names;
     let stats = p.statistics(&x).unwrap();
     for (i, n) in names.iter().enumerate() {
         println!(
