@@ -562,16 +562,23 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
     let start = d.path().join("start.toml");
     perturbed_start(&truth_file, &names, &start);
     let out_dir = d.path().join("out");
-    ok(&lockstep(&[
-        "identify",
-        "--method",
-        "isolated",
-        "--plant",
-        start.to_str().unwrap(),
-        "--data",
-        d.path().join("data").to_str().unwrap(),
-        "--config",
-        "c3",
+    let (plant, data) = (start.to_str().unwrap(), d.path().join("data"));
+    let identify = |more: &[&str]| {
+        let mut args = vec![
+            "identify",
+            "--method",
+            "isolated",
+            "--plant",
+            plant,
+            "--data",
+            data.to_str().unwrap(),
+            "--config",
+            "c3",
+        ];
+        args.extend_from_slice(more);
+        lockstep(&args)
+    };
+    ok(&identify(&[
         "--step",
         "1/12000",
         "--segments",
@@ -596,18 +603,5 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
     assert_eq!(best, cost(&starts[0]).min(cost(&starts[1])));
     assert!(best < fit["cost_before"].as_f64().unwrap());
     // Bad lengths are refused by name.
-    fails(
-        &lockstep(&[
-            "identify",
-            "--method",
-            "isolated",
-            "--plant",
-            start.to_str().unwrap(),
-            "--data",
-            d.path().join("data").to_str().unwrap(),
-            "--segments",
-            "1,-4",
-        ]),
-        &["--segments", "'-4'"],
-    );
+    fails(&identify(&["--segments", "1,-4"]), &["--segments", "'-4'"]);
 }
