@@ -505,7 +505,6 @@ pub struct OutputErrorArgs {
     /// ended; the last must be 1 (`--horizons 1`: the whole files at once).
     #[arg(long, default_value = "0.05,0.1,0.25,0.5,1", value_delimiter = ',')]
     pub horizons: Vec<f64>,
-
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(long, default_value_t = 0.01)]
     pub locked_tolerance: f64,

@@ -56,6 +56,16 @@ pub struct Occurrence {
     pub sequences: Vec<SequenceOccurrence>,
 }
 
+impl Occurrence {
+    /// Whether quantity `name` appears in configuration `config`'s equations (false for a
+    /// name or configuration the table does not have).
+    pub fn appears_in(&self, name: &str, config: &str) -> bool {
+        let row = self.names.iter().position(|n| n == name);
+        let column = self.configurations.iter().position(|c| c == config);
+        matches!((row, column), (Some(r), Some(c)) if self.appears[r][c])
+    }
+}
+
 /// First appearances along one locking sequence.
 #[derive(Debug, Clone, Serialize)]
 pub struct SequenceOccurrence {

@@ -361,7 +361,13 @@ impl Problem {
             records.push(rr);
             sqrt_w.push(w[..keep].to_vec());
         }
-        let m = residual_total(&sqrt_w, self.lambda.len());
+        self.with_records(records, sqrt_w)
+    }
+
+    /// The same problem (parameters, bounds, weights λ, options) on other `records` with
+    /// sample weights `sqrt_w` (√w per record and sample); this problem's records are not
+    /// copied.
+    fn with_records(&self, records: Vec<Record>, sqrt_w: Vec<Vec<f64>>) -> Problem {
         Problem {
             plant: self.plant.clone(),
             conf: self.conf,
@@ -369,10 +375,10 @@ impl Problem {
             lower: self.lower.clone(),
             upper: self.upper.clone(),
             pairs: self.pairs.clone(),
+            m: residual_total(&sqrt_w, self.lambda.len()),
             records,
             lambda: self.lambda.clone(),
             sqrt_w,
-            m,
             options: self.options.clone(),
         }
     }
@@ -430,13 +436,7 @@ impl Problem {
                 sqrt_w.push(w);
             }
         }
-        let m = residual_total(&sqrt_w, self.lambda.len());
-        Problem {
-            records,
-            sqrt_w,
-            m,
-            ..self.clone()
-        }
+        self.with_records(records, sqrt_w)
     }
 
     /// Number of residuals.
@@ -610,10 +610,7 @@ impl Problem {
     /// # Errors
     /// A simulation fails (file named).
     pub fn with_initial_positions_of(&self, plant: &Plant) -> Result<Problem, TrialFailure> {
-        Ok(Problem {
-            records: self.estimate_initial_positions(plant)?,
-            ..self.clone()
-        })
+        Ok(self.with_records(self.estimate_initial_positions(plant)?, self.sqrt_w.clone()))
     }
 
     /// Residual vector (length [`Problem::residual_count`]) of the files' trajectories.
@@ -778,7 +775,6 @@ impl Problem {
                         progress,
                         cache: None,
                         failures: 0,
-
                         config: MPConfig {
                             // Segments and shorter horizons only warm-start the next
                             // stage: looser stopping rules there, the user's on the

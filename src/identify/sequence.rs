@@ -9,7 +9,7 @@
 //! free. After every step the updated plant and the report are written atomically, so an
 //! interrupted run (Ctrl-C) leaves the last completed step's results intact.
 
-use super::identifiability::{occurrence, structural_companions};
+use super::identifiability::{occurrence, structural_companions, Occurrence};
 use super::output_error::{FitResult, OutputErrorOptions, Problem, Progress, Record};
 use crate::measurement::{check_sampling, Table};
 use crate::plant::Plant;
@@ -47,8 +47,12 @@ pub struct Step {
 /// Unknown sequence or step (the known ones listed); a rigid-body quantity the step
 /// identifies without a value in the plant.
 pub fn plan(plant: &Plant, sequence: &str) -> Result<Vec<Step>> {
+    plan_with(plant, sequence, &occurrence(plant.model))
+}
+
+/// [`plan`] with the model's occurrence table `occ` already computed.
+fn plan_with(plant: &Plant, sequence: &str, occ: &Occurrence) -> Result<Vec<Step>> {
     let model = plant.model;
-    let occ = occurrence(model);
     let Some(seq) = occ.sequences.iter().find(|s| s.name == sequence) else {
         bail!(
             "model '{}' has no locking sequence '{sequence}' (it has: {})",
@@ -84,14 +88,9 @@ pub fn plan(plant: &Plant, sequence: &str) -> Result<Vec<Step>> {
             }
             names.push(s.clone());
         }
-        let column = occ.configurations.iter().position(|c| c == cname);
-        let appears = |s: &str| {
-            let row = occ.names.iter().position(|n| n == s);
-            matches!((row, column), (Some(r), Some(c)) if occ.appears[r][c])
-        };
         let carried: Vec<String> = tied
             .iter()
-            .filter(|s| appears(s) && !names.contains(s))
+            .filter(|s| occ.appears_in(s, cname) && !names.contains(s))
             .cloned()
             .collect();
         names.extend(carried.iter().cloned());
@@ -338,7 +337,8 @@ pub fn run(
     progress: &(dyn Fn(&str, Progress) + Sync),
 ) -> Result<SequenceReport> {
     let model = plant.model;
-    let mut steps = plan(plant, &opts.sequence)?;
+    let occ = occurrence(model);
+    let mut steps = plan_with(plant, &opts.sequence, &occ)?;
     if let Some(only) = &opts.only {
         let Some(i) = steps.iter().position(|s| &s.config == only) else {
             bail!(
@@ -407,7 +407,6 @@ pub fn run(
     let mut current = plant.clone();
     // Rigid-body symbols a completed step fitted but did not determine.
     let mut undetermined: Vec<String> = Vec::new();
-    let occ = occurrence(model);
     let mut report = SequenceReport {
         sequence: opts.sequence.clone(),
         plant: plant.name(),
@@ -420,11 +419,8 @@ pub fn run(
         // identifiable: tied, poorly determined or at a bound) stay free where they appear
         // again: held at an arbitrary point of their uncertain direction they would bias
         // every later step.
-        let column = occ.configurations.iter().position(|c| *c == s.config);
         for n in &undetermined {
-            let row = occ.names.iter().position(|x| x == n);
-            let appears = matches!((row, column), (Some(r), Some(c)) if occ.appears[r][c]);
-            if appears && !s.fitted.contains(n) {
+            if occ.appears_in(n, &s.config) && !s.fitted.contains(n) {
                 s.fitted.push(n.clone());
                 s.carried.push(n.clone());
             }
