@@ -505,6 +505,21 @@ pub struct OutputErrorArgs {
     /// ended; the last must be 1 (`--horizons 1`: the whole files at once).
     #[arg(long, default_value = "0.05,0.1,0.25,0.5,1", value_delimiter = ',')]
     pub horizons: Vec<f64>,
+    /// After each step's fit, move back toward the plant's initial values along the
+    /// directions that step's data do not determine, as far as a rise of the cost by one
+    /// noise variance allows (least-change solution): the next step then starts from the
+    /// prior, not from where the optimiser drifted. `off`: keep the minimum as found.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    pub least_change: String,
+    /// Prior on each step's fitted parameters (maximum a posteriori, as MATLAB's
+    /// regularisation toward the nominal model): Gaussian about the values the step starts
+    /// from, with spread TAU × each value (× the bound width for a value near zero; 0.1:
+    /// the initial values are good to about 10 %), weighed against the noise
+    /// each file shows (estimated from its positions). It decides only where the data are
+    /// silent or nearly so, so a step does not hand an arbitrary point of a flat valley to
+    /// the next. `none`: the thesis cost alone.
+    #[arg(long, default_value = "none", value_name = "TAU")]
+    pub prior: String,
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
@@ -575,6 +590,14 @@ impl OutputErrorArgs {
             seed: self.seed,
             horizons: self.horizons.clone(),
             segments,
+            least_change: self.least_change == "on",
+            prior: match self.prior.trim() {
+                "none" => None,
+                x => match x.parse::<f64>() {
+                    Ok(t) if t > 0.0 && t.is_finite() => Some(t),
+                    _ => bail!("--prior: expected 'none' or a positive relative spread such as 0.1, got '{x}'"),
+                },
+            },
             ..OutputErrorOptions::default()
         })
     }

@@ -1,6 +1,10 @@
 //! Parameter occurrence and base parameters from the generated regressors.
 
-use lockstep::identify::identifiability::{base_parameters, occurrence};
+use lockstep::identify::identifiability::{
+    base_parameter_values, base_parameters, least_change_along_ties, occurrence,
+};
+use lockstep::plant::Plant;
+use std::path::Path;
 
 #[test]
 fn freedom6s_isolated_sequence_reproduces_figure_4_2() {
@@ -82,4 +86,59 @@ fn planar_2r_has_the_textbook_base_parameters() {
         ]
     );
     assert_eq!(b.dependent, ["m1", "m2"]);
+}
+
+/// Least change along the structural ties of c1 (joint 4 alone), which sees m7, x7, y7 and
+/// I7_33 only through three base parameters: pulled toward far initial values the symbols
+/// move along the tie (m7 up, the centroid in, the inertia about the centroid adjusted)
+/// with every base parameter unchanged, and from there pulled back toward the original
+/// values they return to them, which lie on the same tie.
+#[test]
+fn least_change_along_ties_keeps_the_base_parameters_and_returns_along_the_tie() {
+    let plant = Plant::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
+    )
+    .unwrap();
+    let conf = plant.model.configuration("c1").unwrap();
+    let names: Vec<String> = ["m7", "x7", "y7", "I7_33", "Fc_4"]
+        .map(String::from)
+        .to_vec();
+    let value = |p: &Plant| -> Vec<f64> { names.iter().map(|n| p.parameters[n]).collect() };
+    let truth = value(&plant);
+    // Wide bounds around the values: the walk is not to be stopped by them here.
+    let lower: Vec<f64> = truth.iter().map(|v| v - 2.0 * v.abs()).collect();
+    let upper: Vec<f64> = truth.iter().map(|v| v + 2.0 * v.abs()).collect();
+    let far: Vec<f64> = truth
+        .iter()
+        .zip([1.5, 0.5, 0.5, 1.5, 3.0])
+        .map(|(v, f)| v * f)
+        .collect();
+    let moved = least_change_along_ties(&plant, conf, &names, &far, &lower, &upper).unwrap();
+    let mut at = plant.clone();
+    for (n, v) in names.iter().zip(&moved) {
+        at.parameters.insert(n.clone(), *v);
+    }
+    let beta0 = base_parameter_values(&plant, conf).unwrap();
+    let beta1 = base_parameter_values(&at, conf).unwrap();
+    assert_eq!(beta0.len(), 3, "c1's base parameters: {beta0:?}");
+    for ((name, b0), (_, b1)) in beta0.iter().zip(&beta1) {
+        assert!((b1 - b0).abs() <= 1e-7 * b0.abs(), "{name}: {b0} → {b1}");
+    }
+    // It moved along the tie toward the far values: more mass, a centroid nearer the axis.
+    assert!(moved[0] > 1.05 * truth[0], "m7 {} → {}", truth[0], moved[0]);
+    assert!(
+        moved[1].abs() < 0.95 * truth[1].abs(),
+        "x7 {} → {}",
+        truth[1],
+        moved[1]
+    );
+    assert!((moved[1] / moved[2] - truth[1] / truth[2]).abs() < 1e-6 * (truth[1] / truth[2]).abs());
+    // Fc_4 is no rigid-body symbol: untouched.
+    assert_eq!(moved[4], truth[4]);
+    // Back from there toward the original values: the original values are on the tie.
+    let back = least_change_along_ties(&at, conf, &names, &truth, &lower, &upper).unwrap();
+    for ((n, b), t) in names.iter().zip(&back).zip(&truth) {
+        assert!((b - t).abs() <= 1e-4 * t.abs(), "{n}: back to {b}, was {t}");
+    }
 }

@@ -9,6 +9,7 @@
 use generated::inertia::Xorshift as Rng;
 use generated::{Configuration, Model};
 use nalgebra::DMatrix;
+use rmpfit::{MPConfig, MPFitter, MPPar, MPResult};
 use serde::Serialize;
 
 /// The regressor of `conf` stacked over `samples` random states, `(samples·NF) × NP`.
@@ -316,6 +317,169 @@ pub fn base_parameters(model: &Model, conf: &Configuration) -> BaseParameters {
     }
 }
 
+/// The base parameters β of a configuration as functions of a plant's values:
+/// β_k = p_kept + Σ c p_dependent over the barycentric parameters p ([`base_parameters`]).
+struct BaseMap<'a> {
+    /// Per base parameter, (index into the model's barycentric parameters, coefficient).
+    combos: Vec<Vec<(usize, f64)>>,
+    conf: &'a Configuration,
+}
+
+impl<'a> BaseMap<'a> {
+    fn new(model: &Model, conf: &'a Configuration) -> BaseMap<'a> {
+        let bases = base_parameters(model, conf);
+        let index = |name: &str| model.params.iter().position(|x| *x == name);
+        let combos = bases
+            .base
+            .iter()
+            .map(|b| {
+                let mut t: Vec<(usize, f64)> =
+                    index(&b.name).map(|j| (j, 1.0)).into_iter().collect();
+                t.extend(
+                    b.terms
+                        .iter()
+                        .filter_map(|(c, d)| index(d).map(|j| (j, *c))),
+                );
+                t
+            })
+            .collect();
+        BaseMap { combos, conf }
+    }
+
+    fn len(&self) -> usize {
+        self.combos.len()
+    }
+
+    /// β at the plant's values.
+    fn values(&self, plant: &crate::plant::Plant) -> anyhow::Result<Vec<f64>> {
+        let bary = plant.barycentric(Some(self.conf))?;
+        Ok(self
+            .combos
+            .iter()
+            .map(|t| t.iter().map(|&(j, c)| c * bary[j]).sum())
+            .collect())
+    }
+}
+
+/// Least change along the structural ties: the values of `names` after moving the fitted
+/// rigid-body symbols among them from their values in `plant` toward `initial` while the
+/// base parameters β of `conf` stay as they are in `plant` — the same torques and the same
+/// simulated positions in this configuration, so the same cost (up to rounding).
+///
+/// Of all symbol values a configuration cannot tell apart (it sees them only through β),
+/// the one nearest the initial values (in units of the bound widths `upper − lower`,
+/// the spread the user gave each value) is the honest report, and the right start for
+/// the next configuration of a locking sequence, which sees other combinations: left where
+/// an optimiser drifted along an exact tie, the symbols bias it. Solved as
+/// min ‖z − z₀‖² over z = s / width within the bounds, subject to β(z) = β(plant), by a
+/// penalty K² ‖Δβ / |β|‖² with K = 1e2, 1e4, 1e6, 1e8 in turn, each a bounded
+/// Levenberg–Marquardt fit (β is cheap: no simulation) warm-started from the last.
+/// Only exact ties move: a direction the data determine weakly (a flat, curved valley of
+/// the output-error cost) changes β and is left alone here.
+/// Other names keep their values.
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing).
+pub fn least_change_along_ties(
+    plant: &crate::plant::Plant,
+    conf: &Configuration,
+    names: &[String],
+    initial: &[f64],
+    lower: &[f64],
+    upper: &[f64],
+) -> anyhow::Result<Vec<f64>> {
+    let model = plant.model;
+    let mut values: Vec<f64> = names
+        .iter()
+        .map(|n| plant.value(n))
+        .collect::<anyhow::Result<_>>()?;
+    let rigid: Vec<usize> = (0..names.len())
+        .filter(|&i| model.inertial_symbols.contains(&names[i].as_str()))
+        .collect();
+    if rigid.is_empty() {
+        return Ok(values);
+    }
+    let base = BaseMap::new(model, conf);
+    let width: Vec<f64> = rigid.iter().map(|&i| upper[i] - lower[i]).collect();
+    let nr = rigid.len();
+    let beta_at = |at: &mut crate::plant::Plant, z: &[f64]| -> anyhow::Result<Vec<f64>> {
+        for (c, &i) in rigid.iter().enumerate() {
+            at.parameters.insert(names[i].clone(), z[c] * width[c]);
+        }
+        base.values(at)
+    };
+    let beta_fit = base.values(plant)?;
+    let largest = beta_fit.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    if largest == 0.0 {
+        return Ok(values);
+    }
+    let row_scale: Vec<f64> = beta_fit
+        .iter()
+        .map(|b| 1.0 / b.abs().max(1e-9 * largest))
+        .collect();
+    let violation = |beta: &[f64]| -> nalgebra::DVector<f64> {
+        nalgebra::DVector::from_fn(beta.len(), |k, _| (beta[k] - beta_fit[k]) * row_scale[k])
+    };
+    let z0: Vec<f64> = rigid
+        .iter()
+        .enumerate()
+        .map(|(c, &i)| initial[i] / width[c])
+        .collect();
+    let (zlo, zhi): (Vec<f64>, Vec<f64>) = rigid
+        .iter()
+        .enumerate()
+        .map(|(c, &i)| (lower[i] / width[c], upper[i] / width[c]))
+        .unzip();
+    let mut z: Vec<f64> = rigid
+        .iter()
+        .enumerate()
+        .map(|(c, &i)| values[i] / width[c])
+        .collect();
+    // min ‖z − z₀‖² subject to β(z) = β(fit) and the bounds, by a penalty K ‖scaled β
+    // violation‖² raised in steps (each fit warm-starts the next) with bounded
+    // Levenberg–Marquardt.
+    let at = std::cell::RefCell::new(plant.clone());
+    for k in [1e2, 1e4, 1e6, 1e8] {
+        let residuals = |zt: &[f64]| -> Vec<f64> {
+            let mut out: Vec<f64> = match beta_at(&mut at.borrow_mut(), zt) {
+                Ok(beta) => violation(&beta).iter().map(|v| k * v).collect(),
+                Err(_) => vec![f64::NAN; base.len()],
+            };
+            out.extend((0..nr).map(|c| zt[c] - z0[c]));
+            out
+        };
+        let mut fitter = TieProjection {
+            residuals: &residuals,
+            m: base.len() + nr,
+            config: MPConfig {
+                xtol: 1e-14,
+                ftol: 1e-14,
+                gtol: 1e-14,
+                max_iter: 500,
+                ..MPConfig::new()
+            },
+            pars: (0..nr)
+                .map(|c| MPPar {
+                    limited_low: true,
+                    limited_up: true,
+                    limit_low: zlo[c],
+                    limit_up: zhi[c],
+                    step: 1e-7 * z[c].abs().max(1e-3),
+                    ..MPPar::new()
+                })
+                .collect(),
+        };
+        let mut zt = z.clone();
+        if fitter.mpfit(&mut zt).is_ok() && zt.iter().all(|x| x.is_finite()) {
+            z = zt;
+        }
+    }
+    for (c, &i) in rigid.iter().enumerate() {
+        values[i] = z[c] * width[c];
+    }
+    Ok(values)
+}
+
 /// For each of `names` (parameters of `plant`), the other rigid-body symbols among `names`
 /// it trades with exactly in configuration `conf` (empty: none; always empty for a name
 /// that is not an inertial symbol).
@@ -346,32 +510,13 @@ pub fn structural_companions(
     if rigid.is_empty() {
         return Ok(out);
     }
-    let bases = base_parameters(model, conf);
-    let index = |name: &str| model.params.iter().position(|x| *x == name);
-    // β_k = p_kept + Σ c p_dependent, as (index, coefficient) lists.
-    let combos: Vec<Vec<(usize, f64)>> = bases
-        .base
-        .iter()
-        .map(|b| {
-            let mut t: Vec<(usize, f64)> = index(&b.name).map(|j| (j, 1.0)).into_iter().collect();
-            t.extend(
-                b.terms
-                    .iter()
-                    .filter_map(|(c, d)| index(d).map(|j| (j, *c))),
-            );
-            t
-        })
-        .collect();
+    let base = BaseMap::new(model, conf);
     let beta = |name: &str, v: f64| -> anyhow::Result<Vec<f64>> {
         let mut at = plant.clone();
         at.parameters.insert(name.to_string(), v);
-        let bary = at.barycentric(Some(conf))?;
-        Ok(combos
-            .iter()
-            .map(|t| t.iter().map(|&(j, c)| c * bary[j]).sum())
-            .collect())
+        base.values(&at)
     };
-    let mut g = DMatrix::zeros(combos.len(), rigid.len());
+    let mut g = DMatrix::zeros(base.len(), rigid.len());
     for (c, &i) in rigid.iter().enumerate() {
         let v = plant.value(&names[i])?;
         let scale = if v.abs() > 1e-9 * width(i) {
@@ -381,7 +526,7 @@ pub fn structural_companions(
         };
         let h = 1e-6 * scale;
         let (bp, bm) = (beta(&names[i], v + h)?, beta(&names[i], v - h)?);
-        for k in 0..combos.len() {
+        for k in 0..base.len() {
             g[(k, c)] = (bp[k] - bm[k]) / (2.0 * h) * scale;
         }
     }
@@ -456,4 +601,51 @@ pub fn markdown(occ: &Occurrence, bases: &[BaseParameters]) -> String {
         }
     }
     s
+}
+
+/// rmpfit adapter of [`least_change_along_ties`].
+struct TieProjection<'a> {
+    residuals: &'a dyn Fn(&[f64]) -> Vec<f64>,
+    m: usize,
+    config: MPConfig,
+    pars: Vec<MPPar>,
+}
+
+impl MPFitter for TieProjection<'_> {
+    fn eval(&mut self, params: &[f64], deviates: &mut [f64]) -> MPResult<()> {
+        deviates.copy_from_slice(&(self.residuals)(params));
+        Ok(())
+    }
+
+    fn number_of_points(&self) -> usize {
+        self.m
+    }
+
+    fn config(&self) -> &MPConfig {
+        &self.config
+    }
+
+    fn parameters(&self) -> &[MPPar] {
+        &self.pars
+    }
+}
+
+/// The values of the base parameters β of `conf` at `plant`'s values (Gautier 1990), named
+/// by their kept barycentric parameter ([`base_parameters`]).
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing).
+pub fn base_parameter_values(
+    plant: &crate::plant::Plant,
+    conf: &Configuration,
+) -> anyhow::Result<Vec<(String, f64)>> {
+    let names: Vec<String> = base_parameters(plant.model, conf)
+        .base
+        .into_iter()
+        .map(|b| b.name)
+        .collect();
+    Ok(names
+        .into_iter()
+        .zip(BaseMap::new(plant.model, conf).values(plant)?)
+        .collect())
 }

@@ -545,6 +545,24 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                 st.step.held.join(", ")
             );
         }
+        if let Some(tau) = report.options.prior {
+            let _ = writeln!(
+                s,
+                "Prior: Gaussian about the initial values, spread {tau} × each value; its term at the result {} (the fit minimised cost + prior term).\n",
+                fmt_g(f.prior_penalty)
+            );
+        }
+        if let Some(lc) = f.least_change.as_ref().filter(|lc| !lc.moved.is_empty()) {
+            let _ = writeln!(
+                s,
+                "Least change: {} moved from the minimum toward the initial values with this configuration's base parameters unchanged (values these data cannot tell apart); cost {} → {} ({}; one noise variance: {}).\n",
+                lc.moved.join(", "),
+                fmt_g(lc.cost_at_minimum),
+                fmt_g(lc.cost),
+                if lc.accepted { "kept" } else { "rose more than one noise variance: not kept" },
+                fmt_g(lc.allowed_rise),
+            );
+        }
         let _ = writeln!(
             s,
             "| parameter | initial | fitted | std error | rel. % | bounds | identifiable |\n|---|---|---|---|---|---|---|"
@@ -592,14 +610,20 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
         }
         let _ = writeln!(
             s,
-            "\nCondition number of the scaled JᵀJ: {:.3e}.\n\n| joint | λ | RMS error (rad) | max error (rad) | NRMSE fit % |\n|---|---|---|---|---|",
+            "\nCondition number of the scaled JᵀJ: {:.3e}.\n\n| joint | λ | RMS error (rad) | noise σ̂ (rad) | RMS / σ̂ | max error (rad) | NRMSE fit % |\n|---|---|---|---|---|---|---|",
             stats.condition
         );
         for j in &stats.joints {
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.4e} | {:.4e} | {:.2} |",
-                j.joint, j.weight, j.rms, j.max_abs, j.nrmse_fit
+                "| {} | {} | {:.4e} | {:.4e} | {:.2} | {:.4e} | {:.2} |",
+                j.joint,
+                j.weight,
+                j.rms,
+                j.noise,
+                j.rms / j.noise.max(1e-300),
+                j.max_abs,
+                j.nrmse_fit
             );
         }
         let _ = writeln!(s);
