@@ -505,10 +505,11 @@ pub struct OutputErrorArgs {
     /// ended; the last must be 1 (`--horizons 1`: the whole files at once).
     #[arg(long, default_value = "0.05,0.1,0.25,0.5,1", value_delimiter = ',')]
     pub horizons: Vec<f64>,
-    /// After each step's fit, move back toward the plant's initial values along the
-    /// directions that step's data do not determine, as far as a rise of the cost by one
-    /// noise variance allows (least-change solution): the next step then starts from the
-    /// prior, not from where the optimiser drifted. `off`: keep the minimum as found.
+    /// After each step's fit, move the rigid-body symbols back toward the plant's initial
+    /// values along the combinations that step cannot tell apart (its base parameters held
+    /// exactly; kept if the cost rises by less than one noise variance): the least-change
+    /// solution, so the next step starts from the prior, not from where the optimiser
+    /// drifted along an exact tie. `off`: keep the minimum as found.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub least_change: String,
     /// Prior on each step's fitted parameters (maximum a posteriori, as MATLAB's

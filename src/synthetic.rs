@@ -184,7 +184,7 @@ impl Simulated {
 }
 
 /// Standard normal deviate (Box–Muller).
-fn gaussian(rng: &mut Xorshift) -> f64 {
+pub(crate) fn gaussian(rng: &mut Xorshift) -> f64 {
     let u1 = rng.uniform(f64::MIN_POSITIVE, 1.0);
     let u2 = rng.uniform(0.0, 1.0);
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()

@@ -320,6 +320,8 @@ pub fn base_parameters(model: &Model, conf: &Configuration) -> BaseParameters {
 /// The base parameters β of a configuration as functions of a plant's values:
 /// β_k = p_kept + Σ c p_dependent over the barycentric parameters p ([`base_parameters`]).
 struct BaseMap<'a> {
+    /// Per base parameter, its name (the kept barycentric parameter).
+    names: Vec<String>,
     /// Per base parameter, (index into the model's barycentric parameters, coefficient).
     combos: Vec<Vec<(usize, f64)>>,
     conf: &'a Configuration,
@@ -343,7 +345,11 @@ impl<'a> BaseMap<'a> {
                 t
             })
             .collect();
-        BaseMap { combos, conf }
+        BaseMap {
+            names: bases.base.into_iter().map(|b| b.name).collect(),
+            combos,
+            conf,
+        }
     }
 
     fn len(&self) -> usize {
@@ -359,6 +365,13 @@ impl<'a> BaseMap<'a> {
             .map(|t| t.iter().map(|&(j, c)| c * bary[j]).sum())
             .collect())
     }
+}
+
+/// Indices of the rigid-body (inertial) symbols among `names`.
+fn rigid_body_indices(model: &Model, names: &[String]) -> Vec<usize> {
+    (0..names.len())
+        .filter(|&i| model.inertial_symbols.contains(&names[i].as_str()))
+        .collect()
 }
 
 /// Least change along the structural ties: the values of `names` after moving the fitted
@@ -393,9 +406,7 @@ pub fn least_change_along_ties(
         .iter()
         .map(|n| plant.value(n))
         .collect::<anyhow::Result<_>>()?;
-    let rigid: Vec<usize> = (0..names.len())
-        .filter(|&i| model.inertial_symbols.contains(&names[i].as_str()))
-        .collect();
+    let rigid = rigid_body_indices(model, names);
     if rigid.is_empty() {
         return Ok(values);
     }
@@ -504,9 +515,7 @@ pub fn structural_companions(
     let n = names.len();
     let mut out = vec![Vec::new(); n];
     let model = plant.model;
-    let rigid: Vec<usize> = (0..n)
-        .filter(|&i| model.inertial_symbols.contains(&names[i].as_str()))
-        .collect();
+    let rigid = rigid_body_indices(model, names);
     if rigid.is_empty() {
         return Ok(out);
     }
@@ -639,13 +648,7 @@ pub fn base_parameter_values(
     plant: &crate::plant::Plant,
     conf: &Configuration,
 ) -> anyhow::Result<Vec<(String, f64)>> {
-    let names: Vec<String> = base_parameters(plant.model, conf)
-        .base
-        .into_iter()
-        .map(|b| b.name)
-        .collect();
-    Ok(names
-        .into_iter()
-        .zip(BaseMap::new(plant.model, conf).values(plant)?)
-        .collect())
+    let base = BaseMap::new(plant.model, conf);
+    let values = base.values(plant)?;
+    Ok(base.names.into_iter().zip(values).collect())
 }

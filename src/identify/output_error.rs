@@ -101,9 +101,10 @@ pub struct OutputErrorOptions {
     /// final cost wins (neither warm-up reaches the noise floor on every step of the
     /// Freedom 6S sequence alone). Empty: no such start.
     pub segments: Vec<f64>,
-    /// After the fit, move back toward the plant's values along the directions the data do
-    /// not determine ([`Problem::least_change`]): of all points the data cannot tell apart
-    /// from the minimum, report the one closest to the initial values, so that the next
+    /// After the fit, move the rigid-body symbols back toward the plant's values along the
+    /// exact ties of the configuration's base parameters ([`Problem::least_change`]): of
+    /// all points the data cannot tell apart from the minimum that way, report the one
+    /// closest to the initial values, so that the next
     /// step of a locking sequence starts from prior knowledge and not from where the
     /// optimiser drifted. Off by default (refits of a few named parameters); on in
     /// `lockstep identify --method isolated|coupled`.
@@ -379,9 +380,7 @@ impl Problem {
         };
         if let Some(tau) = problem.options.prior {
             if !(tau > 0.0 && tau.is_finite()) {
-                bail!(
-                    "prior: expected a positive spread τ (fraction of the bound widths), got {tau}"
-                );
+                bail!("prior: expected a positive relative spread τ (such as 0.1), got {tau}");
             }
             // Expected cost per residual from the noise alone: mean of w λ² σ̂².
             let mut expected = 0.0;
@@ -393,11 +392,7 @@ impl Problem {
                 }
             }
             let s_bar = (expected / m as f64).sqrt();
-            let p0: Vec<f64> = problem
-                .names
-                .iter()
-                .map(|k| problem.plant.parameters[k])
-                .collect();
+            let p0 = problem.initial_values();
             // Spread τ |p₀| in the parameter's units (τ × the bound width for a value near
             // zero), in the scaled coordinates u: τ |p₀| / width.
             let spread: Vec<f64> = (0..p0.len())
@@ -418,8 +413,17 @@ impl Problem {
         Ok(problem)
     }
 
-    /// The prior's residuals s̄ (u − u₀) / τ at scaled parameters `u` (empty without a
-    /// prior).
+    /// The fitted parameters' values in the plant the problem was set up with (the start
+    /// of the fit and the centre of its prior), physical units.
+    fn initial_values(&self) -> Vec<f64> {
+        self.names
+            .iter()
+            .map(|k| self.plant.parameters[k])
+            .collect()
+    }
+
+    /// The prior's residuals w_i (u_i − u₀_i) at scaled parameters `u`, w_i = s̄ / the
+    /// spread of parameter i in scaled units (empty without a prior).
     fn prior_residuals(&self, u: &[f64]) -> Vec<f64> {
         match &self.prior {
             Some((u0, weight)) => u
@@ -786,8 +790,9 @@ impl Problem {
     /// fitted rigid-body symbols move from `p` toward p₀ along β = β(p)
     /// ([`least_change_along_ties`](super::identifiability::least_change_along_ties)):
     /// the same torques, the same simulated positions. The move is simulated and kept when
-    /// the cost stays within one weighted noise variance σ̂² = S / (m − n) of the cost S at
-    /// `p` (it differs by rounding only); otherwise `p` is returned unchanged.
+    /// the cost stays within one weighted noise variance σ̂² = S / (m − n) of the cost
+    /// S = `cost_at_minimum` at `p` (as the fit computed it; the move changes it by
+    /// rounding only); otherwise `p` is returned unchanged.
     ///
     /// Directions the data determine only weakly (small but not zero singular values of
     /// the Jacobian) are left where the fit put them: a linearised move along them was
@@ -795,14 +800,9 @@ impl Problem {
     /// of the Freedom 6S: predicted 0.6068, simulated 516).
     ///
     /// # Errors
-    /// The simulation at `p` fails, or the plant's barycentric parameters cannot be formed.
-    pub fn least_change(&self, p: &[f64]) -> Result<LeastChange, TrialFailure> {
-        let p0: Vec<f64> = self
-            .names
-            .iter()
-            .map(|k| self.plant.parameters[k])
-            .collect();
-        let cost_at_minimum: f64 = self.residuals(p)?.iter().map(|x| x * x).sum();
+    /// The plant's barycentric parameters cannot be formed.
+    pub fn least_change(&self, p: &[f64], cost_at_minimum: f64) -> Result<LeastChange> {
+        let p0 = self.initial_values();
         let dof = self.m.saturating_sub(p.len()).max(1) as f64;
         let allowed_rise = cost_at_minimum / dof;
         let moved_to = super::identifiability::least_change_along_ties(
@@ -812,8 +812,7 @@ impl Problem {
             &p0,
             &self.lower,
             &self.upper,
-        )
-        .map_err(|e| TrialFailure(format!("{e:#}")))?;
+        )?;
         let cost = self.cost(&moved_to);
         let accepted = cost <= cost_at_minimum + allowed_rise;
         let moved = (0..p.len())
@@ -839,11 +838,7 @@ impl Problem {
     pub fn fit(&self, progress: &(dyn Fn(Progress) + Sync)) -> Result<FitResult> {
         let started = Instant::now();
         let n = self.names.len();
-        let p0: Vec<f64> = self
-            .names
-            .iter()
-            .map(|k| self.plant.parameters[k])
-            .collect();
+        let p0 = self.initial_values();
         let mut rng = generated::inertia::Xorshift(self.options.seed.max(1));
         // (start point, through the segments): the plant's values through the horizons,
         // the plant's values through the segments when there are any, then random points
@@ -1008,8 +1003,9 @@ impl Problem {
         let mut p = self.to_physical(&best.u);
         let mut cost_after = best.cost;
         let least_change = if self.options.least_change {
-            // A failed simulation here leaves the minimum as it is.
-            self.least_change(&p).ok().inspect(|lc| {
+            // The cost at the minimum is the winning start's (no second simulation); the
+            // only failure left, the barycentric parameters, would stop the statistics too.
+            Some(self.least_change(&p, best.cost)?).inspect(|lc| {
                 p.clone_from(&lc.fitted);
                 cost_after = lc.cost;
             })
