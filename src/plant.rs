@@ -75,6 +75,11 @@ pub struct PlantFile {
     /// refit`).
     #[serde(default, rename = "history", skip_serializing_if = "Vec::is_empty")]
     pub history: Vec<HistoryEntry>,
+    /// Rigid-body symbols a step of a locking sequence fitted but could not determine (not
+    /// called identifiable); the next step where they appear fits them again
+    /// ([`crate::identify::sequence::run`]), also when it is run alone with `--config`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub undetermined: Vec<String>,
 }
 
 /// One step of a plant's history: a change (an effect added, parameters refitted), the
@@ -118,6 +123,9 @@ pub struct Plant {
     pub bounds: BTreeMap<String, (f64, f64)>,
     /// Changes and refits, oldest first.
     pub history: Vec<HistoryEntry>,
+    /// Rigid-body symbols fitted by a sequence step but not determined there
+    /// ([`PlantFile::undetermined`]).
+    pub undetermined: Vec<String>,
 }
 
 /// One physical-consistency finding of a link of a plant.
@@ -187,6 +195,7 @@ impl Plant {
             parameters: BTreeMap::new(),
             bounds: BTreeMap::new(),
             history: Vec::new(),
+            undetermined: Vec::new(),
         })
     }
 
@@ -229,6 +238,7 @@ impl Plant {
         plant.file = path.map(Path::to_path_buf);
         plant.description = spec.description.clone();
         plant.history = spec.history.clone();
+        plant.undetermined = spec.undetermined.clone();
         for (i, e) in spec.effects.iter().enumerate() {
             let item = format!("effect {} ({})", i + 1, e.kind);
             let mut effects = Vec::new();
@@ -287,6 +297,15 @@ impl Plant {
                 if v < lo || v > hi {
                     bail!("[bounds] '{k}': the value {v} lies outside [{lo}, {hi}]");
                 }
+            }
+        }
+        for k in &spec.undetermined {
+            if !plant.model.inertial_symbols.contains(&k.as_str()) {
+                bail!(
+                    "'undetermined': '{k}' is not a rigid-body symbol of model '{}' (its symbols: {})",
+                    plant.model.name,
+                    plant.model.inertial_symbols.join(", ")
+                );
             }
         }
         plant.parameters = spec.parameters;
@@ -746,6 +765,7 @@ impl Plant {
                 .map(|(k, (lo, hi))| (k.clone(), [*lo, *hi]))
                 .collect(),
             history: self.history.clone(),
+            undetermined: self.undetermined.clone(),
         }
     }
 

@@ -172,6 +172,16 @@ fn plant_file_errors_name_file_and_item() {
     );
     let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();
     assert!(e.contains("'Fc_0' belongs to nothing"), "{e}");
+    let p = write(
+        d.path(),
+        "p5.toml",
+        "model = \"emps\"\nundetermined = [\"Fc_0\"]\n",
+    );
+    let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("p5.toml") && e.contains("'undetermined': 'Fc_0' is not a rigid-body symbol"),
+        "{e}"
+    );
 }
 
 #[test]

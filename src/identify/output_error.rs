@@ -27,9 +27,13 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 use rmpfit::{MPConfig, MPError, MPFitter, MPMaxFev, MPPar, MPResult, MPSide};
 use serde::Serialize;
+use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
+
+/// Relative cost decrease below which a warm-up stage (segments, a short horizon) ends.
+const WARM_UP_FTOL: f64 = 1e-6;
 
 /// Time weighting of the output-error cost.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -877,6 +881,7 @@ impl Problem {
                 let mut iterations = 0;
                 let mut diverged = 0;
                 let mut status = String::new();
+                let mut warm_ups = String::new();
                 let stages: Vec<Stage> = if through_segments {
                     self.options
                         .segments
@@ -927,7 +932,7 @@ impl Problem {
                                 self.options.xtol
                             },
                             ftol: if warm_up {
-                                self.options.ftol.max(1e-3)
+                                self.options.ftol.max(WARM_UP_FTOL)
                             } else {
                                 self.options.ftol
                             },
@@ -961,6 +966,14 @@ impl Problem {
                     match result {
                         Ok(st) => {
                             iterations += st.n_iter;
+                            if warm_up {
+                                // Why every warm-up stage ended, for the report.
+                                let _ = write!(
+                                    warm_ups,
+                                    "{stage}: {:?} after {} iteration(s); ",
+                                    st.success, st.n_iter
+                                );
+                            }
                             status = format!("{:?}", st.success);
                         }
                         Err(MPError::Eval) => {
@@ -980,7 +993,7 @@ impl Problem {
                     start_cost,
                     cost,
                     iterations,
-                    status,
+                    status: warm_ups + &status,
                     diverged,
                     through_segments,
                 }
@@ -1205,16 +1218,22 @@ impl Problem {
             .map(|i| std_err[i] / p[i].abs().max(1e-300))
             .collect();
         let only_with = self.structural_companions(p)?;
+        let joint = self.joint_fits(&trajectories);
+        let above_floor: Vec<String> = joint
+            .iter()
+            .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
+            .map(|j| format!("{} RMS {:.3} σ̂", j.joint, j.rms / j.noise))
+            .collect();
         let identifiable: Vec<bool> = (0..n)
             .map(|i| {
-                relative[i].is_finite()
+                above_floor.is_empty()
+                    && relative[i].is_finite()
                     && relative[i] <= RELATIVE_STD_LIMIT
                     && !at_bound[i]
                     && only_with[i].is_empty()
                     && (0..n).all(|j| j == i || correlation[i][j].abs() <= CORRELATION_LIMIT)
             })
             .collect();
-        let joint = self.joint_fits(&trajectories);
         Ok(Statistics {
             std_err,
             relative_std_err: relative,
@@ -1223,6 +1242,7 @@ impl Problem {
             at_bound,
             identifiable,
             only_with,
+            above_floor,
             condition,
             joints: joint,
         })
@@ -1302,6 +1322,9 @@ fn residual_total(sqrt_w: &[Vec<f64>], nf: usize) -> usize {
 pub const CORRELATION_LIMIT: f64 = 0.95;
 /// Relative standard error (σ/|p|) above which a parameter is reported as poorly determined.
 pub const RELATIVE_STD_LIMIT: f64 = 0.02;
+/// A fit is at the noise floor when every free joint's RMS position error is at most this
+/// multiple of the joint's noise σ̂ estimated from the data (the issue's criterion: 1.5 σ).
+pub const FLOOR_FACTOR: f64 = 1.5;
 
 /// Fit figures of one free joint over all files.
 #[derive(Debug, Clone, Default, Serialize)]
@@ -1340,12 +1363,17 @@ pub struct Statistics {
     pub correlated: Vec<(String, String, f64)>,
     /// At (within 1e-4 of the width of) a bound.
     pub at_bound: Vec<bool>,
-    /// σ/|p| ≤ [`RELATIVE_STD_LIMIT`], not at a bound, no correlation above the limit, not
+    /// The fit is at the noise floor (`above_floor` empty), and σ/|p| ≤
+    /// [`RELATIVE_STD_LIMIT`], not at a bound, no correlation above the limit, not
     /// structurally tied to other fitted symbols (`only_with` empty).
     pub identifiable: Vec<bool>,
     /// Per parameter, the other fitted rigid-body symbols it trades with exactly: the
     /// configuration's outputs determine only combinations of them (its base parameters).
     pub only_with: Vec<Vec<String>>,
+    /// Free joints whose RMS error exceeds [`FLOOR_FACTOR`] × their noise σ̂, as "q3 RMS
+    /// 12.4 σ̂": the residuals are not noise, so the standard errors (which assume they
+    /// are) do not bound the error of the values, and no parameter is called identifiable.
+    pub above_floor: Vec<String>,
     /// Condition number of the column-scaled JᵀJ.
     pub condition: f64,
     /// Per free joint.

@@ -383,16 +383,17 @@ pub fn run(
                 }
             );
         }
+        // With the symbols the plant file says are still undetermined, so that their
+        // bounds are checked here too.
+        let mut fitted = s.fitted.clone();
+        for n in &plant.undetermined {
+            if occ.appears_in(n, &s.config) && !fitted.contains(n) {
+                fitted.push(n.clone());
+            }
+        }
         checked.push(
-            Problem::new(
-                plant,
-                conf,
-                s.fitted.clone(),
-                recs,
-                &s.interest,
-                opts.fit.clone(),
-            )
-            .with_context(|| format!("step '{}'", s.config))?,
+            Problem::new(plant, conf, fitted, recs, &s.interest, opts.fit.clone())
+                .with_context(|| format!("step '{}'", s.config))?,
         );
     }
     for f in &files {
@@ -405,8 +406,9 @@ pub fn run(
         }
     }
     let mut current = plant.clone();
-    // Rigid-body symbols a completed step fitted but did not determine.
-    let mut undetermined: Vec<String> = Vec::new();
+    // Rigid-body symbols a completed step fitted but did not determine, starting with those
+    // the plant file records (a step run alone with `--config` after an earlier run).
+    let mut undetermined: Vec<String> = plant.undetermined.clone();
     let mut report = SequenceReport {
         sequence: opts.sequence.clone(),
         plant: plant.name(),
@@ -444,6 +446,7 @@ pub fn run(
                 undetermined.push(n.clone());
             }
         }
+        current.undetermined = undetermined.clone();
         report.steps.push(StepReport { step: s, fit });
         current.description = format!(
             "{} — identified by lockstep ({} method, steps {})",
@@ -563,13 +566,24 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                 fmt_g(lc.allowed_rise),
             );
         }
+        let stats = &f.statistics;
+        if !stats.above_floor.is_empty() {
+            let _ = writeln!(
+                s,
+                "**Not at the noise floor** ({}; the floor is {} σ̂, σ̂ the noise each joint's data show): the residuals are not noise, the standard errors do not bound the error of the values, and no parameter is called identifiable.\n",
+                stats.above_floor.join(", "),
+                super::output_error::FLOOR_FACTOR
+            );
+        }
         let _ = writeln!(
             s,
             "| parameter | initial | fitted | std error | rel. % | bounds | identifiable |\n|---|---|---|---|---|---|---|"
         );
-        let stats = &f.statistics;
         for i in 0..f.names.len() {
             let mut why = Vec::new();
+            if !stats.above_floor.is_empty() {
+                why.push("not at the noise floor".to_string());
+            }
             if stats.at_bound[i] {
                 why.push("at a bound".to_string());
             }
