@@ -27,7 +27,6 @@ use nalgebra::DMatrix;
 use rayon::prelude::*;
 use rmpfit::{MPConfig, MPError, MPFitter, MPMaxFev, MPPar, MPResult, MPSide};
 use serde::Serialize;
-use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -880,8 +879,8 @@ impl Problem {
                 };
                 let mut iterations = 0;
                 let mut diverged = 0;
-                let mut status = String::new();
-                let mut warm_ups = String::new();
+                // How each stage ended, for the report.
+                let mut ended: Vec<String> = Vec::new();
                 let stages: Vec<Stage> = if through_segments {
                     self.options
                         .segments
@@ -954,7 +953,7 @@ impl Problem {
                         start_cost: problem.cost(&problem.to_physical(&u)),
                     };
                     if !fitter.start_cost.is_finite() {
-                        status = format!("{stage}: the stage's start cannot be simulated");
+                        ended.push(format!("{stage}: the stage's start cannot be simulated"));
                         if warm_up {
                             // A warm-up stage only prepares the next one: go on from here.
                             continue;
@@ -966,22 +965,17 @@ impl Problem {
                     match result {
                         Ok(st) => {
                             iterations += st.n_iter;
-                            if warm_up {
-                                // Why every warm-up stage ended, for the report.
-                                let _ = write!(
-                                    warm_ups,
-                                    "{stage}: {:?} after {} iteration(s); ",
-                                    st.success, st.n_iter
-                                );
-                            }
-                            status = format!("{:?}", st.success);
+                            ended.push(format!(
+                                "{stage}: {:?} after {} iteration(s)",
+                                st.success, st.n_iter
+                            ));
                         }
                         Err(MPError::Eval) => {
-                            status = "stopped: a simulation failed".into();
+                            ended.push(format!("{stage}: stopped, a simulation failed"));
                             break;
                         }
                         Err(e) => {
-                            status = format!("optimiser error: {e:?}");
+                            ended.push(format!("{stage}: optimiser error {e:?}"));
                             break;
                         }
                     }
@@ -993,7 +987,7 @@ impl Problem {
                     start_cost,
                     cost,
                     iterations,
-                    status: warm_ups + &status,
+                    status: ended.join("; "),
                     diverged,
                     through_segments,
                 }
@@ -1391,7 +1385,8 @@ pub struct StartSummary {
     pub cost: f64,
     /// Levenberg–Marquardt iterations.
     pub iterations: usize,
-    /// How it ended.
+    /// How each stage ended (warm-ups, then the whole files), e.g. "horizon 100 %:
+    /// convergence in parameter value after 12 iteration(s)".
     pub status: String,
     /// Trial points whose simulation diverged (rejected by the optimiser).
     pub diverged: usize,
