@@ -431,21 +431,11 @@ pub fn least_change_along_ties(
     let violation = |beta: &[f64]| -> nalgebra::DVector<f64> {
         nalgebra::DVector::from_fn(beta.len(), |k, _| (beta[k] - beta_fit[k]) * row_scale[k])
     };
-    let z0: Vec<f64> = rigid
-        .iter()
-        .enumerate()
-        .map(|(c, &i)| initial[i] / width[c])
-        .collect();
-    let (zlo, zhi): (Vec<f64>, Vec<f64>) = rigid
-        .iter()
-        .enumerate()
-        .map(|(c, &i)| (lower[i] / width[c], upper[i] / width[c]))
-        .unzip();
-    let mut z: Vec<f64> = rigid
-        .iter()
-        .enumerate()
-        .map(|(c, &i)| values[i] / width[c])
-        .collect();
+    // The rigid-body entries of a vector over `names`, in units of their bound widths.
+    let to_z =
+        |x: &[f64]| -> Vec<f64> { rigid.iter().zip(&width).map(|(&i, w)| x[i] / w).collect() };
+    let (z0, zlo, zhi) = (to_z(initial), to_z(lower), to_z(upper));
+    let mut z = to_z(&values);
     // min ‖z − z₀‖² subject to β(z) = β(fit) and the bounds, by a penalty K ‖scaled β
     // violation‖² raised in steps (each fit warm-starts the next) with bounded
     // Levenberg–Marquardt.

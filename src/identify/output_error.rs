@@ -866,14 +866,16 @@ impl Problem {
                     Ok(r) => r.iter().map(|x| x * x).sum(),
                     Err(why) => {
                         return StartRun {
-                            start: s,
                             u,
-                            start_cost: f64::INFINITY,
-                            cost: f64::INFINITY,
-                            iterations: 0,
-                            status: format!("the start cannot be simulated: {}", why.0),
-                            diverged: 0,
-                            through_segments,
+                            summary: StartSummary {
+                                start: s,
+                                start_cost: f64::INFINITY,
+                                cost: f64::INFINITY,
+                                iterations: 0,
+                                status: format!("the start cannot be simulated: {}", why.0),
+                                diverged: 0,
+                                through_segments,
+                            },
                         }
                     }
                 };
@@ -982,37 +984,40 @@ impl Problem {
                 }
                 let cost = self.cost(&self.to_physical(&u));
                 StartRun {
-                    start: s,
                     u,
-                    start_cost,
-                    cost,
-                    iterations,
-                    status: ended.join("; "),
-                    diverged,
-                    through_segments,
+                    summary: StartSummary {
+                        start: s,
+                        start_cost,
+                        cost,
+                        iterations,
+                        status: ended.join("; "),
+                        diverged,
+                        through_segments,
+                    },
                 }
             })
             .collect();
         let best = runs
             .iter()
-            .filter(|r| r.cost.is_finite())
+            .filter(|r| r.summary.cost.is_finite())
             .min_by(|a, b| {
-                (a.cost + self.prior_penalty(&a.u)).total_cmp(&(b.cost + self.prior_penalty(&b.u)))
+                (a.summary.cost + self.prior_penalty(&a.u))
+                    .total_cmp(&(b.summary.cost + self.prior_penalty(&b.u)))
             })
             .cloned();
         let Some(best) = best else {
             bail!(
                 "configuration '{}': no start could be fitted: {}",
                 self.conf.name,
-                runs[0].status
+                runs[0].summary.status
             );
         };
         let mut p = self.to_physical(&best.u);
-        let mut cost_after = best.cost;
+        let mut cost_after = best.summary.cost;
         let least_change = if self.options.least_change {
             // The cost at the minimum is the winning start's (no second simulation); the
             // only failure left, the barycentric parameters, would stop the statistics too.
-            Some(self.least_change(&p, best.cost)?).inspect(|lc| {
+            Some(self.least_change(&p, best.summary.cost)?).inspect(|lc| {
                 p.clone_from(&lc.fitted);
                 cost_after = lc.cost;
             })
@@ -1033,19 +1038,8 @@ impl Problem {
             prior_penalty,
             least_change,
             statistics: stats,
-            starts: runs
-                .iter()
-                .map(|r| StartSummary {
-                    start: r.start,
-                    start_cost: r.start_cost,
-                    cost: r.cost,
-                    iterations: r.iterations,
-                    status: r.status.clone(),
-                    diverged: r.diverged,
-                    through_segments: r.through_segments,
-                })
-                .collect(),
-            best_start: best.start,
+            starts: runs.iter().map(|r| r.summary.clone()).collect(),
+            best_start: best.summary.start,
             evaluations: evaluations.load(Ordering::Relaxed),
             jacobians: jacobians.load(Ordering::Relaxed),
             wall_s: started.elapsed().as_secs_f64(),
@@ -1394,16 +1388,11 @@ pub struct StartSummary {
     pub through_segments: bool,
 }
 
+/// One start as run: where it ended (scaled parameters) and its summary.
 #[derive(Debug, Clone)]
 struct StartRun {
-    through_segments: bool,
-    start: usize,
     u: Vec<f64>,
-    start_cost: f64,
-    cost: f64,
-    iterations: usize,
-    status: String,
-    diverged: usize,
+    summary: StartSummary,
 }
 
 /// Result of [`Problem::least_change`].

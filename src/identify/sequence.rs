@@ -88,11 +88,7 @@ fn plan_with(plant: &Plant, sequence: &str, occ: &Occurrence) -> Result<Vec<Step
             }
             names.push(s.clone());
         }
-        let carried: Vec<String> = tied
-            .iter()
-            .filter(|s| occ.appears_in(s, cname) && !names.contains(s))
-            .cloned()
-            .collect();
+        let carried = carried_into(&tied, occ, cname, &names);
         names.extend(carried.iter().cloned());
         for e in &plant.effects {
             let joints_free =
@@ -133,6 +129,22 @@ fn plan_with(plant: &Plant, sequence: &str, occ: &Occurrence) -> Result<Vec<Step
         });
     }
     Ok(steps)
+}
+
+/// Of the `candidates` left undetermined by earlier steps, those that appear in
+/// configuration `config`'s equations and are not among its `fitted` already: the step
+/// fits them again.
+fn carried_into(
+    candidates: &[String],
+    occ: &Occurrence,
+    config: &str,
+    fitted: &[String],
+) -> Vec<String> {
+    candidates
+        .iter()
+        .filter(|n| occ.appears_in(n, config) && !fitted.contains(n))
+        .cloned()
+        .collect()
 }
 
 fn link_of(model: &Model, symbol: &str) -> String {
@@ -386,11 +398,12 @@ pub fn run(
         // With the symbols the plant file says are still undetermined, so that their
         // bounds are checked here too.
         let mut fitted = s.fitted.clone();
-        for n in &plant.undetermined {
-            if occ.appears_in(n, &s.config) && !fitted.contains(n) {
-                fitted.push(n.clone());
-            }
-        }
+        fitted.extend(carried_into(
+            &plant.undetermined,
+            &occ,
+            &s.config,
+            &s.fitted,
+        ));
         checked.push(
             Problem::new(plant, conf, fitted, recs, &s.interest, opts.fit.clone())
                 .with_context(|| format!("step '{}'", s.config))?,
@@ -421,12 +434,9 @@ pub fn run(
         // identifiable: tied, poorly determined or at a bound) stay free where they appear
         // again: held at an arbitrary point of their uncertain direction they would bias
         // every later step.
-        for n in &undetermined {
-            if occ.appears_in(n, &s.config) && !s.fitted.contains(n) {
-                s.fitted.push(n.clone());
-                s.carried.push(n.clone());
-            }
-        }
+        let more = carried_into(&undetermined, &occ, &s.config, &s.fitted);
+        s.fitted.extend(more.iter().cloned());
+        s.carried.extend(more);
         // The checked problem's files, with the plant as the earlier steps left it.
         let problem = Problem::new(
             &current,
