@@ -521,6 +521,13 @@ pub struct OutputErrorArgs {
     /// the next. `none`: the thesis cost alone.
     #[arg(long, default_value = "none", value_name = "TAU")]
     pub prior: String,
+    /// Equation-error warm start: one more start from the plant's values first fits the
+    /// torque balance at every sample (positions low-passed and differentiated, LuGre
+    /// bristles driven by the estimated velocities; no simulation, so no drift), then the
+    /// whole files; it runs beside the other starts and the lower cost wins. `on` (cut-off 0.2 of the Nyquist frequency),
+    /// a cut-off fraction such as 0.1, or `off`.
+    #[arg(long, default_value = "off", value_name = "on|off|CUTOFF")]
+    pub equation_error: String,
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
@@ -597,6 +604,14 @@ impl OutputErrorArgs {
                 x => match x.parse::<f64>() {
                     Ok(t) if t > 0.0 && t.is_finite() => Some(t),
                     _ => bail!("--prior: expected 'none' or a positive relative spread such as 0.1, got '{x}'"),
+                },
+            },
+            equation_error: match self.equation_error.trim() {
+                "off" | "none" => None,
+                "on" => Some(crate::identify::equation_error::DEFAULT_CUTOFF),
+                x => match x.parse::<f64>() {
+                    Ok(c) if c > 0.0 && c < 1.0 => Some(c),
+                    _ => bail!("--equation-error: expected on, off or a filter cut-off in (0, 1) of the Nyquist frequency such as 0.2, got '{x}'"),
                 },
             },
             ..OutputErrorOptions::default()

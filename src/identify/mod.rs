@@ -3,7 +3,10 @@
 //! measured ones (thesis Chapter 4). [`sequence`]: the locking sequences (method of
 //! isolated joints, method of coupling joints). [`refit`]: chosen parameters refitted after a
 //! change, with the error per joint before and after. [`identifiability`]: parameter occurrence
-//! per configuration and locking sequence, base parameters.
+//! per configuration and locking sequence, base parameters. [`equation_error`]: the torque
+//! balance at every sample from the measured motion, the cheap warm start of an
+//! output-error fit.
+pub mod equation_error;
 pub mod identifiability;
 pub mod idim;
 pub mod output_error;

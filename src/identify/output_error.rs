@@ -11,14 +11,16 @@
 //!
 //! Stages ([`Stage`]): a start runs on growing horizons of the files, or — the extra start
 //! of [`OutputErrorOptions::segments`] — on every file cut into short segments simulated
-//! from the measured state ([`Problem::segmented`], multiple shooting); both end on the
-//! whole files, the cost itself.
+//! from the measured state ([`Problem::segmented`], multiple shooting), or — the extra
+//! start of [`OutputErrorOptions::equation_error`] — on the torque balance at every sample
+//! ([`super::equation_error`], no simulation); all end on the whole files, the cost itself.
 //!
 //! Optimiser: bounded Levenberg–Marquardt (MINPACK/CMPFIT, crate `rmpfit`) with the
 //! Jacobian by forward finite differences, one simulation per column, run in parallel
 //! (rayon). Standard errors from the Jacobian at the solution, correlations above 0.95
 //! flagged, NRMSE fit per joint as MATLAB's `compare`.
 
+use super::equation_error::EquationError;
 use crate::plant::{ConsistencyPolicy, Plant};
 use crate::simulation::{Hold, InputSignal, State, Trajectory};
 use anyhow::{bail, Result};
@@ -122,6 +124,16 @@ pub struct OutputErrorOptions {
     /// less than the noise (the coupled k1 fit of the Freedom 6S drifts m7·z7 by 24 %
     /// there). `None`: the thesis cost alone.
     pub prior: Option<f64>,
+    /// Equation-error warm start: when set, one more start from the plant's values first
+    /// fits the equation error of the whole files ([`Problem::equation_error_stage`]: the
+    /// torque balance at every sample from the filtered, differentiated positions, no
+    /// simulation, so no drift), then the whole files (not the horizons: on the isolated
+    /// c4 of the Freedom 6S from the Appendix D guess, a 10 % horizon fitted from the
+    /// equation error's point reached 309 and the next, 25 %, started at 1.5e6, while the
+    /// whole files started at 2.3e3); it runs beside the other starts and the lower final
+    /// cost wins. The value is the position filter's cut-off as a fraction of the Nyquist
+    /// frequency ([`super::equation_error::DEFAULT_CUTOFF`] = 0.2). `None`: no such start.
+    pub equation_error: Option<f64>,
 }
 
 impl Default for OutputErrorOptions {
@@ -142,6 +154,7 @@ impl Default for OutputErrorOptions {
             segments: Vec::new(),
             least_change: false,
             prior: None,
+            equation_error: None,
         }
     }
 }
@@ -178,6 +191,21 @@ pub enum Stage {
     /// The first fraction of every file's weighted samples, simulated from the file's start;
     /// 1 is the cost (4.2)/(4.3) itself.
     Horizon(f64),
+    /// The equation error of the whole files, no simulation
+    /// ([`Problem::equation_error_stage`]).
+    EquationError,
+}
+
+/// How a start is warmed up before the fit of the whole files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WarmUp {
+    /// Growing horizons ([`OutputErrorOptions::horizons`]).
+    Horizons,
+    /// Multiple-shooting segments ([`OutputErrorOptions::segments`]).
+    Segments,
+    /// The equation error, then the whole files ([`OutputErrorOptions::equation_error`]).
+    EquationError,
 }
 
 impl Stage {
@@ -192,6 +220,7 @@ impl std::fmt::Display for Stage {
         match self {
             Stage::Segments(s) => write!(f, "segments of {s} s"),
             Stage::Horizon(h) => write!(f, "horizon {:.0} %", 100.0 * h),
+            Stage::EquationError => write!(f, "equation error"),
         }
     }
 }
@@ -243,6 +272,8 @@ pub struct Problem {
     /// The prior's centre (scaled, the plant's values) and weight s̄ / spread per
     /// parameter, when [`OutputErrorOptions::prior`] is set.
     prior: Option<(Vec<f64>, Vec<f64>)>,
+    /// Set on the equation-error stage: its residuals replace the simulated ones.
+    equation_error: Option<std::sync::Arc<EquationError>>,
     options: OutputErrorOptions,
 }
 
@@ -379,6 +410,7 @@ impl Problem {
             m,
             noise,
             prior: None,
+            equation_error: None,
             options,
         };
         if let Some(tau) = problem.options.prior {
@@ -482,8 +514,25 @@ impl Problem {
             sqrt_w,
             noise: self.noise.clone(),
             prior: self.prior.clone(),
+            equation_error: None,
             options: self.options.clone(),
         }
+    }
+
+    /// The same parameters, bounds and Fs ≥ Fc on the equation error of the whole files
+    /// ([`EquationError`], position filter cut-off `cutoff` of the Nyquist frequency):
+    /// its residuals are torque balances, not position errors, so it has no prior (the
+    /// prior's weight is set by the position noise) and serves only as a warm start.
+    ///
+    /// # Errors
+    /// A file too short for the filter, or a cut-off outside (0, 1).
+    pub fn equation_error_stage(&self, cutoff: f64) -> Result<Problem> {
+        let ee = EquationError::new(&self.plant, self.conf, &self.records, cutoff)?;
+        let mut problem = self.with_records(self.records.clone(), self.sqrt_w.clone());
+        problem.m = ee.len();
+        problem.prior = None;
+        problem.equation_error = Some(std::sync::Arc::new(ee));
+        Ok(problem)
     }
 
     /// The same problem as multiple shooting: every file cut into segments of `seconds`
@@ -734,6 +783,11 @@ impl Problem {
     /// # Errors
     /// The first failing file's simulation.
     pub fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
+        if let Some(ee) = &self.equation_error {
+            return ee
+                .residuals(&self.plant_at(p))
+                .map_err(|e| TrialFailure(format!("equation error: {e:#}")));
+        }
         Ok(self.residuals_of(&self.trajectories(p)?))
     }
 
@@ -843,15 +897,25 @@ impl Problem {
         let n = self.names.len();
         let p0 = self.initial_values();
         let mut rng = generated::inertia::Xorshift(self.options.seed.max(1));
-        // (start point, through the segments): the plant's values through the horizons,
-        // the plant's values through the segments when there are any, then random points
-        // through the horizons.
-        let mut starts: Vec<(Vec<f64>, bool)> = vec![(self.to_scaled(&p0), false)];
+        // (start point, warm-up): the plant's values through the horizons, the plant's
+        // values through the segments and through the equation error when asked for,
+        // then random points through the horizons.
+        let mut starts: Vec<(Vec<f64>, WarmUp)> = vec![(self.to_scaled(&p0), WarmUp::Horizons)];
         if !self.options.segments.is_empty() {
-            starts.push((self.to_scaled(&p0), true));
+            starts.push((self.to_scaled(&p0), WarmUp::Segments));
         }
+        let equation_error = match self.options.equation_error {
+            Some(cutoff) => {
+                starts.push((self.to_scaled(&p0), WarmUp::EquationError));
+                Some(self.equation_error_stage(cutoff))
+            }
+            None => None,
+        };
         for _ in 1..self.options.starts.max(1) {
-            starts.push(((0..n).map(|_| rng.uniform(0.0, 1.0)).collect(), false));
+            starts.push((
+                (0..n).map(|_| rng.uniform(0.0, 1.0)).collect(),
+                WarmUp::Horizons,
+            ));
         }
         let cost_before = self.cost(&p0);
         let evaluations = AtomicUsize::new(0);
@@ -860,7 +924,15 @@ impl Problem {
         let runs: Vec<StartRun> = starts
             .into_par_iter()
             .enumerate()
-            .map(|(s, (u0, through_segments))| {
+            .map(|(s, (u0, warm_up))| {
+                let context = StageContext {
+                    start: s,
+                    starts: nstarts,
+                    evaluations: &evaluations,
+                    jacobians: &jacobians,
+                    started,
+                    progress,
+                };
                 let mut u = u0.clone();
                 let start_cost = match self.residuals(&self.to_physical(&u0)) {
                     Ok(r) => r.iter().map(|x| x * x).sum(),
@@ -874,7 +946,7 @@ impl Problem {
                                 iterations: 0,
                                 status: format!("the start cannot be simulated: {}", why.0),
                                 diverged: 0,
-                                through_segments,
+                                warm_up,
                             },
                         }
                     }
@@ -883,19 +955,17 @@ impl Problem {
                 let mut diverged = 0;
                 // How each stage ended, for the report.
                 let mut ended: Vec<String> = Vec::new();
-                let stages: Vec<Stage> = if through_segments {
-                    self.options
+                let horizons = self.options.horizons.iter().map(|&h| Stage::Horizon(h));
+                let stages: Vec<Stage> = match warm_up {
+                    WarmUp::Segments => self
+                        .options
                         .segments
                         .iter()
                         .map(|&s| Stage::Segments(s))
                         .chain([Stage::Horizon(1.0)])
-                        .collect()
-                } else {
-                    self.options
-                        .horizons
-                        .iter()
-                        .map(|&h| Stage::Horizon(h))
-                        .collect()
+                        .collect(),
+                    WarmUp::Horizons => horizons.collect(),
+                    WarmUp::EquationError => vec![Stage::EquationError, Stage::Horizon(1.0)],
                 };
                 for stage in stages {
                     let staged;
@@ -909,77 +979,21 @@ impl Problem {
                             &staged
                         }
                         Stage::Horizon(_) => self,
-                    };
-                    let warm_up = !stage.is_final();
-                    let mut fitter = Fitter {
-                        problem,
-                        start: s,
-                        starts: nstarts,
-                        evaluations: &evaluations,
-                        jacobians: &jacobians,
-                        best: f64::INFINITY,
-                        stage,
-                        started,
-                        progress,
-                        cache: None,
-                        failures: 0,
-                        config: MPConfig {
-                            // Segments and shorter horizons only warm-start the next
-                            // stage: looser stopping rules there, the user's on the
-                            // whole files.
-                            xtol: if warm_up {
-                                self.options.xtol.max(1e-4)
-                            } else {
-                                self.options.xtol
-                            },
-                            ftol: if warm_up {
-                                self.options.ftol.max(WARM_UP_FTOL)
-                            } else {
-                                self.options.ftol
-                            },
-                            gtol: 1e-10,
-                            max_iter: self.options.max_iter,
-                            max_fev: MPMaxFev::Limited(20 * self.options.max_iter.max(1)),
-                            ..MPConfig::new()
+                        Stage::EquationError => match &equation_error {
+                            Some(Ok(p)) => p,
+                            Some(Err(e)) => {
+                                ended.push(format!("{stage}: {e:#}"));
+                                continue;
+                            }
+                            None => continue,
                         },
-                        pars: (0..n)
-                            .map(|_| MPPar {
-                                limited_low: true,
-                                limited_up: true,
-                                limit_low: 0.0,
-                                limit_up: 1.0,
-                                side: MPSide::User,
-                                ..MPPar::new()
-                            })
-                            .collect(),
-                        start_cost: problem.cost(&problem.to_physical(&u)),
                     };
-                    if !fitter.start_cost.is_finite() {
-                        ended.push(format!("{stage}: the stage's start cannot be simulated"));
-                        if warm_up {
-                            // A warm-up stage only prepares the next one: go on from here.
-                            continue;
-                        }
+                    let outcome = problem.run_stage(stage, &mut u, &context);
+                    diverged += outcome.failures;
+                    iterations += outcome.iterations;
+                    ended.push(format!("{stage}: {}", outcome.status));
+                    if outcome.stop {
                         break;
-                    }
-                    let result = fitter.mpfit(&mut u);
-                    diverged += fitter.failures;
-                    match result {
-                        Ok(st) => {
-                            iterations += st.n_iter;
-                            ended.push(format!(
-                                "{stage}: {:?} after {} iteration(s)",
-                                st.success, st.n_iter
-                            ));
-                        }
-                        Err(MPError::Eval) => {
-                            ended.push(format!("{stage}: stopped, a simulation failed"));
-                            break;
-                        }
-                        Err(e) => {
-                            ended.push(format!("{stage}: optimiser error {e:?}"));
-                            break;
-                        }
                     }
                 }
                 let cost = self.cost(&self.to_physical(&u));
@@ -992,7 +1006,7 @@ impl Problem {
                         iterations,
                         status: ended.join("; "),
                         diverged,
-                        through_segments,
+                        warm_up,
                     },
                 }
             })
@@ -1046,6 +1060,122 @@ impl Problem {
             residuals: self.m,
             files: self.records.iter().map(|r| r.file.clone()).collect(),
         })
+    }
+
+    /// One bounded Levenberg–Marquardt run of `stage` on this problem from the scaled
+    /// parameters `u`, which it updates in place. Warm-up stages (every stage but the whole
+    /// files) stop on looser rules: relative step 1e-4 (or the user's xtol if looser) and
+    /// the user's relative cost decrease (at least [`WARM_UP_FTOL`]).
+    fn run_stage(&self, stage: Stage, u: &mut [f64], context: &StageContext) -> StageOutcome {
+        let n = u.len();
+        let warm_up = !stage.is_final();
+        let start_cost = self.cost(&self.to_physical(u));
+        if !start_cost.is_finite() {
+            return StageOutcome {
+                status: "the stage's start cannot be simulated".into(),
+                iterations: 0,
+                failures: 0,
+                // A warm-up stage only prepares the next one: go on from here.
+                stop: !warm_up,
+            };
+        }
+        let mut fitter = Fitter {
+            problem: self,
+            context,
+            best: f64::INFINITY,
+            stage,
+            cache: None,
+            failures: 0,
+            config: if stage == Stage::EquationError {
+                // Cheap residuals (no simulation) on a problem with nearly flat directions
+                // (the base parameters' ties): stop only on a standstill.
+                MPConfig {
+                    xtol: 1e-10,
+                    ftol: 1e-10,
+                    gtol: 1e-12,
+                    max_iter: 500,
+                    max_fev: MPMaxFev::Limited(5000),
+                    ..MPConfig::new()
+                }
+            } else {
+                MPConfig {
+                    xtol: if warm_up {
+                        self.options.xtol.max(1e-4)
+                    } else {
+                        self.options.xtol
+                    },
+                    ftol: if warm_up {
+                        self.options.ftol.max(WARM_UP_FTOL)
+                    } else {
+                        self.options.ftol
+                    },
+                    gtol: 1e-10,
+                    max_iter: self.options.max_iter,
+                    max_fev: MPMaxFev::Limited(20 * self.options.max_iter.max(1)),
+                    ..MPConfig::new()
+                }
+            },
+            pars: (0..n)
+                .map(|_| MPPar {
+                    limited_low: true,
+                    limited_up: true,
+                    limit_low: 0.0,
+                    limit_up: 1.0,
+                    side: MPSide::User,
+                    ..MPPar::new()
+                })
+                .collect(),
+            start_cost,
+        };
+        let result = fitter.mpfit(u);
+        let failures = fitter.failures;
+        match result {
+            Ok(st) => StageOutcome {
+                status: format!("{:?} after {} iteration(s)", st.success, st.n_iter),
+                iterations: st.n_iter,
+                failures,
+                stop: false,
+            },
+            Err(MPError::Eval) => StageOutcome {
+                status: "stopped, a simulation failed".into(),
+                iterations: 0,
+                failures,
+                stop: true,
+            },
+            Err(e) => StageOutcome {
+                status: format!("optimiser error {e:?}"),
+                iterations: 0,
+                failures,
+                stop: true,
+            },
+        }
+    }
+
+    /// The equation-error estimate alone: from the plant's values, the minimum of the
+    /// equation error of the whole files ([`Problem::equation_error_stage`], cut-off
+    /// `cutoff` of the Nyquist frequency) within the bounds and Fs ≥ Fc, as the warm start
+    /// of [`OutputErrorOptions::equation_error`] finds it. Returns the physical parameters
+    /// and how the optimiser ended.
+    ///
+    /// # Errors
+    /// A file too short for the filter, a cut-off outside (0, 1), or the plant cannot be
+    /// configured at the start.
+    pub fn fit_equation_error(&self, cutoff: f64) -> Result<(Vec<f64>, String)> {
+        let ee = self.equation_error_stage(cutoff)?;
+        let mut u = self.to_scaled(&self.initial_values());
+        ee.residuals(&self.to_physical(&u))
+            .map_err(|e| anyhow::anyhow!("{}", e.0))?;
+        let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
+        let context = StageContext {
+            start: 0,
+            starts: 1,
+            evaluations: &evaluations,
+            jacobians: &jacobians,
+            started: Instant::now(),
+            progress: &|_| {},
+        };
+        let outcome = ee.run_stage(Stage::EquationError, &mut u, &context);
+        Ok((self.to_physical(&u), outcome.status))
     }
 
     /// Standard errors, correlations and fit figures at physical parameters `p`.
@@ -1384,8 +1514,8 @@ pub struct StartSummary {
     pub status: String,
     /// Trial points whose simulation diverged (rejected by the optimiser).
     pub diverged: usize,
-    /// Warmed up through the segments (else through the horizons).
-    pub through_segments: bool,
+    /// How the start was warmed up.
+    pub warm_up: WarmUp,
 }
 
 /// One start as run: where it ended (scaled parameters) and its summary.
@@ -1466,16 +1596,33 @@ impl FitResult {
 }
 
 /// The rmpfit adapter: scaled parameters, cached residuals, user (parallel) Jacobian.
-struct Fitter<'a> {
-    problem: &'a Problem,
+/// What every stage of one start shares: its place among the starts, the fit's counters
+/// and clock, and the progress display.
+struct StageContext<'a> {
     start: usize,
     starts: usize,
     evaluations: &'a AtomicUsize,
     jacobians: &'a AtomicUsize,
-    best: f64,
-    stage: Stage,
     started: Instant,
     progress: &'a (dyn Fn(Progress) + Sync),
+}
+
+/// How a stage ended.
+struct StageOutcome {
+    /// For the report, e.g. "Convergence in parameter value after 6 iteration(s)".
+    status: String,
+    iterations: usize,
+    /// Trial points that could not be simulated.
+    failures: usize,
+    /// The start cannot go on to the next stage.
+    stop: bool,
+}
+
+struct Fitter<'a> {
+    problem: &'a Problem,
+    context: &'a StageContext<'a>,
+    best: f64,
+    stage: Stage,
     cache: Option<(Vec<f64>, Vec<f64>)>,
     failures: usize,
 
@@ -1491,7 +1638,7 @@ impl Fitter<'_> {
                 return cr.clone();
             }
         }
-        self.evaluations.fetch_add(1, Ordering::Relaxed);
+        self.context.evaluations.fetch_add(1, Ordering::Relaxed);
         let mut r = match self.problem.residuals(&self.problem.to_physical(u)) {
             Ok(r) => r,
             Err(_) => {
@@ -1506,14 +1653,14 @@ impl Fitter<'_> {
         let c: f64 = r.iter().map(|x| x * x).sum();
         self.best = self.best.min(c);
         let best = self.best;
-        (self.progress)(Progress {
-            start: self.start,
-            starts: self.starts,
+        (self.context.progress)(Progress {
+            start: self.context.start,
+            starts: self.context.starts,
             stage: self.stage,
-            iteration: self.jacobians.load(Ordering::Relaxed),
-            evaluations: self.evaluations.load(Ordering::Relaxed),
+            iteration: self.context.jacobians.load(Ordering::Relaxed),
+            evaluations: self.context.evaluations.load(Ordering::Relaxed),
             cost: best,
-            elapsed: self.started.elapsed().as_secs_f64(),
+            elapsed: self.context.started.elapsed().as_secs_f64(),
         });
         self.cache = Some((u.to_vec(), r.clone()));
         r
@@ -1547,7 +1694,7 @@ impl MPFitter for Fitter<'_> {
     ) -> MPResult<()> {
         let r0 = self.evaluate(params);
         deviates.copy_from_slice(&r0);
-        self.jacobians.fetch_add(1, Ordering::Relaxed);
+        self.context.jacobians.fetch_add(1, Ordering::Relaxed);
         let h = self.problem.options.fd_step;
         let steps: Vec<f64> = params
             .iter()
@@ -1562,7 +1709,9 @@ impl MPFitter for Fitter<'_> {
             &|x: &[f64]| p.to_physical(x),
             false,
         );
-        self.evaluations.fetch_add(params.len(), Ordering::Relaxed);
+        self.context
+            .evaluations
+            .fetch_add(params.len(), Ordering::Relaxed);
         // rmpfit's deviates are (y − f): the derivative of the residual as defined here;
         // the prior's rows are the weight on the diagonal.
         for (i, d) in derivs.iter_mut().enumerate() {

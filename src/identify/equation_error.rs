@@ -1,0 +1,285 @@
+//! Equation-error (inverse-dynamics) warm start of an output-error fit.
+//!
+//! Output error (thesis 4.2/4.3) compares simulated with measured positions: over a long
+//! file the simulation of a far-off guess drifts, and the cost has local minima the
+//! optimiser cannot leave (the isolated c4 step of the Freedom 6S from the Appendix D guess
+//! stalls at 5e5 in the growing horizons). The equation error compares torques instead, at
+//! every sample, from the measured motion: it needs no simulation, has no drift, and is
+//! nearly quadratic in the parameters (linear in the barycentric parameters, the friction
+//! levels and the springs; Gautier's IDIM, here with the nonlinear effects kept). Its
+//! minimum is biased by the filtering and by the LuGre bristles being driven by estimated
+//! velocities, so it only warm-starts the output-error stages.
+//!
+//! Per file, as [`super::idim`]: positions low-passed forward and backward (Butterworth,
+//! zero phase), velocities and accelerations by central differences; the commanded torque,
+//! held (ZOH) over each sample period, averaged over the two periods a central difference
+//! spans and passed through the same filter. The LuGre deflections z are integrated along
+//! the estimated velocities from z = 0 at each file's start (exactly for a velocity held
+//! over a sample period: z relaxes to g(v) sign(v) / σ0 at rate σ0 |v| / g(v)). The residual
+//! of free joint a at sample k, in commanded-torque units, is
+//!
+//! e_a,k = (Kp_a τ'_a,k − b F_a(q, q̇, z) − Ks_a (q_a − qeq_a) − offset_a − Y_F,a(q, q̇, q̈) p) / (Kp_a s_a)
+//!
+//! with τ' the command after the tendon couplings (4.5–4.6), p the barycentric parameters,
+//! Y_F the generated regressor, and s_a the RMS of joint a's commanded torque over the files
+//! (so that every joint's equation counts alike). Dividing by Kp keeps the exact scale
+//! symmetry of the output-error cost (Kp with every force of its joint): the equation error
+//! is the same all along it, as the positions are. The friction position bias's switch at
+//! qeq is smoothed over [`BIAS_WIDTH`] (a jump would stall the finite-difference optimiser).
+
+use super::output_error::Record;
+use crate::plant::{ConsistencyPolicy, Plant};
+use crate::signal::{butter_lowpass, central_difference};
+use crate::simulation::PlantModel;
+use anyhow::{bail, Result};
+use generated::Configuration;
+
+/// Samples left out at each end of a file: the ends of a forward-backward filter and of
+/// the double central difference are the least accurate.
+const EDGE: usize = 10;
+
+/// Cut-off of the position filter as a fraction of the Nyquist frequency (0.2: 10 Hz at
+/// 100 Hz sampling, above the thesis's excitation frequencies).
+pub const DEFAULT_CUTOFF: f64 = 0.2;
+
+/// Width (rad) of the logistic step that stands for the friction position bias's switch
+/// at q = qeq (thesis 4.3.5: all friction × FrictionBias where q < qeq). A sharp switch
+/// makes the equation error jump wherever a sample crosses qeq, and a finite-difference
+/// Jacobian then sees a derivative of about the jump / the step: the optimiser stalls.
+const BIAS_WIDTH: f64 = 2e-3;
+
+/// Order of the Butterworth position filter.
+const ORDER: usize = 4;
+
+/// One file prepared for the equation error.
+#[derive(Debug, Clone)]
+struct Prepared {
+    /// Positions of every joint (NJ): the locked joints' values.
+    q_all: Vec<f64>,
+    /// Sampling period (s).
+    dt: f64,
+    /// Filtered positions per free joint (NF × n).
+    q: Vec<Vec<f64>>,
+    /// Velocities per free joint (NF × n).
+    qd: Vec<Vec<f64>>,
+    /// Filtered held commands per free joint (NF × n).
+    tau: Vec<Vec<f64>>,
+    /// Regressor rows at the used samples: per used sample, NF × (present parameters).
+    y: Vec<f64>,
+}
+
+/// The equation error of one configuration on a set of files, ready to evaluate at any
+/// parameter values (see the module documentation).
+#[derive(Debug, Clone)]
+pub struct EquationError {
+    conf: &'static Configuration,
+    files: Vec<Prepared>,
+    /// 1 / s_a per free joint.
+    scale: Vec<f64>,
+    /// Number of residuals.
+    len: usize,
+}
+
+impl EquationError {
+    /// Prepare the files `records` of configuration `conf` of `plant`'s model (their
+    /// locked joints' positions, measured positions and commanded torques); `cutoff` is
+    /// the filter's cut-off as a fraction of each file's Nyquist frequency.
+    ///
+    /// # Errors
+    /// A file with fewer than 4·EDGE + 12 samples, or a cut-off outside (0, 1).
+    pub fn new(
+        plant: &Plant,
+        conf: &'static Configuration,
+        records: &[Record],
+        cutoff: f64,
+    ) -> Result<EquationError> {
+        if !(cutoff > 0.0 && cutoff < 1.0) {
+            bail!("equation error: the filter cut-off must lie in (0, 1) of the Nyquist frequency, got {cutoff}");
+        }
+        let nf = conf.free.len();
+        let np = conf.params_present.len();
+        let np_all = plant.model.params.len();
+        let filter = butter_lowpass(ORDER, cutoff);
+        let mut prepared = Vec::with_capacity(records.len());
+        let mut sum_sq = vec![0.0; nf];
+        let mut count = 0usize;
+        for Record {
+            file,
+            q_all,
+            dt,
+            q,
+            tau,
+            ..
+        } in records
+        {
+            let n = q.first().map_or(0, Vec::len);
+            if n < 4 * EDGE + 12 {
+                bail!(
+                    "{}: {n} samples, the equation error needs at least {}",
+                    file.display(),
+                    4 * EDGE + 12
+                );
+            }
+            let filt = |x: &[f64]| filter.filtfilt(x).unwrap_or_else(|| x.to_vec());
+            let qf: Vec<Vec<f64>> = q.iter().map(|c| filt(c)).collect();
+            let qd: Vec<Vec<f64>> = qf.iter().map(|c| central_difference(c, *dt)).collect();
+            let qdd: Vec<Vec<f64>> = qd.iter().map(|c| central_difference(c, *dt)).collect();
+            // The command held over [t_k, t_k+1): a central difference at k spans the
+            // periods of τ_k−1 and τ_k.
+            let tauf: Vec<Vec<f64>> = tau
+                .iter()
+                .map(|c| {
+                    let held: Vec<f64> = (0..n)
+                        .map(|k| 0.5 * (c[k.saturating_sub(1)] + c[k]))
+                        .collect();
+                    filt(&held)
+                })
+                .collect();
+            let mut y = Vec::with_capacity((n - 2 * EDGE) * nf * np);
+            let mut q_full = q_all.clone();
+            let mut qdk = vec![0.0; nf];
+            let mut qddk = vec![0.0; nf];
+            let mut yk = vec![0.0; nf * np_all];
+            for k in EDGE..n - EDGE {
+                for (a, &j) in conf.free.iter().enumerate() {
+                    q_full[j] = qf[a][k];
+                    qdk[a] = qd[a][k];
+                    qddk[a] = qdd[a][k];
+                    sum_sq[a] += tau[a][k] * tau[a][k];
+                }
+                count += 1;
+                (conf.regressor)(&q_full, &qdk, &qddk, &mut yk);
+                for a in 0..nf {
+                    y.extend(conf.params_present.iter().map(|&j| yk[a * np_all + j]));
+                }
+            }
+            prepared.push(Prepared {
+                q_all: q_all.clone(),
+                dt: *dt,
+                q: qf,
+                qd,
+                tau: tauf,
+                y,
+            });
+        }
+        let rms: Vec<f64> = sum_sq
+            .iter()
+            .map(|s| (s / count.max(1) as f64).sqrt())
+            .collect();
+        let largest = rms.iter().copied().fold(0.0, f64::max);
+        let scale = rms
+            .iter()
+            .map(|&s| {
+                // A joint without command of its own (moved by a coupling or the others)
+                // weighs as the most driven one.
+                let s = if s > 1e-9 * largest { s } else { largest };
+                if s > 0.0 {
+                    1.0 / s
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        Ok(EquationError {
+            conf,
+            len: count * nf,
+            files: prepared,
+            scale,
+        })
+    }
+
+    /// Number of residuals (used samples × free joints).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when there are no residuals.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The residuals e_a,k of `plant`, file by file, sample by sample, joint by joint.
+    ///
+    /// # Errors
+    /// The plant cannot be configured (a parameter without value, LuGre with vs ≤ 0, …).
+    pub fn residuals(&self, plant: &Plant) -> Result<Vec<f64>> {
+        let mut out = Vec::with_capacity(self.len);
+        let Some(first) = self.files.first() else {
+            return Ok(out);
+        };
+        let mut model = plant
+            .simulator(self.conf.name, &first.q_all, ConsistencyPolicy::Warn)?
+            .model;
+        // The friction position bias switches at q = qeq: smoothed here (see
+        // [`BIAS_WIDTH`]), so it is taken out of the model's friction.
+        let bias: Vec<Option<(f64, f64)>> = model.terms.iter_mut().map(|t| t.bias.take()).collect();
+        let p: Vec<f64> = self
+            .conf
+            .params_present
+            .iter()
+            .map(|&j| model.p[j])
+            .collect();
+        for f in &self.files {
+            self.file_residuals(&model, &bias, &p, f, &mut out);
+        }
+        Ok(out)
+    }
+
+    fn file_residuals(
+        &self,
+        model: &PlantModel,
+        bias: &[Option<(f64, f64)>],
+        p: &[f64],
+        f: &Prepared,
+        out: &mut Vec<f64>,
+    ) {
+        let nf = self.conf.free.len();
+        let np = p.len();
+        let n = f.q[0].len();
+        let mut z = vec![0.0; nf];
+        let mut tau = vec![0.0; nf];
+        let mut tc = vec![0.0; nf];
+        let mut row = 0;
+        for k in 1..n - EDGE {
+            // Bristles: the velocity of sample k held over the period before it.
+            for (a, za) in z.iter_mut().enumerate() {
+                if let Some(l) = &model.terms[a].lugre {
+                    let v = f.qd[a][k];
+                    let g = l.g(v);
+                    let rate = l.sigma0 * v.abs() / g;
+                    if rate > 0.0 && rate.is_finite() {
+                        let z_ss = v / rate;
+                        *za = z_ss + (*za - z_ss) * (-rate * f.dt).exp();
+                    }
+                }
+            }
+            if k < EDGE {
+                continue;
+            }
+            for a in 0..nf {
+                tau[a] = f.tau[a][k];
+            }
+            model.coupled_command(&tau, &mut tc);
+            for (a, t) in model.terms.iter().enumerate() {
+                let q = f.q[a][k];
+                let (mut friction, _) = model.friction(a, q, f.qd[a][k], z[a]);
+                if let Some((factor, qeq)) = bias[a] {
+                    let below = 1.0 / (1.0 + ((q - qeq) / BIAS_WIDTH).exp());
+                    friction *= 1.0 + (factor - 1.0) * below;
+                }
+                let spring = t.spring.map_or(0.0, |(ks, qeq)| ks * (q - qeq));
+                let yk = &f.y[(row * nf + a) * np..(row * nf + a + 1) * np];
+                let rigid: f64 = yk.iter().zip(p).map(|(y, p)| y * p).sum();
+                let gain = if t.gain.abs() > f64::MIN_POSITIVE {
+                    t.gain
+                } else {
+                    1.0
+                };
+                out.push(
+                    (t.gain * tc[a] - friction - spring - t.offset - rigid) / gain * self.scale[a],
+                );
+            }
+            row += 1;
+        }
+    }
+}
