@@ -1065,7 +1065,9 @@ impl Problem {
     /// One bounded Levenberg–Marquardt run of `stage` on this problem from the scaled
     /// parameters `u`, which it updates in place. Warm-up stages (every stage but the whole
     /// files) stop on looser rules: relative step 1e-4 (or the user's xtol if looser) and
-    /// the user's relative cost decrease (at least [`WARM_UP_FTOL`]).
+    /// the user's relative cost decrease (at least [`WARM_UP_FTOL`]); the equation-error
+    /// stage, whose evaluations cost no simulation, only on a standstill (1e-10, at most
+    /// 500 iterations).
     fn run_stage(&self, stage: Stage, u: &mut [f64], context: &StageContext) -> StageOutcome {
         let n = u.len();
         let warm_up = !stage.is_final();
@@ -1079,6 +1081,25 @@ impl Problem {
                 stop: !warm_up,
             };
         }
+        let (xtol, ftol, gtol, max_iter, max_fev) = match stage {
+            // Cheap residuals (no simulation) on a problem with nearly flat directions (the
+            // base parameters' ties): stop only on a standstill.
+            Stage::EquationError => (1e-10, 1e-10, 1e-12, 500, 5000),
+            _ if warm_up => (
+                self.options.xtol.max(1e-4),
+                self.options.ftol.max(WARM_UP_FTOL),
+                1e-10,
+                self.options.max_iter,
+                20 * self.options.max_iter.max(1),
+            ),
+            _ => (
+                self.options.xtol,
+                self.options.ftol,
+                1e-10,
+                self.options.max_iter,
+                20 * self.options.max_iter.max(1),
+            ),
+        };
         let mut fitter = Fitter {
             problem: self,
             context,
@@ -1086,34 +1107,13 @@ impl Problem {
             stage,
             cache: None,
             failures: 0,
-            config: if stage == Stage::EquationError {
-                // Cheap residuals (no simulation) on a problem with nearly flat directions
-                // (the base parameters' ties): stop only on a standstill.
-                MPConfig {
-                    xtol: 1e-10,
-                    ftol: 1e-10,
-                    gtol: 1e-12,
-                    max_iter: 500,
-                    max_fev: MPMaxFev::Limited(5000),
-                    ..MPConfig::new()
-                }
-            } else {
-                MPConfig {
-                    xtol: if warm_up {
-                        self.options.xtol.max(1e-4)
-                    } else {
-                        self.options.xtol
-                    },
-                    ftol: if warm_up {
-                        self.options.ftol.max(WARM_UP_FTOL)
-                    } else {
-                        self.options.ftol
-                    },
-                    gtol: 1e-10,
-                    max_iter: self.options.max_iter,
-                    max_fev: MPMaxFev::Limited(20 * self.options.max_iter.max(1)),
-                    ..MPConfig::new()
-                }
+            config: MPConfig {
+                xtol,
+                ftol,
+                gtol,
+                max_iter,
+                max_fev: MPMaxFev::Limited(max_fev),
+                ..MPConfig::new()
             },
             pars: (0..n)
                 .map(|_| MPPar {
