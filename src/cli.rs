@@ -528,6 +528,14 @@ pub struct OutputErrorArgs {
     /// a cut-off fraction such as 0.1, or `off`.
     #[arg(long, default_value = "off", value_name = "on|off|CUTOFF")]
     pub equation_error: String,
+    /// Prediction-error homotopy, e.g. `--predictor 3,1`: before the whole files, fit the
+    /// files simulated with the state pulled toward the measured positions by a critically
+    /// damped output injection of each bandwidth ω (rad/s) in turn (a Luenberger observer:
+    /// at large ω a low-passed equation error, smooth in the parameters; ω → 0 is the
+    /// output error). It follows the equation error when `--equation-error` is on, or is one
+    /// more start from the plant's values. `none`: no such stages.
+    #[arg(long, default_value = "none", value_name = "OMEGAS")]
+    pub predictor: String,
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
@@ -569,18 +577,16 @@ impl OutputErrorArgs {
                 self.horizons
             );
         }
-        let segments: Vec<f64> = match self.segments.trim() {
-            "" | "none" => Vec::new(),
-            list => list
-                .split(',')
-                .map(|x| match x.trim().parse::<f64>() {
-                    Ok(s) if s > 0.0 && s.is_finite() => Ok(s),
-                    _ => Err(anyhow::anyhow!(
-                        "--segments: expected 'none' or positive lengths in seconds such as 1,4, got '{x}'"
-                    )),
-                })
-                .collect::<Result<_>>()?,
-        };
+        let segments = positive_list(
+            "--segments",
+            &self.segments,
+            "lengths in seconds such as 1,4",
+        )?;
+        let predictor = positive_list(
+            "--predictor",
+            &self.predictor,
+            "bandwidths in rad/s such as 3,1",
+        )?;
         let hold = match self.hold.as_str() {
             "zoh" => Hold::Zoh,
             "linear" => Hold::Linear,
@@ -598,6 +604,7 @@ impl OutputErrorArgs {
             seed: self.seed,
             horizons: self.horizons.clone(),
             segments,
+            predictor,
             least_change: self.least_change == "on",
             prior: match self.prior.trim() {
                 "none" => None,
@@ -616,6 +623,22 @@ impl OutputErrorArgs {
             },
             ..OutputErrorOptions::default()
         })
+    }
+}
+
+/// A comma-separated list of positive numbers for `flag`, or `none` (empty list).
+fn positive_list(flag: &str, value: &str, what: &str) -> Result<Vec<f64>> {
+    match value.trim() {
+        "" | "none" => Ok(Vec::new()),
+        list => list
+            .split(',')
+            .map(|x| match x.trim().parse::<f64>() {
+                Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+                _ => Err(anyhow::anyhow!(
+                    "{flag}: expected 'none' or positive {what}, got '{x}'"
+                )),
+            })
+            .collect(),
     }
 }
 

@@ -134,6 +134,15 @@ pub struct OutputErrorOptions {
     /// cost wins. The value is the position filter's cut-off as a fraction of the Nyquist
     /// frequency ([`super::equation_error::DEFAULT_CUTOFF`] = 0.2). `None`: no such start.
     pub equation_error: Option<f64>,
+    /// Prediction-error homotopy: output-injection bandwidths ω (rad/s), fitted in turn
+    /// ([`Problem::predictor`]: the simulation pulled toward the measured positions, a
+    /// low-passed equation error at large ω, the output error at ω → 0) before the whole
+    /// files. With `equation_error` set, that start runs through them after the equation
+    /// error; otherwise one more start from the plant's values does. On the isolated c4 of
+    /// the Freedom 6S (joint 2: LuGre friction, a spring and a friction position bias) the
+    /// equation error's point left the whole files in a local minimum at 2.3e3 (the noise
+    /// floor is ≈ 0.3); through ω = 3, 1 rad/s they reached 0.42 in 128 s. Empty: none.
+    pub predictor: Vec<f64>,
 }
 
 impl Default for OutputErrorOptions {
@@ -155,6 +164,7 @@ impl Default for OutputErrorOptions {
             least_change: false,
             prior: None,
             equation_error: None,
+            predictor: Vec::new(),
         }
     }
 }
@@ -194,6 +204,9 @@ pub enum Stage {
     /// The equation error of the whole files, no simulation
     /// ([`Problem::equation_error_stage`]).
     EquationError,
+    /// The whole files simulated by the predictor of output-injection bandwidth ω (rad/s)
+    /// ([`Problem::predictor`]).
+    Predictor(f64),
 }
 
 /// How a start is warmed up before the fit of the whole files.
@@ -204,8 +217,12 @@ pub enum WarmUp {
     Horizons,
     /// Multiple-shooting segments ([`OutputErrorOptions::segments`]).
     Segments,
-    /// The equation error, then the whole files ([`OutputErrorOptions::equation_error`]).
+    /// The equation error, then the predictor's bandwidths if set, then the whole files
+    /// ([`OutputErrorOptions::equation_error`]).
     EquationError,
+    /// The predictor's bandwidths, then the whole files ([`OutputErrorOptions::predictor`];
+    /// without the equation error).
+    Predictor,
 }
 
 impl Stage {
@@ -221,6 +238,7 @@ impl std::fmt::Display for Stage {
             Stage::Segments(s) => write!(f, "segments of {s} s"),
             Stage::Horizon(h) => write!(f, "horizon {:.0} %", 100.0 * h),
             Stage::EquationError => write!(f, "equation error"),
+            Stage::Predictor(omega) => write!(f, "predictor ω = {omega} rad/s"),
         }
     }
 }
@@ -274,6 +292,9 @@ pub struct Problem {
     prior: Option<(Vec<f64>, Vec<f64>)>,
     /// Set on the equation-error stage: its residuals replace the simulated ones.
     equation_error: Option<std::sync::Arc<EquationError>>,
+    /// Set on a prediction-error stage: the bandwidth ω (rad/s) of the output injection
+    /// that pulls the simulation toward the measured positions ([`Problem::predictor`]).
+    predictor: Option<f64>,
     options: OutputErrorOptions,
 }
 
@@ -411,6 +432,7 @@ impl Problem {
             noise,
             prior: None,
             equation_error: None,
+            predictor: None,
             options,
         };
         if let Some(tau) = problem.options.prior {
@@ -515,6 +537,7 @@ impl Problem {
             noise: self.noise.clone(),
             prior: self.prior.clone(),
             equation_error: None,
+            predictor: self.predictor,
             options: self.options.clone(),
         }
     }
@@ -589,6 +612,18 @@ impl Problem {
             }
         }
         self.with_records(records, sqrt_w)
+    }
+
+    /// The same problem on the predictor's errors: every file simulated with the state pulled
+    /// toward its measured positions by a critically damped output injection of bandwidth
+    /// `omega` (rad/s, [`crate::simulation::PlantModel::predict_at`]). Below ω the residual is a
+    /// low-passed equation error, so drift and the long memory of friction (where a joint
+    /// sticks decides every later position) no longer make the cost rugged; `omega` → 0 is
+    /// the output error. A sequence of decreasing ω is a homotopy from the one to the other.
+    pub fn predictor(&self, omega: f64) -> Problem {
+        let mut p = self.clone();
+        p.predictor = (omega > 0.0).then_some(omega);
+        p
     }
 
     /// Number of residuals.
@@ -670,7 +705,14 @@ impl Problem {
             hold: self.options.hold,
         };
         sim.model
-            .simulate_at(x0, self.options.h, &input, &r.t, self.options.max_speed)
+            .predict_at(
+                x0,
+                self.options.h,
+                &input,
+                self.predictor.map(|omega| (omega, r.q.as_slice())),
+                &r.t,
+                self.options.max_speed,
+            )
             .map_err(|d| {
                 let j = plant.model.joints[self.conf.free[d.joint]];
                 fail(d.message(&format!("'{j}'")))
@@ -911,6 +953,9 @@ impl Problem {
             }
             None => None,
         };
+        if equation_error.is_none() && !self.options.predictor.is_empty() {
+            starts.push((self.to_scaled(&p0), WarmUp::Predictor));
+        }
         for _ in 1..self.options.starts.max(1) {
             starts.push((
                 (0..n).map(|_| rng.uniform(0.0, 1.0)).collect(),
@@ -956,6 +1001,7 @@ impl Problem {
                 // How each stage ended, for the report.
                 let mut ended: Vec<String> = Vec::new();
                 let horizons = self.options.horizons.iter().map(|&h| Stage::Horizon(h));
+                let predictor = self.options.predictor.iter().map(|&w| Stage::Predictor(w));
                 let stages: Vec<Stage> = match warm_up {
                     WarmUp::Segments => self
                         .options
@@ -965,7 +1011,12 @@ impl Problem {
                         .chain([Stage::Horizon(1.0)])
                         .collect(),
                     WarmUp::Horizons => horizons.collect(),
-                    WarmUp::EquationError => vec![Stage::EquationError, Stage::Horizon(1.0)],
+                    WarmUp::EquationError => [Stage::EquationError]
+                        .into_iter()
+                        .chain(predictor)
+                        .chain([Stage::Horizon(1.0)])
+                        .collect(),
+                    WarmUp::Predictor => predictor.chain([Stage::Horizon(1.0)]).collect(),
                 };
                 for stage in stages {
                     let staged;
@@ -979,6 +1030,10 @@ impl Problem {
                             &staged
                         }
                         Stage::Horizon(_) => self,
+                        Stage::Predictor(omega) => {
+                            staged = self.predictor(omega);
+                            &staged
+                        }
                         Stage::EquationError => match &equation_error {
                             Some(Ok(p)) => p,
                             Some(Err(e)) => {
@@ -1085,7 +1140,9 @@ impl Problem {
             // Cheap residuals (no simulation) on a problem with nearly flat directions (the
             // base parameters' ties): stop only on a standstill.
             Stage::EquationError => (1e-10, 1e-10, 1e-12, 500, 5000),
-            _ if warm_up => (
+            // The predictor's stages move the parameters most of the way: they run on the
+            // whole files' rules (as measured on c4: 45 iterations at ω = 3 rad/s).
+            _ if warm_up && !matches!(stage, Stage::Predictor(_)) => (
                 self.options.xtol.max(1e-4),
                 self.options.ftol.max(WARM_UP_FTOL),
                 1e-10,
