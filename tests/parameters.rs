@@ -142,3 +142,38 @@ fn least_change_along_ties_keeps_the_base_parameters_and_returns_along_the_tie()
         assert!((b - t).abs() <= 1e-4 * t.abs(), "{n}: back to {b}, was {t}");
     }
 }
+
+/// A symbol that the least change presses against a bound comes back exactly within it
+/// (the walk runs in units of the bound widths, and y7 / w × w rounds past the upper
+/// bound -0.00083027 of [-0.00154193, -0.00083027]; the plant file written from it then
+/// failed to read back: "the value -0.0008302699999999999 lies outside").
+#[test]
+fn least_change_returns_values_within_their_bounds() {
+    let mut plant = Plant::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
+    )
+    .unwrap();
+    let conf = plant.model.configuration("c1").unwrap();
+    let names: Vec<String> = ["m7", "x7", "y7", "I7_33"].map(String::from).to_vec();
+    plant.parameters.insert("y7".into(), -0.00083027);
+    let value = |p: &Plant| -> Vec<f64> { names.iter().map(|n| p.parameters[n]).collect() };
+    let fitted = value(&plant);
+    let mut lower: Vec<f64> = fitted.iter().map(|v| v - 2.0 * v.abs()).collect();
+    let mut upper: Vec<f64> = fitted.iter().map(|v| v + 2.0 * v.abs()).collect();
+    (lower[2], upper[2]) = (-0.00154193, -0.00083027);
+    // The initial values pull y7 beyond its upper bound (toward zero).
+    let initial: Vec<f64> = fitted
+        .iter()
+        .zip([1.0, 1.0, 0.2, 1.0])
+        .map(|(v, f)| v * f)
+        .collect();
+    let moved = least_change_along_ties(&plant, conf, &names, &initial, &lower, &upper).unwrap();
+    for (((n, v), lo), hi) in names.iter().zip(&moved).zip(&lower).zip(&upper) {
+        assert!(
+            (*lo..=*hi).contains(v),
+            "{n} = {v:e} outside [{lo:e}, {hi:e}]"
+        );
+    }
+    assert_eq!(moved[2], -0.00083027, "y7 stays pressed against its bound");
+}

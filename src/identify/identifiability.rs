@@ -476,7 +476,9 @@ pub fn least_change_along_ties(
         }
     }
     for (c, &i) in rigid.iter().enumerate() {
-        values[i] = z[c] * width[c];
+        // z × width can round past a bound that z reached exactly; the plant file must read
+        // back.
+        values[i] = (z[c] * width[c]).clamp(lower[i], upper[i]);
     }
     Ok(values)
 }

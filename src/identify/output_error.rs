@@ -644,11 +644,17 @@ impl Problem {
     /// Physical parameters from scaled ones (u ∈ [0, 1]ⁿ).
     pub fn to_physical(&self, u: &[f64]) -> Vec<f64> {
         let mut p: Vec<f64> = (0..u.len())
-            .map(|i| self.lower[i] + u[i].clamp(0.0, 1.0) * (self.upper[i] - self.lower[i]))
+            .map(|i| {
+                // lower + 1 × (upper − lower) can round past upper; the plant file written
+                // from these values must read back within its bounds.
+                (self.lower[i] + u[i].clamp(0.0, 1.0) * (self.upper[i] - self.lower[i]))
+                    .clamp(self.lower[i], self.upper[i])
+            })
             .collect();
         for &(c, s) in &self.pairs {
             let lo = p[c].max(self.lower[s]);
-            p[s] = lo + u[s].clamp(0.0, 1.0) * (self.upper[s] - lo).max(0.0);
+            p[s] = (lo + u[s].clamp(0.0, 1.0) * (self.upper[s] - lo).max(0.0))
+                .clamp(lo, self.upper[s].max(lo));
         }
         p
     }
