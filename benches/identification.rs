@@ -11,7 +11,7 @@
 use criterion::{criterion_group, Criterion};
 use lockstep::excitation::Excitations;
 use lockstep::identify::output_error::{OutputErrorOptions, Problem};
-use lockstep::identify::sequence::{plan, read_record, run, SequenceOptions};
+use lockstep::identify::sequence::{plan, read_record, run, RigidBodyFit, SequenceOptions};
 use lockstep::plant::Plant;
 use lockstep::synthetic::{excite, simulate_file, SimulateOptions};
 use std::path::{Path, PathBuf};
@@ -116,6 +116,7 @@ fn sequence(dir: &Path, data: &Path, truth: &Plant) {
         },
         locked_tolerance: 0.01,
         out: dir.join("out"),
+        rigid_body: RigidBodyFit::All,
     };
     let report = run(&start, &[data.to_path_buf()], &opts, &|_, _| {}).unwrap();
     println!(

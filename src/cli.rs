@@ -3,7 +3,7 @@
 use crate::identify::identifiability::{base_parameters, markdown, occurrence};
 use crate::identify::idim::{least_squares, observation, IdimOptions};
 use crate::identify::output_error::OutputErrorOptions;
-use crate::identify::sequence::SequenceOptions;
+use crate::identify::sequence::{RigidBodyFit, SequenceOptions};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::diagnosis::{
@@ -539,6 +539,14 @@ pub struct OutputErrorArgs {
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
+    /// Rigid-body symbols each step fits: `all` (every symbol the step identifies or
+    /// carries; the least change resolves their exact ties afterwards) or `spanning` (a set
+    /// of them that spans the configuration's base parameters, by column pivoting on
+    /// ∂β/∂s; the others held at their values and left undetermined for later steps: the
+    /// same reachable dynamics without the exact ties a finite-difference Jacobian fills
+    /// with noise).
+    #[arg(long, default_value = "all", value_parser = ["all", "spanning"])]
+    pub rigid_body: String,
 }
 
 impl OutputErrorArgs {
@@ -656,6 +664,11 @@ fn identify_sequence(
         fit: oe.options(method)?,
         locked_tolerance: oe.locked_tolerance,
         out: out.unwrap_or_else(|| PathBuf::from("lockstep-out/identify")),
+        rigid_body: if oe.rigid_body == "spanning" {
+            RigidBodyFit::Spanning
+        } else {
+            RigidBodyFit::All
+        },
     };
     let bar = indicatif::ProgressBar::new_spinner();
     bar.enable_steady_tick(std::time::Duration::from_millis(250));

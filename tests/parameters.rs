@@ -1,7 +1,8 @@
 //! Parameter occurrence and base parameters from the generated regressors.
 
 use lockstep::identify::identifiability::{
-    base_parameter_values, base_parameters, least_change_along_ties, occurrence,
+    base_parameter_values, base_parameters, base_parameters_at, least_change_along_ties,
+    occurrence, spanning_symbols,
 };
 use lockstep::plant::Plant;
 use std::path::Path;
@@ -176,4 +177,94 @@ fn least_change_returns_values_within_their_bounds() {
         );
     }
     assert_eq!(moved[2], -0.00083027, "y7 stays pressed against its bound");
+}
+
+/// The symbols `spanning_symbols` picks move every torque combination the data can see, and
+/// no more: with the locked joints where a file holds them, the rank of ∂τ/∂s over random
+/// free-joint states (torques from the generated regressor and the plant's barycentric
+/// parameters, central differences — not the base-parameter map the selection uses) is the
+/// same for the chosen symbols as for every symbol that appears, equals their number, and
+/// equals the number of base parameters at those locked positions, which is smaller than
+/// with the locked joints anywhere where a locked joint carries links.
+#[test]
+fn spanning_symbols_move_every_torque_combination_the_locked_data_can_see() {
+    let plant = Plant::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
+    )
+    .unwrap();
+    let model = plant.model;
+    let occ = occurrence(model);
+    let locked = vec![0.3, -0.2, 0.5, 0.1, -0.4, 0.2];
+    assert_eq!(locked.len(), model.joints.len());
+    let rank = |m: &nalgebra::DMatrix<f64>| {
+        let sv = m.clone().svd(false, false).singular_values;
+        let top = sv.amax();
+        sv.iter().filter(|&&x| x > 1e-7 * top).count()
+    };
+    for (cname, any_rank, at_rank) in [("c1", 3, 3), ("c3", 11, 3), ("c5", 22, 3), ("k2", 12, 12)] {
+        let conf = model.configuration(cname).unwrap();
+        let names: Vec<String> = model
+            .inertial_symbols
+            .iter()
+            .filter(|s| occ.appears_in(s, cname))
+            .map(|s| s.to_string())
+            .collect();
+        let width = |_: usize| 1.0;
+        let chosen =
+            spanning_symbols(&plant, conf, &names, &width, std::slice::from_ref(&locked)).unwrap();
+        // Torques at random free-joint states, the locked joints held.
+        let nf = conf.free.len();
+        let np = model.params.len();
+        let mut rng = generated::inertia::Xorshift(11);
+        let states: Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> = (0..60)
+            .map(|_| {
+                let mut q = locked.clone();
+                for &j in conf.free {
+                    q[j] = rng.uniform(-3.0, 3.0);
+                }
+                let qd = (0..nf).map(|_| rng.uniform(-2.0, 2.0)).collect();
+                let qdd = (0..nf).map(|_| rng.uniform(-5.0, 5.0)).collect();
+                (q, qd, qdd)
+            })
+            .collect();
+        let torques = |p: &Plant| -> Vec<f64> {
+            let bary = p.barycentric(Some(conf)).unwrap();
+            let mut y = vec![0.0; nf * np];
+            let mut out = Vec::new();
+            for (q, qd, qdd) in &states {
+                (conf.regressor)(q, qd, qdd, &mut y);
+                out.extend((0..nf).map(|a| (0..np).map(|j| y[a * np + j] * bary[j]).sum::<f64>()));
+            }
+            out
+        };
+        let jacobian = |cols: &[usize]| {
+            let mut m = nalgebra::DMatrix::zeros(states.len() * nf, cols.len());
+            for (c, &i) in cols.iter().enumerate() {
+                let v = plant.parameters[&names[i]];
+                let h = 1e-6 * v.abs().max(1e-4);
+                let (mut up, mut down) = (plant.clone(), plant.clone());
+                up.parameters.insert(names[i].clone(), v + h);
+                down.parameters.insert(names[i].clone(), v - h);
+                let (tu, td) = (torques(&up), torques(&down));
+                for k in 0..tu.len() {
+                    m[(k, c)] = (tu[k] - td[k]) / (2.0 * h) * v.abs().max(1e-4);
+                }
+            }
+            m
+        };
+        let all: Vec<usize> = (0..names.len()).collect();
+        let (r_all, r_chosen) = (rank(&jacobian(&all)), rank(&jacobian(&chosen)));
+        let any = base_parameters(model, conf).rank;
+        let at = base_parameters_at(model, conf, std::slice::from_ref(&locked)).rank;
+        println!(
+            "{cname}: {} symbols appear; base parameters {any} (locked anywhere), {at} (locked here); rank dτ/ds {r_all} (all), {r_chosen} (the {} chosen)",
+            names.len(),
+            chosen.len()
+        );
+        assert_eq!((any, at), (any_rank, at_rank), "{cname}");
+        assert_eq!(chosen.len(), at, "{cname}");
+        assert_eq!(r_chosen, chosen.len(), "{cname}");
+        assert_eq!(r_all, r_chosen, "{cname}");
+    }
 }

@@ -18,15 +18,24 @@ fn stacked_regressor(
     conf: &Configuration,
     samples: usize,
     rng: &mut Rng,
+    locked_at: &[Vec<f64>],
 ) -> DMatrix<f64> {
     let nf = conf.free.len();
     let np = model.params.len();
     let mut w = DMatrix::zeros(samples * nf, np);
     let mut y = vec![0.0; nf * np];
     for s in 0..samples {
-        let q: Vec<f64> = (0..model.joints.len())
+        let mut q: Vec<f64> = (0..model.joints.len())
             .map(|_| rng.uniform(-3.0, 3.0))
             .collect();
+        // The locked joints where the data hold them, cycling through the records.
+        if let Some(at) = locked_at.get(s % locked_at.len().max(1)) {
+            for (j, qj) in q.iter_mut().enumerate() {
+                if !conf.free.contains(&j) {
+                    *qj = at[j];
+                }
+            }
+        }
         let qd: Vec<f64> = (0..nf).map(|_| rng.uniform(-2.0, 2.0)).collect();
         let qdd: Vec<f64> = (0..nf).map(|_| rng.uniform(-5.0, 5.0)).collect();
         (conf.regressor)(&q, &qd, &qdd, &mut y);
@@ -126,7 +135,7 @@ pub fn occurrence(model: &Model) -> Occurrence {
     let nq = names.len();
     let mut appears = vec![vec![false; model.configurations.len()]; nq];
     for (c, conf) in model.configurations.iter().enumerate() {
-        let w = stacked_regressor(model, conf, 4, &mut rng);
+        let w = stacked_regressor(model, conf, 4, &mut rng, &[]);
         let scale = w.amax().max(1e-300);
         for (i, row) in appears.iter_mut().enumerate() {
             // Column of W times ∂p/∂u_i.
@@ -241,10 +250,24 @@ pub struct BaseParameters {
 /// the kept ones (relative residual above 1e-8), and express each dropped column as a
 /// combination of the kept ones (least squares; exact for a structural dependence).
 pub fn base_parameters(model: &Model, conf: &Configuration) -> BaseParameters {
+    base_parameters_at(model, conf, &[])
+}
+
+/// [`base_parameters`] of data that hold the locked joints of `conf` at the positions
+/// `locked_at` (full joint vectors, rad, one per measurement file; the free joints' entries
+/// are ignored; empty: the locked joints anywhere): fewer combinations, since a locked
+/// joint's angle is then a constant of the equations (c5 of the Freedom 6S, joint 1 alone:
+/// 22 base parameters with the other joints anywhere, 3 with them where a file holds them —
+/// the inertia about joint 1's axis and the two gravity terms of its angle).
+pub fn base_parameters_at(
+    model: &Model,
+    conf: &Configuration,
+    locked_at: &[Vec<f64>],
+) -> BaseParameters {
     let mut rng = Rng(0xba5e_ba5e_0000_0001);
     let np = model.params.len();
     let samples = (2 * np / conf.free.len().max(1)).max(10);
-    let w = stacked_regressor(model, conf, samples, &mut rng);
+    let w = stacked_regressor(model, conf, samples, &mut rng, locked_at);
     let scale = w.amax().max(1e-300);
     let mut kept: Vec<usize> = Vec::new();
     let mut dependent: Vec<usize> = Vec::new();
@@ -329,7 +352,13 @@ struct BaseMap<'a> {
 
 impl<'a> BaseMap<'a> {
     fn new(model: &Model, conf: &'a Configuration) -> BaseMap<'a> {
-        let bases = base_parameters(model, conf);
+        Self::at(model, conf, &[])
+    }
+
+    /// The base parameters of data with the locked joints at `locked_at`
+    /// ([`base_parameters_at`]).
+    fn at(model: &Model, conf: &'a Configuration, locked_at: &[Vec<f64>]) -> BaseMap<'a> {
+        let bases = base_parameters_at(model, conf, locked_at);
         let index = |name: &str| model.params.iter().position(|x| *x == name);
         let combos = bases
             .base
@@ -483,6 +512,109 @@ pub fn least_change_along_ties(
     Ok(values)
 }
 
+/// G = ∂β/∂s: the base parameters β of `conf` (rows, unscaled) by the rigid-body symbols
+/// `names[rigid[c]]` (columns, each in relative terms: scaled by |s|, or by `width(i)` for a
+/// value near zero), by central differences — exact, β is at most quadratic in each
+/// symbol. Returns β at the plant's values and G.
+fn base_jacobian(
+    plant: &crate::plant::Plant,
+    conf: &Configuration,
+    names: &[String],
+    rigid: &[usize],
+    width: &dyn Fn(usize) -> f64,
+    locked_at: &[Vec<f64>],
+) -> anyhow::Result<(Vec<f64>, DMatrix<f64>)> {
+    let base = BaseMap::at(plant.model, conf, locked_at);
+    let beta = |name: &str, v: f64| -> anyhow::Result<Vec<f64>> {
+        let mut at = plant.clone();
+        at.parameters.insert(name.to_string(), v);
+        base.values(&at)
+    };
+    let mut g = DMatrix::zeros(base.len(), rigid.len());
+    for (c, &i) in rigid.iter().enumerate() {
+        let v = plant.value(&names[i])?;
+        let scale = if v.abs() > 1e-9 * width(i) {
+            v.abs()
+        } else {
+            width(i)
+        };
+        let h = 1e-6 * scale;
+        let (bp, bm) = (beta(&names[i], v + h)?, beta(&names[i], v - h)?);
+        for k in 0..base.len() {
+            g[(k, c)] = (bp[k] - bm[k]) / (2.0 * h) * scale;
+        }
+    }
+    Ok((base.values(plant)?, g))
+}
+
+/// Of the rigid-body symbols among `names`, a set that spans the base parameters β of
+/// configuration `conf` with its locked joints at `locked_at` ([`base_parameters_at`];
+/// empty: anywhere) at the plant's values: indices into `names`, as many as β has
+/// entries the symbols move (fewer if some β is out of their reach). Fitting these and
+/// holding the others moves every β the data see, with none of the exact ties
+/// ([`structural_companions`]) whose null directions a finite-difference Jacobian fills
+/// with noise and a Levenberg–Marquardt step then wanders along.
+///
+/// Chosen greedily by column pivoting (Businger–Golub) on G = ∂β/∂s ([`base_jacobian`]),
+/// each column times its symbol's bound width `width(i)` and each row in units of its |β|
+/// (floored at 1e-9 of the largest, so that a small product of inertia weighs like a large
+/// mass): the symbol that can move β furthest within its bounds first, then the one that
+/// moves it furthest in a direction the chosen ones do not, until what is left is below
+/// 1e-6 of the first.
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing).
+pub fn spanning_symbols(
+    plant: &crate::plant::Plant,
+    conf: &Configuration,
+    names: &[String],
+    width: &dyn Fn(usize) -> f64,
+    locked_at: &[Vec<f64>],
+) -> anyhow::Result<Vec<usize>> {
+    let rigid = rigid_body_indices(plant.model, names);
+    if rigid.is_empty() {
+        return Ok(Vec::new());
+    }
+    let (beta, mut g) = base_jacobian(plant, conf, names, &rigid, width, locked_at)?;
+    // Columns per bound width: how far each symbol can move β within its bounds.
+    for (c, &i) in rigid.iter().enumerate() {
+        let v = plant.value(&names[i])?.abs();
+        if v > 1e-9 * width(i) {
+            g.column_mut(c).scale_mut(width(i) / v);
+        }
+    }
+    let largest = beta.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    for (k, b) in beta.iter().enumerate() {
+        let scale = 1.0 / b.abs().max(1e-9 * largest).max(1e-300);
+        g.row_mut(k).scale_mut(scale);
+    }
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut first = None;
+    while chosen.len() < g.nrows() {
+        let Some((c, norm)) = (0..g.ncols())
+            .filter(|c| !chosen.contains(c))
+            .map(|c| (c, g.column(c).norm()))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            break;
+        };
+        let first = *first.get_or_insert(norm);
+        if norm.is_nan() || norm <= 1e-6 * first {
+            break;
+        }
+        chosen.push(c);
+        // Remove the chosen direction from every column (modified Gram–Schmidt).
+        let q = g.column(c) / norm;
+        for d in 0..g.ncols() {
+            let along = q.dot(&g.column(d));
+            g.column_mut(d).axpy(-along, &q, 1.0);
+        }
+    }
+    let mut out: Vec<usize> = chosen.iter().map(|&c| rigid[c]).collect();
+    out.sort_unstable();
+    Ok(out)
+}
+
 /// For each of `names` (parameters of `plant`), the other rigid-body symbols among `names`
 /// it trades with exactly in configuration `conf` (empty: none; always empty for a name
 /// that is not an inertial symbol).
@@ -511,26 +643,7 @@ pub fn structural_companions(
     if rigid.is_empty() {
         return Ok(out);
     }
-    let base = BaseMap::new(model, conf);
-    let beta = |name: &str, v: f64| -> anyhow::Result<Vec<f64>> {
-        let mut at = plant.clone();
-        at.parameters.insert(name.to_string(), v);
-        base.values(&at)
-    };
-    let mut g = DMatrix::zeros(base.len(), rigid.len());
-    for (c, &i) in rigid.iter().enumerate() {
-        let v = plant.value(&names[i])?;
-        let scale = if v.abs() > 1e-9 * width(i) {
-            v.abs()
-        } else {
-            width(i)
-        };
-        let h = 1e-6 * scale;
-        let (bp, bm) = (beta(&names[i], v + h)?, beta(&names[i], v - h)?);
-        for k in 0..base.len() {
-            g[(k, c)] = (bp[k] - bm[k]) / (2.0 * h) * scale;
-        }
-    }
+    let g = base_jacobian(plant, conf, names, &rigid, width, &[])?.1;
     let eig = (g.transpose() * &g).symmetric_eigen();
     let largest = eig.eigenvalues.amax();
     for (k, &ev) in eig.eigenvalues.iter().enumerate() {

@@ -9,7 +9,7 @@
 //! free. After every step the updated plant and the report are written atomically, so an
 //! interrupted run (Ctrl-C) leaves the last completed step's results intact.
 
-use super::identifiability::{occurrence, structural_companions, Occurrence};
+use super::identifiability::{occurrence, spanning_symbols, structural_companions, Occurrence};
 use super::output_error::{FitResult, OutputErrorOptions, Problem, Progress, Record};
 use crate::measurement::{check_sampling, Table};
 use crate::plant::Plant;
@@ -39,6 +39,22 @@ pub struct Step {
     pub carried: Vec<String>,
     /// Parameters that first appear here but are held (bounds with lower = upper).
     pub held: Vec<String>,
+    /// Rigid-body symbols of this step held at their values because the fitted ones span
+    /// the configuration's base parameters without them ([`RigidBodyFit::Spanning`],
+    /// [`spanning_symbols`]); they stay undetermined for the later steps.
+    pub tied_held: Vec<String>,
+}
+
+/// Which rigid-body symbols a step fits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum RigidBodyFit {
+    /// Every symbol the step identifies or carries; exact ties among them are left to the
+    /// optimiser and resolved afterwards by the least change.
+    All,
+    /// A set that spans the configuration's base parameters ([`spanning_symbols`]); the
+    /// rest are held at their values: the same dynamics within reach, without the exact
+    /// ties (c5 of the isolated method: 36 symbols, 5 base parameters).
+    Spanning,
 }
 
 /// The steps of sequence `sequence` of the plant's model, from step `only` alone if given.
@@ -126,6 +142,7 @@ fn plan_with(plant: &Plant, sequence: &str, occ: &Occurrence) -> Result<Vec<Step
             fitted,
             carried,
             held,
+            tied_held: Vec::new(),
         });
     }
     Ok(steps)
@@ -333,6 +350,8 @@ pub struct SequenceOptions {
     pub locked_tolerance: f64,
     /// Output directory: `plant.toml`, `report.md`, `report.json`.
     pub out: PathBuf,
+    /// Which rigid-body symbols each step fits.
+    pub rigid_body: RigidBodyFit,
 }
 
 /// Run a locking sequence: check every step's data and bounds first, then fit step by
@@ -437,6 +456,35 @@ pub fn run(
         let more = carried_into(&undetermined, &occ, &s.config, &s.fitted);
         s.fitted.extend(more.iter().cloned());
         s.carried.extend(more);
+        if opts.rigid_body == RigidBodyFit::Spanning {
+            let width = |i: usize| {
+                current
+                    .bounds
+                    .get(&s.fitted[i])
+                    .map_or(1.0, |&(lo, hi)| (hi - lo).abs().max(1e-300))
+            };
+            let locked_at: Vec<Vec<f64>> = first.records.iter().map(|r| r.q_all.clone()).collect();
+            let keep = spanning_symbols(
+                &current,
+                first.configuration(),
+                &s.fitted,
+                &width,
+                &locked_at,
+            )
+            .with_context(|| format!("step '{}'", s.config))?;
+            let tied_held: Vec<String> = s
+                .fitted
+                .iter()
+                .enumerate()
+                .filter(|&(i, n)| {
+                    model.inertial_symbols.contains(&n.as_str()) && !keep.contains(&i)
+                })
+                .map(|(_, n)| n.clone())
+                .collect();
+            s.fitted.retain(|n| !tied_held.contains(n));
+            s.carried.retain(|n| !tied_held.contains(n));
+            s.tied_held = tied_held;
+        }
         // The checked problem's files, with the plant as the earlier steps left it.
         let problem = Problem::new(
             &current,
@@ -451,6 +499,11 @@ pub fn run(
         let fit = problem.fit(&|p| progress(&cname, p))?;
         fit.apply(&mut current);
         undetermined.retain(|n| !fit.names.contains(n));
+        for n in &s.tied_held {
+            if !undetermined.contains(n) {
+                undetermined.push(n.clone());
+            }
+        }
         for (i, n) in fit.names.iter().enumerate() {
             if model.inertial_symbols.contains(&n.as_str()) && !fit.statistics.identifiable[i] {
                 undetermined.push(n.clone());
@@ -549,6 +602,13 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                 s,
                 "Carried from earlier steps, which did not determine them: {}.\n",
                 st.step.carried.join(", ")
+            );
+        }
+        if !st.step.tied_held.is_empty() {
+            let _ = writeln!(
+                s,
+                "Held along exact ties (the fitted symbols span this configuration's base parameters without them; left undetermined): {}.\n",
+                st.step.tied_held.join(", ")
             );
         }
         if !st.step.held.is_empty() {
