@@ -7,6 +7,15 @@ use lockstep::identify::identifiability::{
 use lockstep::plant::Plant;
 use std::path::Path;
 
+/// The Appendix D coupled-method plant.
+fn coupled_plant() -> Plant {
+    Plant::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
+    )
+    .unwrap()
+}
+
 #[test]
 fn freedom6s_isolated_sequence_reproduces_figure_4_2() {
     // Thesis Figure 4.2 (DESIGN.md §3): first identifications per configuration of the
@@ -96,11 +105,7 @@ fn planar_2r_has_the_textbook_base_parameters() {
 /// values they return to them, which lie on the same tie.
 #[test]
 fn least_change_along_ties_keeps_the_base_parameters_and_returns_along_the_tie() {
-    let plant = Plant::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
-    )
-    .unwrap();
+    let plant = coupled_plant();
     let conf = plant.model.configuration("c1").unwrap();
     let names: Vec<String> = ["m7", "x7", "y7", "I7_33", "Fc_4"]
         .map(String::from)
@@ -150,11 +155,7 @@ fn least_change_along_ties_keeps_the_base_parameters_and_returns_along_the_tie()
 /// failed to read back: "the value -0.0008302699999999999 lies outside").
 #[test]
 fn least_change_returns_values_within_their_bounds() {
-    let mut plant = Plant::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
-    )
-    .unwrap();
+    let mut plant = coupled_plant();
     let conf = plant.model.configuration("c1").unwrap();
     let names: Vec<String> = ["m7", "x7", "y7", "I7_33"].map(String::from).to_vec();
     plant.parameters.insert("y7".into(), -0.00083027);
@@ -188,11 +189,7 @@ fn least_change_returns_values_within_their_bounds() {
 /// with the locked joints anywhere where a locked joint carries links.
 #[test]
 fn spanning_symbols_move_every_torque_combination_the_locked_data_can_see() {
-    let plant = Plant::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
-    )
-    .unwrap();
+    let plant = coupled_plant();
     let model = plant.model;
     let occ = occurrence(model);
     let locked = vec![0.3, -0.2, 0.5, 0.1, -0.4, 0.2];

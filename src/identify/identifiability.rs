@@ -513,15 +513,15 @@ pub fn least_change_along_ties(
 }
 
 /// G = ∂β/∂s: the base parameters β of `conf` (rows, unscaled) by the rigid-body symbols
-/// `names[rigid[c]]` (columns, each in relative terms: scaled by |s|, or by `width(i)` for a
-/// value near zero), by central differences — exact, β is at most quadratic in each
-/// symbol. Returns β at the plant's values and G.
+/// `names[rigid[c]]` (columns, each times `scale(i, s_i)`: the change of the symbol the
+/// column stands for), by central differences of step 1e-6 × that scale — exact, β is at
+/// most quadratic in each symbol. Returns β at the plant's values and G.
 fn base_jacobian(
     plant: &crate::plant::Plant,
     conf: &Configuration,
     names: &[String],
     rigid: &[usize],
-    width: &dyn Fn(usize) -> f64,
+    scale: &dyn Fn(usize, f64) -> f64,
     locked_at: &[Vec<f64>],
 ) -> anyhow::Result<(Vec<f64>, DMatrix<f64>)> {
     let base = BaseMap::at(plant.model, conf, locked_at);
@@ -533,11 +533,7 @@ fn base_jacobian(
     let mut g = DMatrix::zeros(base.len(), rigid.len());
     for (c, &i) in rigid.iter().enumerate() {
         let v = plant.value(&names[i])?;
-        let scale = if v.abs() > 1e-9 * width(i) {
-            v.abs()
-        } else {
-            width(i)
-        };
+        let scale = scale(i, v);
         let h = 1e-6 * scale;
         let (bp, bm) = (beta(&names[i], v + h)?, beta(&names[i], v - h)?);
         for k in 0..base.len() {
@@ -575,14 +571,8 @@ pub fn spanning_symbols(
     if rigid.is_empty() {
         return Ok(Vec::new());
     }
-    let (beta, mut g) = base_jacobian(plant, conf, names, &rigid, width, locked_at)?;
     // Columns per bound width: how far each symbol can move β within its bounds.
-    for (c, &i) in rigid.iter().enumerate() {
-        let v = plant.value(&names[i])?.abs();
-        if v > 1e-9 * width(i) {
-            g.column_mut(c).scale_mut(width(i) / v);
-        }
-    }
+    let (beta, mut g) = base_jacobian(plant, conf, names, &rigid, &|i, _| width(i), locked_at)?;
     let largest = beta.iter().fold(0.0f64, |a, b| a.max(b.abs()));
     for (k, b) in beta.iter().enumerate() {
         let scale = 1.0 / b.abs().max(1e-9 * largest).max(1e-300);
@@ -643,7 +633,15 @@ pub fn structural_companions(
     if rigid.is_empty() {
         return Ok(out);
     }
-    let g = base_jacobian(plant, conf, names, &rigid, width, &[])?.1;
+    // Columns in relative terms: per |s|, or per bound width for a value near zero.
+    let relative = |i: usize, v: f64| {
+        if v.abs() > 1e-9 * width(i) {
+            v.abs()
+        } else {
+            width(i)
+        }
+    };
+    let g = base_jacobian(plant, conf, names, &rigid, &relative, &[])?.1;
     let eig = (g.transpose() * &g).symmetric_eigen();
     let largest = eig.eigenvalues.amax();
     for (k, &ev) in eig.eigenvalues.iter().enumerate() {

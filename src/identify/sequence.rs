@@ -53,7 +53,8 @@ pub enum RigidBodyFit {
     All,
     /// A set that spans the configuration's base parameters ([`spanning_symbols`]); the
     /// rest are held at their values: the same dynamics within reach, without the exact
-    /// ties (c5 of the isolated method: 36 symbols, 5 base parameters).
+    /// ties (c5 of the isolated method: 42 symbols appear, 3 base parameters where its
+    /// files hold the locked joints).
     Spanning,
 }
 
@@ -123,12 +124,7 @@ fn plan_with(plant: &Plant, sequence: &str, occ: &Occurrence) -> Result<Vec<Step
             .into_iter()
             .partition(|n| plant.bounds.get(n).is_some_and(|&(lo, hi)| lo == hi));
         seen_free.extend(interest.iter().copied());
-        let companions = structural_companions(plant, conf, &fitted, &|i| {
-            plant
-                .bounds
-                .get(&fitted[i])
-                .map_or(1.0, |&(lo, hi)| (hi - lo).abs().max(1e-300))
-        })?;
+        let companions = structural_companions(plant, conf, &fitted, &bound_width(plant, &fitted))?;
         tied.retain(|s| !fitted.contains(s));
         for (n, c) in fitted.iter().zip(&companions) {
             if !c.is_empty() {
@@ -146,6 +142,17 @@ fn plan_with(plant: &Plant, sequence: &str, occ: &Occurrence) -> Result<Vec<Step
         });
     }
     Ok(steps)
+}
+
+/// Width of the bounds of `names[i]` in `plant` (1 for a name without bounds; never 0): the
+/// spread the user gave each value, the unit of the identifiability checks.
+fn bound_width<'a>(plant: &'a Plant, names: &'a [String]) -> impl Fn(usize) -> f64 + 'a {
+    move |i| {
+        plant
+            .bounds
+            .get(&names[i])
+            .map_or(1.0, |&(lo, hi)| (hi - lo).abs().max(1e-300))
+    }
 }
 
 /// Of the `candidates` left undetermined by earlier steps, those that appear in
@@ -457,18 +464,12 @@ pub fn run(
         s.fitted.extend(more.iter().cloned());
         s.carried.extend(more);
         if opts.rigid_body == RigidBodyFit::Spanning {
-            let width = |i: usize| {
-                current
-                    .bounds
-                    .get(&s.fitted[i])
-                    .map_or(1.0, |&(lo, hi)| (hi - lo).abs().max(1e-300))
-            };
             let locked_at: Vec<Vec<f64>> = first.records.iter().map(|r| r.q_all.clone()).collect();
             let keep = spanning_symbols(
                 &current,
                 first.configuration(),
                 &s.fitted,
-                &width,
+                &bound_width(&current, &s.fitted),
                 &locked_at,
             )
             .with_context(|| format!("step '{}'", s.config))?;
