@@ -36,7 +36,7 @@ fn base() -> Plant {
     Plant::from_file(spec, None).unwrap()
 }
 
-/// Simulate `truth` on an excitation of `config` (table, test, duration s) with noise
+/// Simulate `truth` on 15 s of an excitation of `config` (table, test) with noise
 /// 2e-4 rad and quantisation 1e-4 rad, and read the file back as a record.
 fn data(dir: &Path, truth: &Plant, config: &str, table: &str, test: Option<&str>) -> Record {
     let tau = dir.join(format!("tau_{config}.csv"));
@@ -51,7 +51,7 @@ fn data(dir: &Path, truth: &Plant, config: &str, table: &str, test: Option<&str>
         "--config",
         config,
         "--duration",
-        "30",
+        "15",
         "-o",
         tau.to_str().unwrap(),
     ];
