@@ -116,7 +116,7 @@ fn sequence(dir: &Path, data: &Path, truth: &Plant) {
         },
         locked_tolerance: 0.01,
         out: dir.join("out"),
-        rigid_body: RigidBodyFit::All,
+        rigid_body: RigidBodyFit::Spanning,
     };
     let report = run(&start, &[data.to_path_buf()], &opts, &|_, _| {}).unwrap();
     println!(

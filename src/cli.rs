@@ -502,9 +502,11 @@ pub struct OutputErrorArgs {
     pub segments: String,
     /// Growing horizons: fit on these fractions of every file in turn (after the skipped
     /// transient), each simulated from the file's start and starting where the last stage
-    /// ended; the last must be 1 (`--horizons 1`: the whole files at once).
-    #[arg(long, default_value = "0.05,0.1,0.25,0.5,1", value_delimiter = ',')]
-    pub horizons: Vec<f64>,
+    /// ended; the last must be 1 (`--horizons 1`: the whole files at once). `none`: no
+    /// start from the plant's values through the horizons, only the warm-ups
+    /// (`--equation-error`, `--predictor`, `--segments`; one must be set).
+    #[arg(long, default_value = "0.05,0.1,0.25,0.5,1")]
+    pub horizons: String,
     /// After each step's fit, move the rigid-body symbols back toward the plant's initial
     /// values along the combinations that step cannot tell apart (its base parameters held
     /// exactly; kept if the cost rises by less than one noise variance): the least-change
@@ -539,13 +541,14 @@ pub struct OutputErrorArgs {
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
-    /// Rigid-body symbols each step fits: `all` (every symbol the step identifies or
-    /// carries; the least change resolves their exact ties afterwards) or `spanning` (a set
-    /// of them that spans the configuration's base parameters, by column pivoting on
-    /// ∂β/∂s; the others held at their values and left undetermined for later steps: the
-    /// same reachable dynamics without the exact ties a finite-difference Jacobian fills
-    /// with noise).
-    #[arg(long, default_value = "all", value_parser = ["all", "spanning"])]
+    /// Rigid-body symbols each step fits: `spanning` (a set of them that spans the
+    /// configuration's base parameters where its files hold the locked joints, by column
+    /// pivoting on ∂β/∂s; the others held at their values and left undetermined for later
+    /// steps: the same reachable dynamics without the exact ties a finite-difference
+    /// Jacobian fills with noise; on the isolated sequence of the Freedom 6S it takes c4
+    /// and c5 to the noise floor where `all` stalls) or `all` (every symbol the step
+    /// identifies or carries; the least change resolves their exact ties afterwards).
+    #[arg(long, default_value = "spanning", value_parser = ["all", "spanning"])]
     pub rigid_body: String,
 }
 
@@ -577,11 +580,18 @@ impl OutputErrorArgs {
         if !(self.xtol > 0.0 && self.ftol > 0.0) {
             bail!("--xtol and --ftol must be positive");
         }
-        if self.horizons.last() != Some(&1.0)
-            || self.horizons.iter().any(|&h| !(h > 0.0 && h <= 1.0))
+        let horizons = positive_list(
+            "--horizons",
+            &self.horizons,
+            "increasing fractions in (0, 1] ending with 1 such as 0.1,0.5,1",
+        )?;
+        if !horizons.is_empty()
+            && (horizons.last() != Some(&1.0)
+                || horizons.iter().any(|&h| h > 1.0)
+                || horizons.windows(2).any(|w| w[0] >= w[1]))
         {
             bail!(
-                "--horizons: expected increasing fractions in (0, 1] ending with 1, got {:?}",
+                "--horizons: expected 'none' or increasing fractions in (0, 1] ending with 1, got '{}'",
                 self.horizons
             );
         }
@@ -600,7 +610,7 @@ impl OutputErrorArgs {
             "linear" => Hold::Linear,
             other => bail!("--hold: expected zoh or linear, got '{other}'"),
         };
-        Ok(OutputErrorOptions {
+        let options = OutputErrorOptions {
             weighting,
             interest_weight: self.weight,
             h: self.step,
@@ -610,7 +620,7 @@ impl OutputErrorArgs {
             max_iter: self.max_iter,
             starts: self.starts,
             seed: self.seed,
-            horizons: self.horizons.clone(),
+            horizons,
             segments,
             predictor,
             least_change: self.least_change == "on",
@@ -630,7 +640,15 @@ impl OutputErrorArgs {
                 },
             },
             ..OutputErrorOptions::default()
-        })
+        };
+        if options.horizons.is_empty()
+            && options.segments.is_empty()
+            && options.predictor.is_empty()
+            && options.equation_error.is_none()
+        {
+            bail!("--horizons none: nothing would fit the plant's values; set --equation-error, --predictor or --segments, or give horizons such as 1");
+        }
+        Ok(options)
     }
 }
 

@@ -261,15 +261,21 @@ fn isolated_step_c1_reaches_the_noise_floor_and_recovers_everything_it_calls_ide
         );
     }
     assert!(fit["cost_after"].as_f64().unwrap() < 1e-6 * fit["cost_before"].as_f64().unwrap());
+    let relative: Vec<Option<f64>> = column(&fit, &["statistics", "relative_std_err"]);
     for (i, n) in names.iter().enumerate() {
-        let t = truth.parameters[n];
         println!(
-            "{n}: fitted {:.5e}, truth {t:.5e} ({:+.2} %), identifiable {}, only with {:?}",
+            "{n}: fitted {:.5e}, truth {:.5e} ({:+.2} %), σ/|p| {:.2?}, identifiable {}, only with {:?}",
             fitted[i],
-            100.0 * (fitted[i] / t - 1.0),
+            truth.parameters[n],
+            100.0 * (fitted[i] / truth.parameters[n] - 1.0),
+            relative[i],
             identifiable[i],
             only_with[i]
         );
+    }
+    println!("correlated: {}", fit["statistics"]["correlated"]);
+    for (i, n) in names.iter().enumerate() {
+        let t = truth.parameters[n];
         if identifiable[i] {
             let e = (fitted[i] - t).abs() / t.abs();
             assert!(
@@ -289,18 +295,30 @@ fn isolated_step_c1_reaches_the_noise_floor_and_recovers_everything_it_calls_ide
     // The plant gain is not separately identifiable from what it multiplies.
     let kp = names.iter().position(|x| x == "Kp_4").unwrap();
     assert!(!identifiable[kp]);
+    // By default (`--rigid-body spanning`) c1 fits 3 of its 4 rigid-body symbols: m7, x7,
+    // y7, I7_33 enter its equation through 3 base parameters (m7·x7, m7·y7 and the
+    // inertia about joint 4's axis); the fourth is held and listed.
+    let report = read_report(&out_dir);
+    let held: Vec<String> = column(&report["steps"][0]["step"], &["tied_held"]);
+    assert_eq!(held.len(), 1, "held {held:?}");
+    assert!(["m7", "x7", "y7", "I7_33"].contains(&held[0].as_str()));
+    assert!(!names.contains(&held[0]));
     // The updated plant reads back with the fitted values, and records the rigid-body
-    // symbols c1 fitted but did not determine, so that a later step run alone fits them
-    // again.
+    // symbols c1 held or fitted but did not determine, so that a later step run alone
+    // fits them again.
     let fitted_plant = Plant::load(&out_dir.join("plant.toml")).unwrap();
     assert_eq!(fitted_plant.parameters[&names[0]], fitted[0]);
-    let undetermined: Vec<String> = names
+    let undetermined: Vec<String> = held
         .iter()
-        .zip(&identifiable)
-        .filter(|(n, &ok)| !ok && fitted_plant.model.inertial_symbols.contains(&n.as_str()))
-        .map(|(n, _)| n.clone())
+        .cloned()
+        .chain(
+            names
+                .iter()
+                .zip(&identifiable)
+                .filter(|(n, &ok)| !ok && fitted_plant.model.inertial_symbols.contains(&n.as_str()))
+                .map(|(n, _)| n.clone()),
+        )
         .collect();
-    assert!(!undetermined.is_empty());
     assert_eq!(fitted_plant.undetermined, undetermined);
     assert!(std::fs::read_to_string(out_dir.join("report.md"))
         .unwrap()
@@ -491,6 +509,27 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
     let ob = d.path().join("outside.toml");
     std::fs::write(&ob, text).unwrap();
     fails(&run(&ob, &data, "k1"), &["outside.toml", "G_4to5"]);
+    // Horizons that leave nothing to fit, or that do not grow to the whole files.
+    for (horizons, needles) in [
+        ("none", &["--horizons none", "--equation-error"][..]),
+        ("0.5,0.2,1", &["--horizons", "increasing", "0.5,0.2,1"][..]),
+        ("0.1,0.5", &["--horizons", "ending with 1"][..]),
+    ] {
+        let o = lockstep(&[
+            "identify",
+            "--method",
+            "coupled",
+            "--plant",
+            start.to_str().unwrap(),
+            "--data",
+            data.to_str().unwrap(),
+            "--horizons",
+            horizons,
+            "--out",
+            d.path().join("out").to_str().unwrap(),
+        ]);
+        fails(&o, needles);
+    }
     assert!(!d.path().join("out").exists(), "nothing may be written");
 }
 
@@ -612,7 +651,9 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
     assert_eq!(starts[1]["warm_up"], "segments");
     let cost = |s: &serde_json::Value| s["cost"].as_f64().unwrap();
     let best = fit["cost_after"].as_f64().unwrap();
-    assert_eq!(best, cost(&starts[0]).min(cost(&starts[1])));
+    // The winner's cost, up to the rounding of the least change along ties that follows.
+    let lower = cost(&starts[0]).min(cost(&starts[1]));
+    assert!((best - lower).abs() <= 1e-12 * lower, "{best} vs {lower}");
     assert!(best < fit["cost_before"].as_f64().unwrap());
     // Bad lengths are refused by name.
     let (plant, data) = (start.to_str().unwrap(), d.path().join("data"));
@@ -858,7 +899,8 @@ fn the_prediction_error_homotopy_takes_c4_from_the_equation_error_to_the_noise_f
 /// about joint 1's axis and two gravity terms). With `--rigid-body spanning` it fits the 3
 /// symbols that span them within their bounds and holds the rest, which the report lists
 /// and the written plant keeps undetermined for later steps. From the ±25 % start with the
-/// equation error and the predictor's homotopy, 20 s of Table 4.3's J1 chirp reach the noise
+/// equation error and the predictor's homotopy (`--horizons none`: the start itself is
+/// not fitted through the horizons), 20 s of Table 4.3's J1 chirp reach the noise
 /// floor (measured: 4.79e5 → 0.147, RMS 1.98e-4 rad) and every parameter called
 /// identifiable is within 5 % of the truth (on these 20 s the report calls none
 /// identifiable, so that check is empty here). Not robust yet: on 40 s from the same
@@ -892,7 +934,7 @@ fn c5_fits_the_symbols_that_span_its_base_parameters_and_reaches_the_noise_floor
             "--predictor",
             "3,1",
             "--horizons",
-            "1",
+            "none",
             "--rigid-body",
             "spanning",
         ],
@@ -917,6 +959,9 @@ fn c5_fits_the_symbols_that_span_its_base_parameters_and_reaches_the_noise_floor
         );
     }
     let fit = &step["fit"];
+    let starts: Vec<serde_json::Value> = column(fit, &["starts"]);
+    assert_eq!(starts.len(), 1, "{starts:?}");
+    assert_eq!(starts[0]["warm_up"], "equation_error", "{starts:?}");
     let joints: Vec<serde_json::Value> = column(fit, &["statistics", "joints"]);
     let rms = joints[0]["rms"].as_f64().unwrap();
     let summary = format!(

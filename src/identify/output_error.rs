@@ -97,7 +97,9 @@ pub struct OutputErrorOptions {
     /// Growing horizons: the fit runs on the first fraction of every file's weighted
     /// samples, then on longer ones, each stage starting where the last ended (a long
     /// output-error horizon has local minima that a short one does not; the last entry
-    /// must be 1).
+    /// must be 1). Empty: no start from the plant's values through the horizons, only the
+    /// warm-ups ([`Self::segments`], [`Self::equation_error`], [`Self::predictor`]; one of
+    /// them must be set), and random starts fit the whole files at once.
     pub horizons: Vec<f64>,
     /// Multiple-shooting warm-up: segment lengths (s). When not empty, a second start from
     /// the plant's values fits every file cut into segments of each length in turn
@@ -295,6 +297,11 @@ pub struct Problem {
     /// Set on a prediction-error stage: the bandwidth ω (rad/s) of the output injection
     /// that pulls the simulation toward the measured positions ([`Problem::predictor`]).
     predictor: Option<f64>,
+    /// Rigid-body symbols of the configuration held at the plant's values although they
+    /// tie exactly with fitted ones ([`Problem::with_held_ties`]): the structural check
+    /// counts them, so a fitted symbol determined only given a held one is not called
+    /// identifiable.
+    held_ties: Vec<String>,
     options: OutputErrorOptions,
 }
 
@@ -433,6 +440,7 @@ impl Problem {
             prior: None,
             equation_error: None,
             predictor: None,
+            held_ties: Vec::new(),
             options,
         };
         if let Some(tau) = problem.options.prior {
@@ -538,8 +546,19 @@ impl Problem {
             prior: self.prior.clone(),
             equation_error: None,
             predictor: self.predictor,
+            held_ties: self.held_ties.clone(),
             options: self.options.clone(),
         }
+    }
+
+    /// The same problem with the rigid-body symbols `names` (not fitted, held at the
+    /// plant's values) counted by the structural check of [`Problem::statistics`]: a
+    /// fitted symbol that trades exactly with one of them is determined only given the
+    /// held value, so it is not called identifiable and its `only_with` names the held
+    /// symbol. Set by `--rigid-body spanning` ([`super::sequence::RigidBodyFit`]).
+    pub fn with_held_ties(mut self, names: Vec<String>) -> Problem {
+        self.held_ties = names;
+        self
     }
 
     /// The same parameters, bounds and Fs ≥ Fc on the equation error of the whole files
@@ -938,8 +957,9 @@ impl Problem {
     /// keeping the lowest cost. `progress` is called after every cost evaluation.
     ///
     /// # Errors
-    /// Every start fails (the start's simulation diverges, or the optimiser reports an
-    /// input error); the message names the first failure.
+    /// No start to fit (no horizons and no warm-up), or every start fails (the start's
+    /// simulation diverges, or the optimiser reports an input error); the message names
+    /// the first failure.
     pub fn fit(&self, progress: &(dyn Fn(Progress) + Sync)) -> Result<FitResult> {
         let started = Instant::now();
         let n = self.names.len();
@@ -948,7 +968,20 @@ impl Problem {
         // (start point, warm-up): the plant's values through the horizons, the plant's
         // values through the segments and through the equation error when asked for,
         // then random points through the horizons.
-        let mut starts: Vec<(Vec<f64>, WarmUp)> = vec![(self.to_scaled(&p0), WarmUp::Horizons)];
+        let warm_ups = !self.options.segments.is_empty()
+            || self.options.equation_error.is_some()
+            || !self.options.predictor.is_empty();
+        if self.options.horizons.is_empty() && !warm_ups {
+            bail!(
+                "configuration '{}': no start to fit: without horizons one of the segments, \
+                 the equation error or the predictor must warm up the plant's values",
+                self.conf.name
+            );
+        }
+        let mut starts: Vec<(Vec<f64>, WarmUp)> = Vec::new();
+        if !self.options.horizons.is_empty() {
+            starts.push((self.to_scaled(&p0), WarmUp::Horizons));
+        }
         if !self.options.segments.is_empty() {
             starts.push((self.to_scaled(&p0), WarmUp::Segments));
         }
@@ -1016,6 +1049,9 @@ impl Problem {
                         .map(|&s| Stage::Segments(s))
                         .chain([Stage::Horizon(1.0)])
                         .collect(),
+                    WarmUp::Horizons if self.options.horizons.is_empty() => {
+                        vec![Stage::Horizon(1.0)]
+                    }
                     WarmUp::Horizons => horizons.collect(),
                     WarmUp::EquationError => [Stage::EquationError]
                         .into_iter()
@@ -1347,12 +1383,27 @@ impl Problem {
             .clone()
             .pseudo_inverse(cutoff)
             .unwrap_or_else(|_| DMatrix::from_element(n, n, f64::NAN));
+        // A parameter is undetermined when moving along such a direction changes it by a
+        // relative amount of at least 1e-3 of the largest relative change of any parameter
+        // (the plant gain's exact scale family moves all its members by the same fraction,
+        // however different their columns' norms; the rest move by rounding only).
         let mut undetermined = vec![false; n];
         if let Some(v_t) = &svd.v_t {
             for (k, &sv) in svd.singular_values.iter().enumerate() {
                 if sv <= cutoff {
+                    let relative_change: Vec<f64> = (0..n)
+                        .map(|i| {
+                            let scale = p[i].abs().max(1e-3 * (self.upper[i] - self.lower[i]));
+                            if norms[i] > 0.0 {
+                                (v_t[(k, i)] / (norms[i] * scale)).abs()
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect();
+                    let largest = relative_change.iter().cloned().fold(0.0, f64::max);
                     for i in 0..n {
-                        if v_t[(k, i)].abs() > 0.1 {
+                        if relative_change[i] >= 1e-3 * largest && largest > 0.0 {
                             undetermined[i] = true;
                         }
                     }
@@ -1429,18 +1480,34 @@ impl Problem {
         })
     }
 
-    /// For every fitted parameter, the other fitted rigid-body symbols it trades with
-    /// exactly at `p` ([`structural_companions`](super::identifiability::structural_companions)).
+    /// For every fitted parameter, the other rigid-body symbols — fitted or held along
+    /// ties ([`Problem::with_held_ties`]) — it trades with exactly at `p`
+    /// ([`structural_companions`](super::identifiability::structural_companions)).
     ///
     /// # Errors
     /// The plant's barycentric parameters cannot be formed.
     fn structural_companions(&self, p: &[f64]) -> Result<Vec<Vec<String>>> {
-        super::identifiability::structural_companions(
-            &self.plant_at(p),
-            self.conf,
-            &self.names,
-            &|i| self.upper[i] - self.lower[i],
-        )
+        let plant = self.plant_at(p);
+        let n = self.names.len();
+        let names: Vec<String> = self.names.iter().chain(&self.held_ties).cloned().collect();
+        // A held symbol's scale: its bounds when it has them, else its value.
+        let width = |i: usize| {
+            if i < n {
+                return self.upper[i] - self.lower[i];
+            }
+            let name = &names[i];
+            match plant.bounds.get(name) {
+                Some(&(lo, hi)) if hi > lo => hi - lo,
+                _ => plant
+                    .parameters
+                    .get(name)
+                    .map_or(1.0, |v| v.abs().max(1e-12)),
+            }
+        };
+        let mut out =
+            super::identifiability::structural_companions(&plant, self.conf, &names, &width)?;
+        out.truncate(n);
+        Ok(out)
     }
 
     /// Fit figures per free joint of the files' `trajectories` (one per record, as from
@@ -1548,8 +1615,9 @@ pub struct Statistics {
     /// [`RELATIVE_STD_LIMIT`], not at a bound, no correlation above the limit, not
     /// structurally tied to other fitted symbols (`only_with` empty).
     pub identifiable: Vec<bool>,
-    /// Per parameter, the other fitted rigid-body symbols it trades with exactly: the
-    /// configuration's outputs determine only combinations of them (its base parameters).
+    /// Per parameter, the other rigid-body symbols (fitted, or held along ties) it trades
+    /// with exactly: the configuration's outputs determine only combinations of them (its
+    /// base parameters).
     pub only_with: Vec<Vec<String>>,
     /// Free joints whose RMS error exceeds [`FLOOR_FACTOR`] × their noise σ̂, as "q3 RMS
     /// 12.4 σ̂": the residuals are not noise, so the standard errors (which assume they

@@ -45,7 +45,8 @@ pub struct Step {
     pub tied_held: Vec<String>,
 }
 
-/// Which rigid-body symbols a step fits.
+/// Which rigid-body symbols a step fits (`lockstep identify --rigid-body`, default
+/// [`RigidBodyFit::Spanning`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum RigidBodyFit {
     /// Every symbol the step identifies or carries; exact ties among them are left to the
@@ -495,7 +496,8 @@ pub fn run(
             &s.interest,
             opts.fit.clone(),
         )
-        .with_context(|| format!("step '{}'", s.config))?;
+        .with_context(|| format!("step '{}'", s.config))?
+        .with_held_ties(s.tied_held.clone());
         let cname = s.config.clone();
         let fit = problem.fit(&|p| progress(&cname, p))?;
         fit.apply(&mut current);
