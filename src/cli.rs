@@ -1,5 +1,6 @@
 //! The `lockstep` command line.
 
+use crate::identify::equation_error::Cutoff;
 use crate::identify::identifiability::{base_parameters, markdown, occurrence};
 use crate::identify::idim::{least_squares, observation, IdimOptions};
 use crate::identify::output_error::OutputErrorOptions;
@@ -526,8 +527,10 @@ pub struct OutputErrorArgs {
     /// Equation-error warm start: one more start from the plant's values first fits the
     /// torque balance at every sample (positions low-passed and differentiated, LuGre
     /// bristles driven by the estimated velocities; no simulation, so no drift), then the
-    /// whole files; it runs beside the other starts and the lower cost wins. `on` (cut-off 0.2 of the Nyquist frequency),
-    /// a cut-off fraction such as 0.1, or `off`.
+    /// whole files; it runs beside the other starts and the lower cost wins. `on`: the
+    /// position filter's cut-off per joint by residual analysis (the lowest that removes
+    /// no more than the noise: high for a light, fast wrist, low for a heavy base joint);
+    /// a cut-off fraction of the Nyquist frequency for every joint, such as 0.2; or `off`.
     #[arg(long, default_value = "off", value_name = "on|off|CUTOFF")]
     pub equation_error: String,
     /// Prediction-error homotopy, e.g. `--predictor 3,1`: before the whole files, fit the
@@ -633,9 +636,9 @@ impl OutputErrorArgs {
             },
             equation_error: match self.equation_error.trim() {
                 "off" | "none" => None,
-                "on" => Some(crate::identify::equation_error::DEFAULT_CUTOFF),
+                "on" => Some(Cutoff::Residual),
                 x => match x.parse::<f64>() {
-                    Ok(c) if c > 0.0 && c < 1.0 => Some(c),
+                    Ok(c) if c > 0.0 && c < 1.0 => Some(Cutoff::Fixed(c)),
                     _ => bail!("--equation-error: expected on, off or a filter cut-off in (0, 1) of the Nyquist frequency such as 0.2, got '{x}'"),
                 },
             },

@@ -651,9 +651,15 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
     assert_eq!(starts[1]["warm_up"], "segments");
     let cost = |s: &serde_json::Value| s["cost"].as_f64().unwrap();
     let best = fit["cost_after"].as_f64().unwrap();
-    // The winner's cost, up to the rounding of the least change along ties that follows.
+    // The winner's cost is where the least change starts; it may then rise by at most
+    // one noise variance (the moves along exact ties and the gain scale).
     let lower = cost(&starts[0]).min(cost(&starts[1]));
-    assert!((best - lower).abs() <= 1e-12 * lower, "{best} vs {lower}");
+    let lc = &fit["least_change"];
+    assert_eq!(lc["cost_at_minimum"].as_f64().unwrap(), lower);
+    assert!(
+        best <= lower + lc["allowed_rise"].as_f64().unwrap(),
+        "{best} vs {lower}"
+    );
     assert!(best < fit["cost_before"].as_f64().unwrap());
     // Bad lengths are refused by name.
     let (plant, data) = (start.to_str().unwrap(), d.path().join("data"));
@@ -767,13 +773,19 @@ fn the_prior_picks_the_point_of_an_exact_scale_symmetry_its_centre_prefers() {
 /// start does not pick a scale the output error cannot see.
 #[test]
 fn the_equation_error_holds_at_the_truth_and_keeps_the_gain_scale_symmetry() {
-    use lockstep::identify::equation_error::{EquationError, DEFAULT_CUTOFF};
+    use lockstep::identify::equation_error::{Cutoff, EquationError, DEFAULT_CUTOFF};
     let d = tempfile::tempdir().unwrap();
     let (p, at_truth, off) = problem_at_truth(d.path(), "J2", 3);
     assert_eq!(p.configuration().name, "c4");
     let truth = p.plant_at(&at_truth);
     let r = &p.records[0];
-    let ee = EquationError::new(&truth, p.configuration(), &p.records, DEFAULT_CUTOFF).unwrap();
+    let ee = EquationError::new(
+        &truth,
+        p.configuration(),
+        &p.records,
+        Cutoff::Fixed(DEFAULT_CUTOFF),
+    )
+    .unwrap();
     assert_eq!(ee.len(), r.t.len() - 20);
     let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
     let at = ee.residuals(&truth).unwrap();
@@ -827,8 +839,12 @@ fn the_equation_error_holds_at_the_truth_and_keeps_the_gain_scale_symmetry() {
         p.options().clone(),
     )
     .unwrap();
-    let (est, status) = start.fit_equation_error(DEFAULT_CUTOFF).unwrap();
-    let stage = start.equation_error_stage(DEFAULT_CUTOFF).unwrap();
+    let (est, status) = start
+        .fit_equation_error(Cutoff::Fixed(DEFAULT_CUTOFF))
+        .unwrap();
+    let stage = start
+        .equation_error_stage(Cutoff::Fixed(DEFAULT_CUTOFF))
+        .unwrap();
     let (e_truth, e_off, e_est) = (stage.cost(&at_truth), stage.cost(&off), stage.cost(&est));
     let (o_off, o_est) = (p.cost(&off), p.cost(&est));
     println!("{status}: equation error {e_off:.4e} → {e_est:.4e} (truth {e_truth:.4e}); output error {o_off:.4e} → {o_est:.4e}");
@@ -847,7 +863,7 @@ fn the_equation_error_holds_at_the_truth_and_keeps_the_gain_scale_symmetry() {
 /// 3.10 → 0.287 (output error 0.583); ω = 1: → 0.292 (0.336); whole files 0.295.
 #[test]
 fn the_prediction_error_homotopy_takes_c4_from_the_equation_error_to_the_noise_floor() {
-    use lockstep::identify::equation_error::DEFAULT_CUTOFF;
+    use lockstep::identify::equation_error::{Cutoff, DEFAULT_CUTOFF};
     let d = tempfile::tempdir().unwrap();
     let (p, _, off) = problem_at_truth(d.path(), "J2", 3);
     let options = OutputErrorOptions {
@@ -867,7 +883,9 @@ fn the_prediction_error_homotopy_takes_c4_from_the_equation_error_to_the_noise_f
         .unwrap()
     };
     let start = on(&p.plant_at(&off));
-    let (est, _) = start.fit_equation_error(DEFAULT_CUTOFF).unwrap();
+    let (est, _) = start
+        .fit_equation_error(Cutoff::Fixed(DEFAULT_CUTOFF))
+        .unwrap();
     let at_equation_error = start.cost(&est);
     let mut plant = start.plant_at(&est);
     let mut trail =

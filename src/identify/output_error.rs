@@ -20,7 +20,7 @@
 //! (rayon). Standard errors from the Jacobian at the solution, correlations above 0.95
 //! flagged, NRMSE fit per joint as MATLAB's `compare`.
 
-use super::equation_error::EquationError;
+use super::equation_error::{Cutoff, EquationError};
 use crate::plant::{ConsistencyPolicy, Plant};
 use crate::simulation::{Hold, InputSignal, State, Trajectory};
 use anyhow::{bail, Result};
@@ -133,9 +133,10 @@ pub struct OutputErrorOptions {
     /// c4 of the Freedom 6S from the Appendix D guess, a 10 % horizon fitted from the
     /// equation error's point reached 309 and the next, 25 %, started at 1.5e6, while the
     /// whole files started at 2.3e3); it runs beside the other starts and the lower final
-    /// cost wins. The value is the position filter's cut-off as a fraction of the Nyquist
-    /// frequency ([`super::equation_error::DEFAULT_CUTOFF`] = 0.2). `None`: no such start.
-    pub equation_error: Option<f64>,
+    /// cost wins. The value sets the position filter's cut-off ([`Cutoff`]: one fraction
+    /// of the Nyquist frequency for all joints, or per joint by residual analysis).
+    /// `None`: no such start.
+    pub equation_error: Option<Cutoff>,
     /// Prediction-error homotopy: output-injection bandwidths ω (rad/s), fitted in turn
     /// ([`Problem::predictor`]: the simulation pulled toward the measured positions, a
     /// low-passed equation error at large ω, the output error at ω → 0) before the whole
@@ -562,19 +563,38 @@ impl Problem {
     }
 
     /// The same parameters, bounds and Fs ≥ Fc on the equation error of the whole files
-    /// ([`EquationError`], position filter cut-off `cutoff` of the Nyquist frequency):
+    /// ([`EquationError`], position filter cut-off `cutoff`):
     /// its residuals are torque balances, not position errors, so it has no prior (the
     /// prior's weight is set by the position noise) and serves only as a warm start.
     ///
     /// # Errors
     /// A file too short for the filter, or a cut-off outside (0, 1).
-    pub fn equation_error_stage(&self, cutoff: f64) -> Result<Problem> {
+    pub fn equation_error_stage(&self, cutoff: Cutoff) -> Result<Problem> {
         let ee = EquationError::new(&self.plant, self.conf, &self.records, cutoff)?;
         let mut problem = self.with_records(self.records.clone(), self.sqrt_w.clone());
         problem.m = ee.len();
         problem.prior = None;
         problem.equation_error = Some(std::sync::Arc::new(ee));
         Ok(problem)
+    }
+
+    /// For the equation-error stage, the position filter's cut-off per free joint
+    /// (" (filter cut-offs q3 0.7, q5 0.6 of the Nyquist frequency)"); empty otherwise.
+    fn equation_error_note(&self) -> String {
+        let Some(ee) = &self.equation_error else {
+            return String::new();
+        };
+        let each: Vec<String> = self
+            .conf
+            .free
+            .iter()
+            .zip(ee.cutoffs())
+            .map(|(j, c)| format!("q{j} {c}"))
+            .collect();
+        format!(
+            " (filter cut-offs {} of the Nyquist frequency)",
+            each.join(", ")
+        )
     }
 
     /// The same problem as multiple shooting: every file cut into segments of `seconds`
@@ -918,6 +938,17 @@ impl Problem {
     /// S = `cost_at_minimum` at `p` (as the fit computed it; the move changes it by
     /// rounding only); otherwise `p` is returned unchanged.
     ///
+    /// Then the plant-gain scale: scaling the plant gains with every force of the
+    /// configuration (the inertial symbols m·, I·, the friction levels, springs and
+    /// offsets: [`scales_with_the_gain`]) by α moves nothing (Kp τ = D q̈ + … all × α), so
+    /// position data cannot fix α; when every such parameter the configuration has is
+    /// fitted, the fit ends anywhere on that line (k1 of the Freedom 6S from the Appendix
+    /// D guess through the prediction-error homotopy: all −46 %, which k2 then inherits as
+    /// "identifiable" values −46 % off). They are scaled by α* = Σρ/Σρ², ρ_i = p_i / p₀_i,
+    /// the point of the line nearest p₀ in relative terms (clamped to the bounds), and the
+    /// move is kept by the same rule. Where a held parameter breaks the symmetry the cost
+    /// rises and the move is dropped.
+    ///
     /// Directions the data determine only weakly (small but not zero singular values of
     /// the Jacobian) are left where the fit put them: a linearised move along them was
     /// tried and the simulated cost rose by orders of magnitude beyond the prediction (k1
@@ -939,18 +970,61 @@ impl Problem {
         )?;
         let cost = self.cost(&moved_to);
         let accepted = cost <= cost_at_minimum + allowed_rise;
+        let (mut fitted, mut cost) = if accepted {
+            (moved_to, cost)
+        } else {
+            (p.to_vec(), cost_at_minimum)
+        };
+        let mut gain_scale = None;
+        if let Some((alpha, scaled)) = self.gain_scale_toward(&fitted, &p0) {
+            let c = self.cost(&scaled);
+            if c <= cost_at_minimum + allowed_rise {
+                (fitted, cost) = (scaled, c);
+                gain_scale = Some(alpha);
+            }
+        }
         let moved = (0..p.len())
-            .filter(|&i| (moved_to[i] - p[i]).abs() > 1e-6 * (self.upper[i] - self.lower[i]))
+            .filter(|&i| (fitted[i] - p[i]).abs() > 1e-6 * (self.upper[i] - self.lower[i]))
             .map(|i| self.names[i].clone())
             .collect();
         Ok(LeastChange {
-            fitted: if accepted { moved_to } else { p.to_vec() },
+            fitted,
             cost_at_minimum,
-            cost: if accepted { cost } else { cost_at_minimum },
+            cost,
             allowed_rise,
             moved,
             accepted,
+            gain_scale,
         })
+    }
+
+    /// The move along the plant-gain scale of [`Problem::least_change`]: `p` with every
+    /// fitted parameter that [`scales_with_the_gain`] times α* = Σρ/Σρ² (ρ_i = p_i / p₀_i),
+    /// α* clamped so that all stay within their bounds; `None` when no plant gain is
+    /// fitted or α* is within 1e-9 of 1.
+    fn gain_scale_toward(&self, p: &[f64], p0: &[f64]) -> Option<(f64, Vec<f64>)> {
+        let model = self.plant.model;
+        let members: Vec<usize> = (0..p.len())
+            .filter(|&i| scales_with_the_gain(model, &self.names[i]) && p[i] != 0.0 && p0[i] != 0.0)
+            .collect();
+        if !members.iter().any(|&i| self.names[i].starts_with("Kp_")) {
+            return None;
+        }
+        let rho: Vec<f64> = members.iter().map(|&i| p[i] / p0[i]).collect();
+        let mut alpha = rho.iter().sum::<f64>() / rho.iter().map(|r| r * r).sum::<f64>();
+        for &i in &members {
+            // α p_i within [lower, upper].
+            let (a, b) = (self.lower[i] / p[i], self.upper[i] / p[i]);
+            alpha = alpha.clamp(a.min(b), a.max(b));
+        }
+        if !alpha.is_finite() || alpha <= 0.0 || (alpha - 1.0).abs() < 1e-9 {
+            return None;
+        }
+        let mut scaled = p.to_vec();
+        for &i in &members {
+            scaled[i] = (alpha * p[i]).clamp(self.lower[i], self.upper[i]);
+        }
+        Some((alpha, scaled))
     }
 
     /// Fit from the plant's values and `options.starts − 1` random starts (in parallel),
@@ -1088,7 +1162,11 @@ impl Problem {
                     let outcome = problem.run_stage(stage, &mut u, &context);
                     diverged += outcome.failures;
                     iterations += outcome.iterations;
-                    ended.push(format!("{stage}: {}", outcome.status));
+                    ended.push(format!(
+                        "{stage}: {}{}",
+                        outcome.status,
+                        problem.equation_error_note()
+                    ));
                     if outcome.stop {
                         break;
                     }
@@ -1259,7 +1337,7 @@ impl Problem {
     /// # Errors
     /// A file too short for the filter, a cut-off outside (0, 1), or the plant cannot be
     /// configured at the start.
-    pub fn fit_equation_error(&self, cutoff: f64) -> Result<(Vec<f64>, String)> {
+    pub fn fit_equation_error(&self, cutoff: Cutoff) -> Result<(Vec<f64>, String)> {
         let ee = self.equation_error_stage(cutoff)?;
         let mut u = self.to_scaled(&self.initial_values());
         ee.residuals(&self.to_physical(&u))
@@ -1670,8 +1748,45 @@ pub struct LeastChange {
     pub allowed_rise: f64,
     /// The symbols the move changed.
     pub moved: Vec<String>,
-    /// Whether the move was kept (the simulated cost within the allowed rise).
+    /// Whether the move along the ties was kept (the simulated cost within the allowed
+    /// rise).
     pub accepted: bool,
+    /// The plant-gain scale α applied after it (every parameter that scales with the gain
+    /// times α), when that move was kept; `None` when there was none or it raised the
+    /// cost.
+    pub gain_scale: Option<f64>,
+}
+
+/// Whether parameter `name` scales with the plant gain in the exact symmetry of position
+/// data (Kp τ = D(q) q̈ + C q̇ + φ + friction + spring + offset, every term × α leaves q(t)
+/// unchanged): the plant gains `Kp_j`; the inertial symbols of masses and inertias (`m…`,
+/// `I…`: the barycentric parameters are products of them with the centroid coordinates,
+/// which do not scale); the friction levels `Fv`, `Fc`, `Fs`, `Fv_pos`, `Fc_pos`, `Fv_neg`,
+/// `Fc_neg`, the LuGre `sigma0`, `sigma1`, `sigma2` (z's dynamics depend on σ0 / g(v),
+/// unchanged); springs `Ks`; offsets. Not: `vs`, `qeq`, `FrictionBias`, the tendon `G`.
+pub fn scales_with_the_gain(model: &generated::Model, name: &str) -> bool {
+    if model.inertial_symbols.contains(&name) {
+        return name.starts_with('m') || name.starts_with('I');
+    }
+    let Some((symbol, joint)) = name.rsplit_once('_') else {
+        return false;
+    };
+    joint.parse::<usize>().is_ok()
+        && matches!(
+            symbol,
+            "Kp" | "Fv"
+                | "Fc"
+                | "Fs"
+                | "Fv_pos"
+                | "Fc_pos"
+                | "Fv_neg"
+                | "Fc_neg"
+                | "sigma0"
+                | "sigma1"
+                | "sigma2"
+                | "Ks"
+                | "offset"
+        )
 }
 
 /// Result of [`Problem::fit`].

@@ -638,6 +638,13 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                 if lc.accepted { "kept" } else { "rose more than one noise variance: not kept" },
                 fmt_g(lc.allowed_rise),
             );
+            if let Some(alpha) = lc.gain_scale {
+                let _ = writeln!(
+                    s,
+                    "Plant-gain scale: position data fix the plant gains only together with every force of the configuration (an exact symmetry); all of them were scaled by α = {} toward the initial values, the cost unchanged within one noise variance. Their scale is the initial values': hold one gain at a known value (bounds lower = upper) to set it.\n",
+                    fmt_g(alpha)
+                );
+            }
         }
         let stats = &f.statistics;
         if !stats.above_floor.is_empty() {
