@@ -644,11 +644,7 @@ impl OutputErrorArgs {
             },
             ..OutputErrorOptions::default()
         };
-        if options.horizons.is_empty()
-            && options.segments.is_empty()
-            && options.predictor.is_empty()
-            && options.equation_error.is_none()
-        {
+        if !options.fits_the_plant_values() {
             bail!("--horizons none: nothing would fit the plant's values; set --equation-error, --predictor or --segments, or give horizons such as 1");
         }
         Ok(options)

@@ -425,8 +425,9 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
     make_data(d.path(), &truth, "4.7", None, "k1", "3");
     let data = d.path().join("data");
     let start = plants().join("freedom6s_appendix_d_initial.toml");
-    let run = |plant: &Path, data: &Path, config: &str| {
-        lockstep(&[
+    let out = d.path().join("out");
+    let run_with = |plant: &Path, data: &Path, config: &str, more: &[&str]| {
+        let mut args = vec![
             "identify",
             "--method",
             "coupled",
@@ -439,9 +440,12 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
             "--cost",
             "4.2",
             "--out",
-            d.path().join("out").to_str().unwrap(),
-        ])
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(more);
+        lockstep(&args)
     };
+    let run = |plant: &Path, data: &Path, config: &str| run_with(plant, data, config, &[]);
     // A step without data.
     fails(
         &run(&start, &data, "k2"),
@@ -515,20 +519,10 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
         ("0.5,0.2,1", &["--horizons", "increasing", "0.5,0.2,1"][..]),
         ("0.1,0.5", &["--horizons", "ending with 1"][..]),
     ] {
-        let o = lockstep(&[
-            "identify",
-            "--method",
-            "coupled",
-            "--plant",
-            start.to_str().unwrap(),
-            "--data",
-            data.to_str().unwrap(),
-            "--horizons",
-            horizons,
-            "--out",
-            d.path().join("out").to_str().unwrap(),
-        ]);
-        fails(&o, needles);
+        fails(
+            &run_with(&start, &data, "k1", &["--horizons", horizons]),
+            needles,
+        );
     }
     assert!(!d.path().join("out").exists(), "nothing may be written");
 }

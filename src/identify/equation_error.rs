@@ -110,7 +110,7 @@ pub fn residual_cutoff(columns: &[&[f64]]) -> f64 {
     let n: usize = columns.iter().map(|c| inner(c).len()).sum();
     let noise: f64 = columns
         .iter()
-        .map(|c| crate::signal::noise_sigma(c).powi(2) * c.len() as f64)
+        .map(|c| crate::signal::noise_sigma(c).powi(2) * inner(c).len() as f64)
         .sum::<f64>()
         / n.max(1) as f64;
     if noise.is_nan() || noise <= 0.0 {

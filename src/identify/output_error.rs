@@ -148,6 +148,17 @@ pub struct OutputErrorOptions {
     pub predictor: Vec<f64>,
 }
 
+impl OutputErrorOptions {
+    /// Whether anything fits the plant's values: the horizons, or one of the warm-ups
+    /// (segments, equation error, predictor). [`Problem::fit`] refuses options without.
+    pub fn fits_the_plant_values(&self) -> bool {
+        !self.horizons.is_empty()
+            || !self.segments.is_empty()
+            || self.equation_error.is_some()
+            || !self.predictor.is_empty()
+    }
+}
+
 impl Default for OutputErrorOptions {
     fn default() -> Self {
         OutputErrorOptions {
@@ -1042,10 +1053,7 @@ impl Problem {
         // (start point, warm-up): the plant's values through the horizons, the plant's
         // values through the segments and through the equation error when asked for,
         // then random points through the horizons.
-        let warm_ups = !self.options.segments.is_empty()
-            || self.options.equation_error.is_some()
-            || !self.options.predictor.is_empty();
-        if self.options.horizons.is_empty() && !warm_ups {
+        if !self.options.fits_the_plant_values() {
             bail!(
                 "configuration '{}': no start to fit: without horizons one of the segments, \
                  the equation error or the predictor must warm up the plant's values",
