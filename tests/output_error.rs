@@ -759,6 +759,110 @@ fn the_prior_picks_the_point_of_an_exact_scale_symmetry_its_centre_prefers() {
     assert!(fit.prior_penalty > 0.0);
 }
 
+/// The least change's plant-gain scale move: in c1 (x7, y7 held) the fit cannot tell the
+/// truth from the whole gain family of joint 4 scaled by 0.6 (the motion is the same to
+/// rounding), so the least change must scale it by α = 1 / 0.6 — the α that returns the
+/// fitted plant gain Kp_4 to the plant's value (here the truth) — and the rest of the family
+/// must follow to the truth, the cost unchanged; the parameters outside the family stay.
+/// Again with I7_33 held as a tie (as `--rigid-body spanning` holds k1's I7_13) and × 0.6
+/// in the plant: the move must scale it too (`held`), or it is not exact and is dropped.
+#[test]
+fn the_least_change_returns_a_scaled_gain_family_to_the_initial_plant_gain() {
+    let d = tempfile::tempdir().unwrap();
+    let truth_file = truth(d.path());
+    let truth = Plant::load(&truth_file).unwrap();
+    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
+    let family = [
+        "Kp_4", "sigma0_4", "sigma1_4", "sigma2_4", "Fc_4", "Fs_4", "Ks_4", "m7", "I7_33",
+    ];
+    let all: Vec<String> = family
+        .iter()
+        .chain(&["vs_4", "qeq_4"])
+        .map(|n| n.to_string())
+        .collect();
+    let start = d.path().join("start.toml");
+    perturbed_start(&truth_file, &all, &start);
+    let conf = truth.model.configuration("c1").unwrap();
+    let rec = read_record(&d.path().join("data/c1_run.csv"), truth.model, conf, 0.01).unwrap();
+    for held in [None, Some("I7_33")] {
+        let names: Vec<String> = all
+            .iter()
+            .filter(|n| Some(n.as_str()) != held)
+            .cloned()
+            .collect();
+        // The start's bounds (a factor 4 either side), the truth's values as p₀; the held
+        // tie × 0.6 with the fitted family.
+        let mut plant = Plant::load(&start).unwrap();
+        for n in &all {
+            plant.parameters.insert(n.clone(), truth.parameters[n]);
+        }
+        let mut p = Problem::new(
+            &plant,
+            conf,
+            names.clone(),
+            vec![rec.clone()],
+            &[4],
+            OutputErrorOptions {
+                h: 1.0 / 12000.0,
+                ..OutputErrorOptions::default()
+            },
+        )
+        .unwrap();
+        let at_truth: Vec<f64> = names.iter().map(|n| truth.parameters[n]).collect();
+        let c_truth = p.cost(&at_truth);
+        if let Some(h) = held {
+            plant.parameters.insert(h.into(), 0.6 * truth.parameters[h]);
+            p = Problem::new(
+                &plant,
+                conf,
+                names.clone(),
+                vec![rec.clone()],
+                &[4],
+                p.options().clone(),
+            )
+            .unwrap()
+            .with_held_ties(vec![h.to_string()]);
+        }
+        let scaled: Vec<f64> = names
+            .iter()
+            .zip(&at_truth)
+            .map(|(n, v)| {
+                if family.contains(&n.as_str()) {
+                    0.6 * v
+                } else {
+                    *v
+                }
+            })
+            .collect();
+        let c_scaled = p.cost(&scaled);
+        println!("held {held:?}: cost at the truth {c_truth:.6e}, the family × 0.6 {c_scaled:.6e}");
+        assert!(
+            (c_scaled - c_truth).abs() < 1e-6 * c_truth,
+            "{c_scaled} vs {c_truth}"
+        );
+        let lc = p.least_change(&scaled, c_scaled).unwrap();
+        let alpha = lc.gain_scale.expect("the gain-scale move was dropped");
+        assert!((alpha - 1.0 / 0.6).abs() < 1e-9, "α = {alpha}");
+        for (i, n) in names.iter().enumerate() {
+            let (f, t) = (lc.fitted[i], at_truth[i]);
+            assert!((f - t).abs() <= 1e-9 * t.abs(), "{n}: {f} vs truth {t}");
+        }
+        assert_eq!(lc.held.len(), held.iter().len(), "{:?}", lc.held);
+        for (n, v) in &lc.held {
+            let t = truth.parameters[n];
+            assert!(
+                (v - t).abs() <= 1e-9 * t.abs(),
+                "held {n}: {v} vs truth {t}"
+            );
+        }
+        assert!(
+            (lc.cost - c_truth).abs() < 1e-6 * c_truth,
+            "{} vs {c_truth}",
+            lc.cost
+        );
+    }
+}
+
 /// The equation error (the warm start of `--equation-error`): at the true parameters the
 /// torque balance holds up to the filtering and the noise; the ±25 % start of c4 (joint 2,
 /// the parallelogram base with gravity, Table 4.3's J2 chirp) breaks it many times over;

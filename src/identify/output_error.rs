@@ -955,10 +955,14 @@ impl Problem {
     /// position data cannot fix α; when every such parameter the configuration has is
     /// fitted, the fit ends anywhere on that line (k1 of the Freedom 6S from the Appendix
     /// D guess through the prediction-error homotopy: all −46 %, which k2 then inherits as
-    /// "identifiable" values −46 % off). They are scaled by α* = Σρ/Σρ², ρ_i = p_i / p₀_i,
-    /// the point of the line nearest p₀ in relative terms (clamped to the bounds), and the
-    /// move is kept by the same rule. Where a held parameter breaks the symmetry the cost
-    /// rises and the move is dropped.
+    /// "identifiable" values −46 % off). They are scaled by the α* that returns the fitted
+    /// plant gains to their initial values (geometric mean of p₀ / p over them; the rest of
+    /// the family follows, the held ties among it included: [`LeastChange::held`]), each
+    /// clamped to its bounds, and the move is kept by the same rule; if the cost rises, α* clamped to keep every member inside its bounds is tried.
+    /// (An earlier α* = Σρ/Σρ² over the whole family was set by its worst-determined
+    /// member: k1's Fs_5 at 50 × its initial value, with vs_5 → 0, held the family at
+    /// −50 %.) Where a held parameter breaks the symmetry the cost rises and the move is
+    /// dropped.
     ///
     /// Directions the data determine only weakly (small but not zero singular values of
     /// the Jacobian) are left where the fit put them: a linearised move along them was
@@ -987,19 +991,23 @@ impl Problem {
             (p.to_vec(), cost_at_minimum)
         };
         let mut gain_scale = None;
-        if let Some((alpha, scaled)) = self.gain_scale_toward(&fitted, &p0) {
-            let c = self.cost(&scaled);
+        let mut held = Vec::new();
+        for m in self.gain_scale_toward(&fitted, &p0) {
+            let c = self.with_plant_values(&m.held).cost(&m.fitted);
             if c <= cost_at_minimum + allowed_rise {
-                (fitted, cost) = (scaled, c);
-                gain_scale = Some(alpha);
+                (fitted, cost, held) = (m.fitted, c, m.held);
+                gain_scale = Some(m.alpha);
+                break;
             }
         }
         let moved = (0..p.len())
             .filter(|&i| (fitted[i] - p[i]).abs() > 1e-6 * (self.upper[i] - self.lower[i]))
             .map(|i| self.names[i].clone())
+            .chain(held.iter().map(|(n, _)| n.clone()))
             .collect();
         Ok(LeastChange {
             fitted,
+            held,
             cost_at_minimum,
             cost,
             allowed_rise,
@@ -1009,33 +1017,95 @@ impl Problem {
         })
     }
 
-    /// The move along the plant-gain scale of [`Problem::least_change`]: `p` with every
-    /// fitted parameter that [`scales_with_the_gain`] times α* = Σρ/Σρ² (ρ_i = p_i / p₀_i),
-    /// α* clamped so that all stay within their bounds; `None` when no plant gain is
-    /// fitted or α* is within 1e-9 of 1.
-    fn gain_scale_toward(&self, p: &[f64], p0: &[f64]) -> Option<(f64, Vec<f64>)> {
+    /// The same problem with the plant's values of the (not fitted) parameters `values`
+    /// replaced: the held ties the plant-gain scale move scales
+    /// ([`Problem::least_change`]). Borrowed when `values` is empty.
+    fn with_plant_values(&self, values: &[(String, f64)]) -> std::borrow::Cow<'_, Problem> {
+        if values.is_empty() {
+            return std::borrow::Cow::Borrowed(self);
+        }
+        let mut q = self.clone();
+        for (n, v) in values {
+            q.plant.parameters.insert(n.clone(), *v);
+        }
+        std::borrow::Cow::Owned(q)
+    }
+
+    /// The moves along the plant-gain scale of [`Problem::least_change`], best first: every
+    /// fitted parameter that [`scales_with_the_gain`] times α*, where α* brings the fitted
+    /// plant gains back to their initial values (the geometric mean of p₀ / p over the
+    /// fitted `Kp_j`: a gain is amplifier × gearing, the force scale a user knows best; a
+    /// member the data do not determine, such as a Stribeck level with vs → 0, must not set
+    /// the scale). The held ties among the members ([`Problem::with_held_ties`]: inertias
+    /// left at arbitrary values along exact ties, which the fitted symbols compensate)
+    /// are scaled too, or the move would not be exact (k1 of the Freedom 6S: I7_13 held,
+    /// the move from × 0.5 raised the RMS error from 2.0e-4 to 3.3e-4 rad). First each
+    /// member is clamped to its own bounds (exact where a clamped member does not matter);
+    /// then α* is clamped so that every member stays inside (exact always). Empty when no
+    /// plant gain is fitted or α* is within 1e-9 of 1.
+    fn gain_scale_toward(&self, p: &[f64], p0: &[f64]) -> Vec<GainScaleMove> {
         let model = self.plant.model;
         let members: Vec<usize> = (0..p.len())
             .filter(|&i| scales_with_the_gain(model, &self.names[i]) && p[i] != 0.0 && p0[i] != 0.0)
             .collect();
-        if !members.iter().any(|&i| self.names[i].starts_with("Kp_")) {
-            return None;
+        // Held ties that scale: (name, value, bounds (±∞ without)).
+        let held: Vec<(&String, f64, f64, f64)> = self
+            .held_ties
+            .iter()
+            .filter(|n| scales_with_the_gain(model, n))
+            .filter_map(|n| {
+                let v = *self.plant.parameters.get(n)?;
+                let (lo, hi) = self
+                    .plant
+                    .bounds
+                    .get(n)
+                    .copied()
+                    .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+                (v != 0.0).then_some((n, v, lo, hi))
+            })
+            .collect();
+        let log_rho: Vec<f64> = members
+            .iter()
+            .filter(|&&i| self.names[i].starts_with("Kp_") && p[i] / p0[i] > 0.0)
+            .map(|&i| (p[i] / p0[i]).ln())
+            .collect();
+        if log_rho.is_empty() {
+            return Vec::new();
         }
-        let rho: Vec<f64> = members.iter().map(|&i| p[i] / p0[i]).collect();
-        let mut alpha = rho.iter().sum::<f64>() / rho.iter().map(|r| r * r).sum::<f64>();
-        for &i in &members {
-            // α p_i within [lower, upper].
-            let (a, b) = (self.lower[i] / p[i], self.upper[i] / p[i]);
-            alpha = alpha.clamp(a.min(b), a.max(b));
+        let alpha = (-log_rho.iter().sum::<f64>() / log_rho.len() as f64).exp();
+        let mut within = alpha;
+        let values = members
+            .iter()
+            .map(|&i| (p[i], self.lower[i], self.upper[i]))
+            .chain(held.iter().map(|&(_, v, lo, hi)| (v, lo, hi)));
+        for (v, lo, hi) in values {
+            // α v within [lo, hi].
+            let (a, b) = (lo / v, hi / v);
+            within = within.clamp(a.min(b), a.max(b));
         }
-        if !alpha.is_finite() || alpha <= 0.0 || (alpha - 1.0).abs() < 1e-9 {
-            return None;
+        let scaled = |alpha: f64| {
+            let mut fitted = p.to_vec();
+            for &i in &members {
+                fitted[i] = (alpha * p[i]).clamp(self.lower[i], self.upper[i]);
+            }
+            let held = held
+                .iter()
+                .map(|&(n, v, lo, hi)| (n.clone(), (alpha * v).clamp(lo, hi)))
+                .collect();
+            GainScaleMove {
+                alpha,
+                fitted,
+                held,
+            }
+        };
+        let mut out: Vec<GainScaleMove> = Vec::new();
+        for a in [alpha, within] {
+            let new = out.iter().all(|m| (a - m.alpha).abs() > 1e-9);
+            if a.is_finite() && a > 0.0 && (a - 1.0).abs() >= 1e-9 && new {
+                out.push(scaled(a));
+            }
         }
-        let mut scaled = p.to_vec();
-        for &i in &members {
-            scaled[i] = (alpha * p[i]).clamp(self.lower[i], self.upper[i]);
-        }
-        Some((alpha, scaled))
+        out
     }
 
     /// Fit from the plant's values and `options.starts − 1` random starts (in parallel),
@@ -1221,7 +1291,10 @@ impl Problem {
         } else {
             None
         };
-        let stats = self.statistics(&p)?;
+        // The statistics with the held ties the least change scaled.
+        let held = least_change.as_ref().map_or(&[][..], |lc| &lc.held[..]);
+        let at = self.with_plant_values(held);
+        let stats = at.statistics(&p)?;
         let prior_penalty = self.prior_penalty(&self.to_scaled(&p));
         Ok(FitResult {
             configuration: self.conf.name.to_string(),
@@ -1496,7 +1569,10 @@ impl Problem {
                 }
             }
         }
+        // Symmetric to rounding: the pseudo-inverse's 1/sv near the cut-off makes the two
+        // halves differ.
         let cov_scaled = &ainv * b * &ainv;
+        let cov_scaled = (&cov_scaled + cov_scaled.transpose()) * 0.5;
         let mut std_err = vec![0.0; n];
         for i in 0..n {
             std_err[i] = if norms[i] > 0.0 && !undetermined[i] {
@@ -1510,8 +1586,14 @@ impl Problem {
         for i in 0..n {
             for j in 0..n {
                 let d = (cov_scaled[(i, i)] * cov_scaled[(j, j)]).sqrt();
+                // An undetermined parameter's covariance is rounding amplified by the
+                // pseudo-inverse (k1 of the Freedom 6S: Fs_5 with vs_5 → 0 showed
+                // "correlation −1" with the well-determined qeq_5 one way and none the
+                // other): it has no correlation.
                 correlation[i][j] = if i == j {
                     1.0
+                } else if undetermined[i] || undetermined[j] {
+                    0.0
                 } else if d > 0.0 && d.is_finite() {
                     (cov_scaled[(i, j)] / d).clamp(-1.0, 1.0)
                 } else {
@@ -1691,7 +1773,8 @@ pub struct Statistics {
     pub std_err: Vec<f64>,
     /// σ/|p|.
     pub relative_std_err: Vec<f64>,
-    /// Correlation matrix (n × n).
+    /// Correlation matrix (n × n); 0 off the diagonal for a parameter the data do not
+    /// determine (infinite standard error: its covariance is amplified rounding).
     pub correlation: Vec<Vec<f64>>,
     /// Pairs with |correlation| > [`CORRELATION_LIMIT`].
     pub correlated: Vec<(String, String, f64)>,
@@ -1748,6 +1831,10 @@ pub struct LeastChange {
     /// The parameters after the move (physical units).
     #[serde(skip)]
     pub fitted: Vec<f64>,
+    /// Held ties (not fitted; [`Problem::with_held_ties`]) the plant-gain scale move
+    /// scaled with the rest, with their new values (physical units): the plant's values
+    /// must change with the fitted ones ([`FitResult::apply`] writes both).
+    pub held: Vec<(String, f64)>,
     /// Cost at the minimum the move started from.
     pub cost_at_minimum: f64,
     /// Cost after the move.
@@ -1763,6 +1850,16 @@ pub struct LeastChange {
     /// times α), when that move was kept; `None` when there was none or it raised the
     /// cost.
     pub gain_scale: Option<f64>,
+}
+
+/// One candidate of the plant-gain scale move ([`Problem::least_change`]).
+struct GainScaleMove {
+    /// The scale α.
+    alpha: f64,
+    /// The fitted parameters after it.
+    fitted: Vec<f64>,
+    /// The held ties it scales, with their new values.
+    held: Vec<(String, f64)>,
 }
 
 /// Whether parameter `name` scales with the plant gain in the exact symmetry of position
@@ -1841,10 +1938,14 @@ pub struct FitResult {
 }
 
 impl FitResult {
-    /// Write the fitted values into `plant`.
+    /// Write the fitted values into `plant`, and the held ties the least change scaled
+    /// ([`LeastChange::held`]).
     pub fn apply(&self, plant: &mut Plant) {
         for (n, &v) in self.names.iter().zip(&self.fitted) {
             plant.parameters.insert(n.clone(), v);
+        }
+        for (n, v) in self.least_change.iter().flat_map(|lc| &lc.held) {
+            plant.parameters.insert(n.clone(), *v);
         }
     }
 }

@@ -641,7 +641,7 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
             if let Some(alpha) = lc.gain_scale {
                 let _ = writeln!(
                     s,
-                    "Plant-gain scale: position data fix the plant gains only together with every force of the configuration (an exact symmetry); all of them were scaled by α = {} toward the initial values, the cost unchanged within one noise variance. Their scale is the initial values': hold one gain at a known value (bounds lower = upper) to set it.\n",
+                    "Plant-gain scale: position data fix the plant gains only together with every force of the configuration (an exact symmetry); all of them were scaled by α = {}, which returns the fitted plant gains to their initial values (geometric mean), the cost unchanged within one noise variance. Their scale is the initial gains': hold one gain at a known value (bounds lower = upper) to set it.\n",
                     fmt_g(alpha)
                 );
             }
@@ -667,7 +667,12 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
             if stats.at_bound[i] {
                 why.push("at a bound".to_string());
             }
-            if stats.relative_std_err[i] > super::output_error::RELATIVE_STD_LIMIT {
+            if stats.std_err[i].is_infinite() {
+                why.push(
+                    "not determined by the data (moves along an exact symmetry, such as the plant-gain scale)"
+                        .to_string(),
+                );
+            } else if stats.relative_std_err[i] > super::output_error::RELATIVE_STD_LIMIT {
                 why.push(format!(
                     "σ/|p| > {} %",
                     100.0 * super::output_error::RELATIVE_STD_LIMIT
