@@ -784,45 +784,49 @@ fn the_least_change_returns_a_scaled_gain_family_to_the_initial_plant_gain() {
     perturbed_start(&truth_file, &all, &start);
     let conf = truth.model.configuration("c1").unwrap();
     let rec = read_record(&d.path().join("data/c1_run.csv"), truth.model, conf, 0.01).unwrap();
+    // The start's bounds (a factor 4 either side), the truth's values as p₀.
+    let mut at_truth_plant = Plant::load(&start).unwrap();
+    for n in &all {
+        at_truth_plant
+            .parameters
+            .insert(n.clone(), truth.parameters[n]);
+    }
+    let options = OutputErrorOptions {
+        h: 1.0 / 12000.0,
+        ..OutputErrorOptions::default()
+    };
+    let c_truth = Problem::new(
+        &at_truth_plant,
+        conf,
+        all.clone(),
+        vec![rec.clone()],
+        &[4],
+        options.clone(),
+    )
+    .unwrap()
+    .cost(&all.iter().map(|n| truth.parameters[n]).collect::<Vec<_>>());
     for held in [None, Some("I7_33")] {
         let names: Vec<String> = all
             .iter()
             .filter(|n| Some(n.as_str()) != held)
             .cloned()
             .collect();
-        // The start's bounds (a factor 4 either side), the truth's values as p₀; the held
-        // tie × 0.6 with the fitted family.
-        let mut plant = Plant::load(&start).unwrap();
-        for n in &all {
-            plant.parameters.insert(n.clone(), truth.parameters[n]);
+        // The held tie × 0.6 with the fitted family.
+        let mut plant = at_truth_plant.clone();
+        if let Some(h) = held {
+            plant.parameters.insert(h.into(), 0.6 * truth.parameters[h]);
         }
-        let mut p = Problem::new(
+        let p = Problem::new(
             &plant,
             conf,
             names.clone(),
             vec![rec.clone()],
             &[4],
-            OutputErrorOptions {
-                h: 1.0 / 12000.0,
-                ..OutputErrorOptions::default()
-            },
+            options.clone(),
         )
-        .unwrap();
+        .unwrap()
+        .with_held_ties(held.iter().map(|h| h.to_string()).collect());
         let at_truth: Vec<f64> = names.iter().map(|n| truth.parameters[n]).collect();
-        let c_truth = p.cost(&at_truth);
-        if let Some(h) = held {
-            plant.parameters.insert(h.into(), 0.6 * truth.parameters[h]);
-            p = Problem::new(
-                &plant,
-                conf,
-                names.clone(),
-                vec![rec.clone()],
-                &[4],
-                p.options().clone(),
-            )
-            .unwrap()
-            .with_held_ties(vec![h.to_string()]);
-        }
         let scaled: Vec<f64> = names
             .iter()
             .zip(&at_truth)

@@ -958,7 +958,8 @@ impl Problem {
     /// "identifiable" values −46 % off). They are scaled by the α* that returns the fitted
     /// plant gains to their initial values (geometric mean of p₀ / p over them; the rest of
     /// the family follows, the held ties among it included: [`LeastChange::held`]), each
-    /// clamped to its bounds, and the move is kept by the same rule; if the cost rises, α* clamped to keep every member inside its bounds is tried.
+    /// clamped to its bounds, and the move is kept by the same rule; if the cost rises,
+    /// α* clamped to keep every member inside its bounds is tried.
     /// (An earlier α* = Σρ/Σρ² over the whole family was set by its worst-determined
     /// member: k1's Fs_5 at 50 × its initial value, with vs_5 → 0, held the family at
     /// −50 %.) Where a held parameter breaks the symmetry the cost rises and the move is
