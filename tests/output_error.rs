@@ -134,6 +134,19 @@ fn perturbed_start(truth: &Path, names: &[String], out: &Path) {
     p.save(out).unwrap();
 }
 
+/// Configuration c1 and its record `dir/data/c1_run.csv` (made by [`make_data`]).
+fn c1_record(
+    dir: &Path,
+    truth: &Plant,
+) -> (
+    &'static generated::Configuration,
+    lockstep::identify::output_error::Record,
+) {
+    let conf = truth.model.configuration("c1").unwrap();
+    let rec = read_record(&dir.join("data/c1_run.csv"), truth.model, conf, 0.01).unwrap();
+    (conf, rec)
+}
+
 /// Run the isolated step c1 on 40 s of Table 4.3's J4 chirp from a ±25 % start; returns
 /// the step's fit (report JSON), the truth and the output directory.
 fn fit_c1(d: &Path) -> (serde_json::Value, Plant, PathBuf) {
@@ -718,8 +731,7 @@ fn the_prior_picks_the_point_of_an_exact_scale_symmetry_its_centre_prefers() {
     for n in others {
         plant.parameters.insert(n.into(), truth.parameters[n]);
     }
-    let conf = truth.model.configuration("c1").unwrap();
-    let rec = read_record(&d.path().join("data/c1_run.csv"), truth.model, conf, 0.01).unwrap();
+    let (conf, rec) = c1_record(d.path(), &truth);
     let tau = 0.1;
     let p = Problem::new(
         &plant,
@@ -782,8 +794,7 @@ fn the_least_change_returns_a_scaled_gain_family_to_the_initial_plant_gain() {
         .collect();
     let start = d.path().join("start.toml");
     perturbed_start(&truth_file, &all, &start);
-    let conf = truth.model.configuration("c1").unwrap();
-    let rec = read_record(&d.path().join("data/c1_run.csv"), truth.model, conf, 0.01).unwrap();
+    let (conf, rec) = c1_record(d.path(), &truth);
     // The start's bounds (a factor 4 either side), the truth's values as p₀.
     let mut at_truth_plant = Plant::load(&start).unwrap();
     for n in &all {
@@ -885,8 +896,7 @@ fn a_parameter_within_rounding_of_its_bound_does_not_freeze_the_fit() {
     let truth_file = truth(d.path());
     let truth = Plant::load(&truth_file).unwrap();
     make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
-    let conf = truth.model.configuration("c1").unwrap();
-    let rec = read_record(&d.path().join("data/c1_run.csv"), truth.model, conf, 0.01).unwrap();
+    let (conf, rec) = c1_record(d.path(), &truth);
     let (kp, ks) = (truth.parameters["Kp_4"], truth.parameters["Ks_4"]);
     let ks_upper = 0.9 * ks;
     let mut plant = truth.clone();
@@ -947,8 +957,7 @@ fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
     std::fs::write(&truth_file, text.replace("vs_4 = 0.19765", "vs_4 = 0.05")).unwrap();
     let truth = Plant::load(&truth_file).unwrap();
     make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
-    let conf = truth.model.configuration("c1").unwrap();
-    let rec = read_record(&d.path().join("data/c1_run.csv"), truth.model, conf, 0.01).unwrap();
+    let (conf, rec) = c1_record(d.path(), &truth);
     let adapted: Vec<String> = ["Kp_4", "sigma0_4", "sigma1_4", "sigma2_4", "Fc_4", "Ks_4"]
         .map(String::from)
         .to_vec();
