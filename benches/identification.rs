@@ -2,14 +2,18 @@
 //! coupled-method plant (I4_33 made positive) excited by Table 4.7 for 40 s at 100 Hz.
 //!
 //! - `cost_evaluation/<config>`: one evaluation of cost (4.3), i.e. one simulation of a
-//!   40 s file at the thesis's 1/6000 s; a Jacobian costs one evaluation per fitted
+//!   40 s file at 1/12000 s (the step these data need: at the thesis's 1/6000 s RK4 is
+//!   unstable in k2..k5, DESIGN.md §2); a Jacobian costs one evaluation per fitted
 //!   parameter, spread over the cores.
 //! - With `LOCKSTEP_BENCH_SEQUENCE=1`, the whole coupled sequence k1..k5 is then run from
 //!   the Appendix D initial guess (bounds widened where the truth lies outside the thesis
-//!   bounds) and the time per step and per cost evaluation printed (takes tens of minutes).
+//!   bounds) with the settings that reach the noise floor (`--equation-error on --predictor
+//!   100,30,10,3,1 --horizons none --step 1/12000`), and the time per step and per cost
+//!   evaluation printed (takes hours on 2 cores: k4 alone 3618 s).
 
 use criterion::{criterion_group, Criterion};
 use lockstep::excitation::Excitations;
+use lockstep::identify::equation_error::Cutoff;
 use lockstep::identify::output_error::{OutputErrorOptions, Problem};
 use lockstep::identify::sequence::{plan, read_record, run, RigidBodyFit, SequenceOptions};
 use lockstep::plant::Plant;
@@ -82,7 +86,10 @@ fn bench(c: &mut Criterion) {
             s.fitted.clone(),
             vec![rec],
             &s.interest,
-            OutputErrorOptions::default(),
+            OutputErrorOptions {
+                h: 1.0 / 12000.0,
+                ..OutputErrorOptions::default()
+            },
         )
         .unwrap();
         let x: Vec<f64> = s.fitted.iter().map(|n| plant.parameters[n]).collect();
@@ -112,6 +119,10 @@ fn sequence(dir: &Path, data: &Path, truth: &Plant) {
         only: None,
         fit: OutputErrorOptions {
             h: 1.0 / 12000.0,
+            equation_error: Some(Cutoff::Residual),
+            predictor: vec![100.0, 30.0, 10.0, 3.0, 1.0],
+            horizons: Vec::new(),
+            least_change: true,
             ..OutputErrorOptions::default()
         },
         locked_tolerance: 0.01,
