@@ -215,6 +215,11 @@ pub struct Divergence {
     pub what: String,
     /// The step used (s).
     pub h: f64,
+    /// Smallest eigenvalue of the inertia matrix D_FF(q) (kg·m² or kg) at the state before
+    /// the divergent step, when D_FF is not positive definite there: the
+    /// rigid-body parameters are not physical in this configuration and no step helps.
+    /// `None`: D_FF was positive definite (or the divergence is a speed bound).
+    pub inertia_min_eigenvalue: Option<f64>,
 }
 
 /// Scratch buffers of one simulation (no allocation per step).
@@ -337,10 +342,20 @@ pub struct Trajectory {
 impl Divergence {
     /// The report with the joint called `joint` (a name where the caller knows it).
     pub fn message(&self, joint: &str) -> String {
-        format!(
-            "simulation diverged at t = {:.6} s: joint {joint} has {} (step {} s; try a smaller step)",
-            self.t, self.what, self.h
-        )
+        match self.inertia_min_eigenvalue {
+            Some(lambda) => format!(
+                "simulation diverged at t = {:.6} s: joint {joint} has {}: the inertia matrix \
+                 D(q) of the free joints is not positive definite before that step \
+                 (smallest eigenvalue {lambda:.4e}), so q̈ = D⁻¹(…) does not exist: the \
+                 rigid-body parameters are not physical in this configuration (`lockstep check` \
+                 lists the links); a smaller step will not help",
+                self.t, self.what
+            ),
+            None => format!(
+                "simulation diverged at t = {:.6} s: joint {joint} has {} (step {} s; try a smaller step)",
+                self.t, self.what, self.h
+            ),
+        }
     }
 }
 
@@ -598,9 +613,44 @@ impl PlantModel {
                 joint: i,
                 what,
                 h,
+                inertia_min_eigenvalue: None,
             });
         }
         Ok(())
+    }
+
+    /// The inertia matrix D_FF(q) of the free joints at free-joint positions `q_f` (NF; the
+    /// locked joints at [`PlantModel::q_locked`]), NF × NF, column-major (kg·m² or kg).
+    pub fn inertia_matrix(&self, q_f: &[f64]) -> nalgebra::DMatrix<f64> {
+        let nf = self.nf();
+        let mut q_full = self.q_locked.clone();
+        for (a, &k) in self.conf.free.iter().enumerate() {
+            q_full[k] = q_f[a];
+        }
+        let mut d = vec![0.0; nf * nf];
+        (self.conf.mass_matrix)(&q_full, &self.p, &mut d);
+        nalgebra::DMatrix::from_vec(nf, nf, d)
+    }
+
+    /// [`PlantModel::check`] after a step from `last`; a divergence is traced to an inertia
+    /// matrix that is not positive definite at `last` where it is one.
+    fn check_step(
+        &self,
+        last: &State,
+        x: &State,
+        t: f64,
+        h: f64,
+        max_speed: f64,
+    ) -> Result<(), Divergence> {
+        self.check(x, t, h, max_speed).map_err(|mut d| {
+            if last.q.iter().all(|v| v.is_finite()) {
+                let lambda = self.inertia_matrix(&last.q).symmetric_eigenvalues().min();
+                if lambda <= 0.0 || lambda.is_nan() {
+                    d.inertia_min_eigenvalue = Some(lambda);
+                }
+            }
+            d
+        })
     }
 
     /// Simulate `steps` RK4 steps of `h` from `x0` at t = 0; `input(t, tau)` writes the
@@ -621,14 +671,16 @@ impl PlantModel {
     ) -> Result<State, Divergence> {
         let mut w = Scratch::new(self.nf(), &self.q_locked);
         let mut x = x0;
+        let mut prev = x.clone();
         for n in 0..steps {
             let t = n as f64 * h;
             input(t, &mut w.tau[0]);
             input(t + h / 2.0, &mut w.tau[1]);
             input(t + h, &mut w.tau[2]);
+            prev.copy_from(&x);
             self.rk4_in_place(&mut x, h, &mut w);
             let t1 = (n + 1) as f64 * h;
-            self.check(&x, t1, h, max_speed)?;
+            self.check_step(&prev, &x, t1, h, max_speed)?;
             observe(t1, &x);
         }
         Ok(x)
@@ -736,7 +788,7 @@ impl PlantModel {
             let hs = t1 - t;
             prev.copy_from(&x);
             self.rk4_with_events(&mut x, t, hs, input, measured.as_ref(), &mut w);
-            self.check(&x, t1, h, max_speed)?;
+            self.check_step(&prev, &x, t1, h, max_speed)?;
             while next_out < times.len() && times[next_out] <= t1 + 1e-9 * h {
                 push(&mut out, &prev, &x, t, t1, times[next_out]);
                 next_out += 1;
