@@ -12,12 +12,12 @@
 //! and the other joints' torques, the spectrum and both correlations.
 
 use crate::identify::idim::{observation, predict, IdimOptions, Observation};
-use crate::identify::output_error::{OutputErrorOptions, Problem, Record};
+use crate::identify::output_error::{OutputErrorOptions, Problem, Record, TimeWeighting};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::plot::{figure, Panel, Series, Style};
 use crate::util::write_atomic_with;
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -364,21 +364,32 @@ fn comparison(file: &Path, joint: &str, s: Signals, unit: &'static str) -> Compa
 /// positions (output space), one [`Comparison`] per free joint and record; the simulation
 /// starts at rest (z = 0) at the first measured position, or, with `estimate_initial`, at
 /// the initial position that fits the file best
-/// ([`Problem::estimate_initial_positions`], as MATLAB `compare`); RK4 step `h`.
+/// ([`Problem::estimate_initial_positions`], as MATLAB `compare`); RK4 step `h`. The
+/// first `skip` samples of each file are simulated but left out of the initial-position
+/// fit and of every figure of merit (0: the whole file, as MATLAB `compare`).
 ///
 /// # Errors
-/// Unknown configuration, a parameter without value, a simulation that diverges (file,
-/// time and joint named).
+/// Unknown configuration, a parameter without value, a file with no more than `skip`
+/// samples (named), a simulation that diverges (file, time and joint named).
 pub fn compare_output(
     plant: &Plant,
     conf_name: &str,
     records: &[Record],
     h: f64,
     estimate_initial: bool,
+    skip: usize,
 ) -> Result<Vec<Comparison>> {
     let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    if let Some(r) = records.iter().find(|r| r.t.len() <= skip) {
+        bail!(
+            "{}: --skip {skip} leaves no samples to compare (the file has {})",
+            r.file.display(),
+            r.t.len()
+        );
+    }
     let options = OutputErrorOptions {
         h,
+        weighting: TimeWeighting::SkipTransient(skip),
         ..OutputErrorOptions::default()
     };
     let problem = Problem::new(plant, conf, vec![], records.to_vec(), &[], options)?;
@@ -403,13 +414,16 @@ pub fn compare_output(
                 &r.file,
                 plant.model.joints[j],
                 Signals {
-                    t: r.t.clone(),
-                    q: r.q[a].clone(),
-                    qd: traj.qd[a].clone(),
-                    y: r.q[a].clone(),
-                    yhat: traj.q[a].clone(),
+                    t: r.t[skip..].to_vec(),
+                    q: r.q[a][skip..].to_vec(),
+                    qd: traj.qd[a][skip..].to_vec(),
+                    y: r.q[a][skip..].to_vec(),
+                    yhat: traj.q[a][skip..].to_vec(),
                     dt: r.dt,
-                    inputs: inputs.clone(),
+                    inputs: inputs
+                        .iter()
+                        .map(|(n, u)| (n.clone(), u[skip..].to_vec()))
+                        .collect(),
                 },
                 "rad or m",
             ));

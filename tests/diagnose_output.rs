@@ -391,3 +391,95 @@ fn the_loop_on_the_command_line_c3() {
         start.effects.len()
     );
 }
+
+/// `compare` on a file shorter than the identification's transient skip (1000 samples):
+/// every sample is compared (as MATLAB `compare`), the truth sits at the noise floor, and
+/// `--skip` leaves samples out of the figures or, leaving none, is refused naming the file.
+#[test]
+fn compare_uses_the_whole_of_a_short_file_and_its_skip_c2() {
+    let dir = tmp();
+    let d = dir.path();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let truth_file = d.join("truth.toml");
+    base().save(&truth_file).unwrap();
+    let (tau, run_csv) = (d.join("tau.csv"), d.join("c2_run.csv"));
+    lockstep(&[
+        "excite",
+        "--model",
+        "freedom6s",
+        "--table",
+        "4.3",
+        "--test",
+        "J5",
+        "--config",
+        "c2",
+        "--duration",
+        "5",
+        "-o",
+        &s(&tau),
+    ]);
+    lockstep(&[
+        "simulate",
+        "--plant",
+        &s(&truth_file),
+        "--input",
+        &s(&tau),
+        "--step",
+        "1/12000",
+        "--noise",
+        "2e-4",
+        "--quantisation",
+        "1e-4",
+        "--seed",
+        "9",
+        "-o",
+        &s(&run_csv),
+    ]);
+    // (fit %, RMSE) of q5's row.
+    let compare = |skip: &str| {
+        let out = stdout_ok(&run(&[
+            "compare",
+            "--plant",
+            &s(&truth_file),
+            "--data",
+            &s(&run_csv),
+            "--step",
+            "1/12000",
+            "--skip",
+            skip,
+            "--out",
+            &s(&d.join(format!("cmp{skip}"))),
+        ]));
+        let row: Vec<&str> = out
+            .lines()
+            .find(|l| l.split_whitespace().nth(1) == Some("q5"))
+            .unwrap_or_else(|| panic!("no q5 row in:\n{out}"))
+            .split_whitespace()
+            .collect();
+        let fit: f64 = row[2].parse().unwrap();
+        let rmse: f64 = row[4].parse().unwrap();
+        (fit, rmse)
+    };
+    for skip in ["0", "200"] {
+        let (fit, rmse) = compare(skip);
+        // Noise 2e-4 rad and quantisation 1e-4 rad (σ 2.9e-5): RMS ≈ 2.02e-4 rad.
+        assert!(fit > 99.0, "skip {skip}: fit {fit} %");
+        assert!((1.7e-4..2.4e-4).contains(&rmse), "skip {skip}: RMSE {rmse}");
+    }
+    refused(
+        &run(&[
+            "compare",
+            "--plant",
+            &s(&truth_file),
+            "--data",
+            &s(&run_csv),
+            "--step",
+            "1/12000",
+            "--skip",
+            "501",
+            "--out",
+            &s(&d.join("cmp_none")),
+        ]),
+        &["c2_run.csv", "--skip 501 leaves no samples", "501"],
+    );
+}

@@ -451,10 +451,21 @@ impl Problem {
             .collect();
         let m = residual_total(&sqrt_w, nf);
         if m <= names.len() {
+            let lengths: Vec<String> = records
+                .iter()
+                .map(|r| format!("{} ({} samples)", r.file.display(), r.t.len()))
+                .collect();
+            let why = match options.weighting {
+                TimeWeighting::SkipTransient(s) => {
+                    format!("the cost skips the first {s} samples of each file (--skip)")
+                }
+                TimeWeighting::HalfFirst => "the files are too short".to_string(),
+            };
             bail!(
-                "configuration '{}': {m} weighted samples for {} parameters (the transient skip leaves too little data)",
+                "configuration '{}': {m} weighted residuals for {} parameters: {why}; files: {}",
                 conf.name,
-                names.len()
+                names.len(),
+                lengths.join(", ")
             );
         }
         let noise: Vec<f64> = (0..nf)

@@ -187,7 +187,14 @@ pub fn compare_command(
     let cmps = match data {
         Data::Output { config, records } => {
             println!("output space (simulated positions), configuration {config}");
-            compare_output(plant, config, records, inputs.h, inputs.estimate_initial)?
+            compare_output(
+                plant,
+                config,
+                records,
+                inputs.h,
+                inputs.estimate_initial,
+                inputs.skip,
+            )?
         }
         Data::Torque { config, records } => {
             println!("torque space (inverse model), configuration {config}");
