@@ -741,6 +741,14 @@ fn identify_sequence(
                 .join(", ")
         );
     }
+    for s in &report.steps {
+        for line in &s.impossible {
+            eprintln!(
+                "warning: step {}: physically impossible: {line}",
+                s.step.config
+            );
+        }
+    }
     println!(
         "wrote {}, {} and {}",
         opts.out.join("plant.toml").display(),

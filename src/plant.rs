@@ -417,8 +417,8 @@ impl Plant {
         v
     }
 
-    /// The model file's inertial symbols of link `l`.
-    fn link_symbols(&self, l: usize) -> Vec<&'static str> {
+    /// The model file's inertial symbols of link `l` (index into `model.links`), in the file's order.
+    pub fn link_symbols(&self, l: usize) -> Vec<&'static str> {
         let m = self.model;
         (0..m.inertial_symbols.len())
             .filter(|&i| m.symbol_link[i] == l)

@@ -1287,3 +1287,32 @@ fn c5_fits_the_symbols_that_span_its_base_parameters_and_reaches_the_noise_floor
         }
     }
 }
+
+/// The step report names links a fit leaves physically impossible, and which
+/// configurations contain them: the isolated c6 fit drove I1_33 to −7.97 × the truth (the
+/// joint-0 gain scale), the data of c6 fitted, and the 6-joint plant no longer simulated.
+#[test]
+fn a_step_that_leaves_a_link_impossible_says_which_and_where_it_matters() {
+    use lockstep::identify::sequence::impossible_links;
+    let dir = tempfile::tempdir().unwrap();
+    let mut p = Plant::load(&truth(dir.path())).unwrap();
+    let fitted = |names: &[&str]| names.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    // At the truth (I4_33 made positive) no link is impossible.
+    assert!(impossible_links(&p, &fitted(&["I1_33", "Kp_0"]))
+        .unwrap()
+        .is_empty());
+    p.parameters.insert("I1_33".into(), -7.97 * 0.00144);
+    let lines = impossible_links(&p, &fitted(&["I1_33", "Kp_0", "sigma0_0"])).unwrap();
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    let l = &lines[0];
+    eprintln!("{l}");
+    for needle in ["link 'L1'", "fitted here: I1_33;", "c6", "c7", "k5"] {
+        assert!(l.contains(needle), "'{needle}' not in: {l}");
+    }
+    // Configurations without joint 0 free do not contain link 1's inertia about its axis.
+    assert!(!l.contains("c1,") && !l.contains("k1"), "{l}");
+    // A step that did not fit the link does not report it.
+    assert!(impossible_links(&p, &fitted(&["Kp_0", "m2"]))
+        .unwrap()
+        .is_empty());
+}

@@ -343,6 +343,50 @@ pub struct StepReport {
     pub step: Step,
     /// The fit.
     pub fit: FitResult,
+    /// Links whose fitted rigid-body symbols leave them physically impossible (mass ≤ 0
+    /// or inertia not positive definite), from [`impossible_links`]: the fit is valid for
+    /// this configuration's data, but the configurations named there cannot be simulated.
+    pub impossible: Vec<String>,
+}
+
+/// Links that `plant` leaves physically impossible ([`crate::plant::Finding::is_blocking`])
+/// among those with a symbol in `fitted`, one line each: the finding, the fitted symbols
+/// of the link, and the model's configurations whose equations contain the link (their
+/// inertia matrix D(q) may be indefinite, and a simulation then fails at once).
+///
+/// # Errors
+/// A rigid-body parameter without a value (named).
+pub fn impossible_links(plant: &Plant, fitted: &[String]) -> Result<Vec<String>> {
+    let m = plant.model;
+    let findings = plant.consistency(&plant.barycentric(None)?, None);
+    let mut out = Vec::new();
+    for f in findings.iter().filter(|f| f.is_blocking()) {
+        let Some(l) = m.links.iter().position(|n| *n == f.link) else {
+            continue;
+        };
+        let mine: Vec<&str> = plant
+            .link_symbols(l)
+            .into_iter()
+            .filter(|n| fitted.iter().any(|x| x == n))
+            .collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let configs: Vec<&str> = m
+            .configurations
+            .iter()
+            .filter(|c| {
+                (0..m.params.len()).any(|j| m.param_link[j] == l && c.params_present.contains(&j))
+            })
+            .map(|c| c.name)
+            .collect();
+        out.push(format!(
+            "{f} (fitted here: {}; configurations with this link: {})",
+            mine.join(", "),
+            configs.join(", ")
+        ));
+    }
+    Ok(out)
 }
 
 /// Settings of a sequence run.
@@ -513,7 +557,12 @@ pub fn run(
             }
         }
         current.undetermined = undetermined.clone();
-        report.steps.push(StepReport { step: s, fit });
+        let impossible = impossible_links(&current, &fit.names)?;
+        report.steps.push(StepReport {
+            step: s,
+            fit,
+            impossible,
+        });
         current.description = format!(
             "{} — identified by lockstep ({} method, steps {})",
             plant.description,
@@ -645,6 +694,17 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                     fmt_g(alpha)
                 );
             }
+        }
+        if !st.impossible.is_empty() {
+            let _ = writeln!(
+                s,
+                "**Physically impossible links after this step** (the data of this configuration are fitted, but no body has these values; the plant-gain scale of an isolated step can drive a link's inertia there):
+"
+            );
+            for line in &st.impossible {
+                let _ = writeln!(s, "- {line}");
+            }
+            let _ = writeln!(s);
         }
         let stats = &f.statistics;
         if !stats.above_floor.is_empty() {
