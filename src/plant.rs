@@ -523,6 +523,13 @@ impl Plant {
         Ok(p)
     }
 
+    /// True when configuration `conf`'s equations contain a barycentric parameter of link
+    /// `l` (index into `model.links`).
+    pub fn configuration_has_link(&self, conf: &generated::Configuration, l: usize) -> bool {
+        let m = self.model;
+        (0..m.params.len()).any(|j| m.param_link[j] == l && conf.params_present.contains(&j))
+    }
+
     /// Physical consistency of the links of barycentric vector `p` that a configuration
     /// uses (all links when `conf` is None): mass > 0, and where the link has inertia
     /// parameters, inertia about the centroid positive definite and satisfying the triangle
@@ -534,10 +541,8 @@ impl Plant {
             let params: Vec<usize> = (0..m.params.len())
                 .filter(|&j| m.param_link[j] == l)
                 .collect();
-            if let Some(c) = conf {
-                if !params.iter().any(|j| c.params_present.contains(j)) {
-                    continue;
-                }
+            if conf.is_some_and(|c| !self.configuration_has_link(c, l)) {
+                continue;
             }
             let mut b = [0.0; 10];
             for &j in &params {

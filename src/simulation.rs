@@ -439,6 +439,13 @@ impl PlantModel {
         }
     }
 
+    /// Write the free joints' positions `q_f` (NF) into the all-joint vector `q_full`.
+    fn put_free(&self, q_f: &[f64], q_full: &mut [f64]) {
+        for (a, &k) in self.conf.free.iter().enumerate() {
+            q_full[k] = q_f[a];
+        }
+    }
+
     fn derivative_into(
         &self,
         x: &State,
@@ -447,9 +454,7 @@ impl PlantModel {
         w: &mut Scratch,
         out: &mut State,
     ) {
-        for (a, &k) in self.conf.free.iter().enumerate() {
-            w.q_full[k] = x.q[a];
-        }
+        self.put_free(&x.q, &mut w.q_full);
         self.applied_into(x, tau, &w.sides, &mut w.tau_c, &mut w.applied, &mut out.z);
         for (q, e) in w.applied.iter_mut().zip(q_ext) {
             *q += e;
@@ -624,9 +629,7 @@ impl PlantModel {
     pub fn inertia_matrix(&self, q_f: &[f64]) -> nalgebra::DMatrix<f64> {
         let nf = self.nf();
         let mut q_full = self.q_locked.clone();
-        for (a, &k) in self.conf.free.iter().enumerate() {
-            q_full[k] = q_f[a];
-        }
+        self.put_free(q_f, &mut q_full);
         let mut d = vec![0.0; nf * nf];
         (self.conf.mass_matrix)(&q_full, &self.p, &mut d);
         nalgebra::DMatrix::from_vec(nf, nf, d)

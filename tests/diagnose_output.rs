@@ -435,9 +435,8 @@ fn compare_uses_the_whole_of_a_short_file_and_its_skip_c2() {
         "-o",
         &s(&run_csv),
     ]);
-    // (fit %, RMSE) of q5's row.
     let compare = |skip: &str| {
-        let out = stdout_ok(&run(&[
+        run(&[
             "compare",
             "--plant",
             &s(&truth_file),
@@ -449,7 +448,11 @@ fn compare_uses_the_whole_of_a_short_file_and_its_skip_c2() {
             skip,
             "--out",
             &s(&d.join(format!("cmp{skip}"))),
-        ]));
+        ])
+    };
+    // (fit %, RMSE) of q5's row.
+    let q5_row = |skip: &str| {
+        let out = stdout_ok(&compare(skip));
         let row: Vec<&str> = out
             .lines()
             .find(|l| l.split_whitespace().nth(1) == Some("q5"))
@@ -461,25 +464,13 @@ fn compare_uses_the_whole_of_a_short_file_and_its_skip_c2() {
         (fit, rmse)
     };
     for skip in ["0", "200"] {
-        let (fit, rmse) = compare(skip);
+        let (fit, rmse) = q5_row(skip);
         // Noise 2e-4 rad and quantisation 1e-4 rad (σ 2.9e-5): RMS ≈ 2.02e-4 rad.
         assert!(fit > 99.0, "skip {skip}: fit {fit} %");
         assert!((1.7e-4..2.4e-4).contains(&rmse), "skip {skip}: RMSE {rmse}");
     }
     refused(
-        &run(&[
-            "compare",
-            "--plant",
-            &s(&truth_file),
-            "--data",
-            &s(&run_csv),
-            "--step",
-            "1/12000",
-            "--skip",
-            "501",
-            "--out",
-            &s(&d.join("cmp_none")),
-        ]),
+        &compare("501"),
         &["c2_run.csv", "--skip 501 leaves no samples", "501"],
     );
 }

@@ -375,9 +375,7 @@ pub fn impossible_links(plant: &Plant, fitted: &[String]) -> Result<Vec<String>>
         let configs: Vec<&str> = m
             .configurations
             .iter()
-            .filter(|c| {
-                (0..m.params.len()).any(|j| m.param_link[j] == l && c.params_present.contains(&j))
-            })
+            .filter(|c| plant.configuration_has_link(c, l))
             .map(|c| c.name)
             .collect();
         out.push(format!(
@@ -698,8 +696,7 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
         if !st.impossible.is_empty() {
             let _ = writeln!(
                 s,
-                "**Physically impossible links after this step** (the data of this configuration are fitted, but no body has these values; the plant-gain scale of an isolated step can drive a link's inertia there):
-"
+                "**Physically impossible links after this step** (the data of this configuration are fitted, but no body has these values; the plant-gain scale of an isolated step can drive a link's inertia there):\n"
             );
             for line in &st.impossible {
                 let _ = writeln!(s, "- {line}");
