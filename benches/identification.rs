@@ -2,9 +2,11 @@
 //! coupled-method plant (I4_33 made positive) excited by Table 4.7 for 40 s at 100 Hz.
 //!
 //! - `cost_evaluation/<config>`: one evaluation of cost (4.3), i.e. one simulation of a
-//!   40 s file at 1/12000 s (the step these data need: at the thesis's 1/6000 s RK4 is
-//!   unstable in k2..k5, DESIGN.md §2); a Jacobian costs one evaluation per fitted
+//!   40 s file by RK4 at 1/12000 s (the step these data need: at the thesis's 1/6000 s RK4
+//!   is unstable in k2..k5, DESIGN.md §2); a Jacobian costs one evaluation per fitted
 //!   parameter, spread over the cores.
+//! - `cost_evaluation_etdrk4/<config>`: the same by ETDRK4 at 1/2000 s (`--integrator
+//!   etdrk4 --step 1/2000`), which takes the stiff friction damping exactly.
 //! - With `LOCKSTEP_BENCH_SEQUENCE=1`, the whole coupled sequence k1..k5 is then run from
 //!   the Appendix D initial guess (bounds widened where the truth lies outside the thesis
 //!   bounds) with the settings that reach the noise floor (`--equation-error on --predictor
@@ -17,6 +19,7 @@ use lockstep::identify::equation_error::Cutoff;
 use lockstep::identify::output_error::{OutputErrorOptions, Problem};
 use lockstep::identify::sequence::{plan, read_record, run, RigidBodyFit, SequenceOptions};
 use lockstep::plant::Plant;
+use lockstep::simulation::Integrator;
 use lockstep::synthetic::{excite, simulate_file, SimulateOptions};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -64,6 +67,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("cost_evaluation");
     g.sample_size(10).measurement_time(Duration::from_secs(10));
     let steps = plan(&truth, "coupled").unwrap();
+    let mut problems = Vec::new();
     for s in &steps {
         let conf = truth.model.configuration(&s.config).unwrap();
         let rec = read_record(
@@ -94,6 +98,17 @@ fn bench(c: &mut Criterion) {
         .unwrap();
         let x: Vec<f64> = s.fitted.iter().map(|n| plant.parameters[n]).collect();
         g.bench_function(&s.config, |b| b.iter(|| p.cost(&x)));
+        problems.push((
+            s.config.clone(),
+            p.with_step(1.0 / 2000.0, Integrator::Etdrk4),
+            x,
+        ));
+    }
+    g.finish();
+    let mut g = c.benchmark_group("cost_evaluation_etdrk4");
+    g.sample_size(10).measurement_time(Duration::from_secs(10));
+    for (config, p, x) in &problems {
+        g.bench_function(config, |b| b.iter(|| p.cost(x)));
     }
     g.finish();
     if std::env::var_os("LOCKSTEP_BENCH_SEQUENCE").is_some() {

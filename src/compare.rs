@@ -376,6 +376,7 @@ pub fn compare_output(
     conf_name: &str,
     records: &[Record],
     h: f64,
+    integrator: crate::simulation::Integrator,
     estimate_initial: bool,
     skip: usize,
 ) -> Result<Vec<Comparison>> {
@@ -389,6 +390,7 @@ pub fn compare_output(
     }
     let options = OutputErrorOptions {
         h,
+        integrator,
         weighting: TimeWeighting::SkipTransient(skip),
         ..OutputErrorOptions::default()
     };

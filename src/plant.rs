@@ -711,6 +711,7 @@ impl Plant {
                 q_locked: q,
                 terms,
                 couplings,
+                integrator: crate::simulation::Integrator::default(),
             },
             findings,
         })

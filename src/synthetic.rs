@@ -125,8 +125,10 @@ pub struct SimulateOptions {
     pub locked: BTreeMap<String, f64>,
     /// Initial positions of free joints by name (default 0), at rest, z = 0.
     pub initial: BTreeMap<String, f64>,
-    /// RK4 step (s).
+    /// Integration step (s).
     pub h: f64,
+    /// Integration scheme.
+    pub integrator: crate::simulation::Integrator,
     /// Hold of the input torques between samples.
     pub hold: Hold,
     /// Standard deviation of Gaussian position noise (rad or m), 0 for none.
@@ -148,6 +150,7 @@ impl Default for SimulateOptions {
             locked: BTreeMap::new(),
             initial: BTreeMap::new(),
             h: 1.0 / 6000.0,
+            integrator: crate::simulation::Integrator::Rk4,
             hold: Hold::Zoh,
             noise: 0.0,
             quantisation: 0.0,
@@ -298,8 +301,9 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
         hold: opts.hold,
     };
     let x0 = State::at_rest(conf.free.iter().map(|&j| q_all[j]).collect());
-    let traj = configured
-        .model
+    let mut sim = configured.model;
+    sim.integrator = opts.integrator;
+    let traj = sim
         .simulate_at(x0, opts.h, &signal, &t, opts.max_speed)
         .map_err(|d| {
             let joint = format!("'{}'", model.joints[conf.free[d.joint]]);

@@ -1,8 +1,9 @@
 //! The simulator against closed forms on the EMPS axis (a point mass M on a prismatic joint,
 //! no gravity): terminal velocity with Coulomb + viscous friction, the LuGre steady state,
-//! a spring's natural frequency, RK4's fourth order, energy, and divergence reports.
+//! a spring's natural frequency, RK4's and ETDRK4's fourth order, ETDRK4's exactness on a
+//! damping-dominated joint, energy, and divergence reports.
 
-use lockstep::simulation::{JointTerms, LuGre, PlantModel, State};
+use lockstep::simulation::{phi1234, Integrator, JointTerms, LuGre, PlantModel, State};
 
 const M: f64 = 95.0;
 
@@ -14,6 +15,7 @@ fn emps(terms: JointTerms) -> PlantModel {
         q_locked: vec![0.0],
         terms: vec![terms],
         couplings: vec![],
+        integrator: Integrator::Rk4,
     }
 }
 
@@ -117,39 +119,164 @@ fn spring_oscillates_at_the_natural_frequency_and_conserves_energy() {
 }
 
 #[test]
-fn rk4_converges_at_fourth_order() {
-    // Damped oscillator with a smooth force: M ẍ + c ẋ + k x = 0, closed form.
+fn rk4_and_etdrk4_converge_at_fourth_order() {
+    // Damped oscillator with a smooth force: M ẍ + c ẋ + k x = 0, closed form. ETDRK4 takes
+    // the viscous term c/M exactly and the spring explicitly.
     let (c, k) = (60.0, 950.0);
-    let plant = emps(JointTerms {
-        viscous: c,
-        spring: Some((k, 0.0)),
-        ..JointTerms::default()
-    });
     let exact = |t: f64| {
         let a = c / (2.0 * M);
         let w = (k / M - a * a).sqrt();
         0.1 * (-a * t).exp() * ((w * t).cos() + a / w * (w * t).sin())
     };
-    let err = |h: f64| {
-        let n = (1.0 / h).round() as usize;
-        let x = plant
-            .simulate(
-                State::at_rest(vec![0.1]),
-                h,
-                n,
-                10.0,
-                |_, t| t[0] = 0.0,
-                |_, _| {},
-            )
-            .unwrap();
-        (x.q[0] - exact(1.0)).abs()
+    for integrator in [Integrator::Rk4, Integrator::Etdrk4] {
+        let plant = PlantModel {
+            integrator,
+            ..emps(JointTerms {
+                viscous: c,
+                spring: Some((k, 0.0)),
+                ..JointTerms::default()
+            })
+        };
+        // Largest error over [0, 1] s (at one time alone it may sit near a zero crossing).
+        let err = |h: f64| {
+            let n = (1.0 / h).round() as usize;
+            let mut worst = 0.0_f64;
+            plant
+                .simulate(
+                    State::at_rest(vec![0.1]),
+                    h,
+                    n,
+                    10.0,
+                    |_, t| t[0] = 0.0,
+                    |t, x| worst = worst.max((x.q[0] - exact(t)).abs()),
+                )
+                .unwrap();
+            worst
+        };
+        let (e1, e2) = (err(0.02), err(0.01));
+        let ratio = e1 / e2;
+        assert!(
+            (14.0..18.0).contains(&ratio),
+            "{integrator}: error ratio {ratio} ({e1:e}, {e2:e})"
+        );
+        assert!(e2 < 1e-7, "{integrator}: {e2:e}");
+    }
+}
+
+#[test]
+fn etdrk4_is_exact_on_a_damping_dominated_joint_where_rk4_diverges() {
+    // M v̇ = τ − Fv v with Fv/M = 1000 s⁻¹ and h = 10 ms (hλ = −10, outside RK4's stability
+    // interval [−2.78, 0]): v(t) = v∞ (1 − e^{−Fv t/M}), v∞ = τ/Fv.
+    let (fv, tau) = (1000.0 * M, 950.0);
+    let v_inf = tau / fv;
+    let plant = |integrator| PlantModel {
+        integrator,
+        ..emps(JointTerms {
+            viscous: fv,
+            ..JointTerms::default()
+        })
     };
-    let (e1, e2) = (err(0.02), err(0.01));
-    let ratio = e1 / e2;
-    assert!(
-        (14.0..18.0).contains(&ratio),
-        "error ratio {ratio} ({e1:e}, {e2:e})"
-    );
+    let run = |integrator, steps: usize, observe: &mut dyn FnMut(f64, &State)| {
+        plant(integrator).simulate(
+            State::at_rest(vec![0.0]),
+            0.01,
+            steps,
+            10.0,
+            |_, t| t[0] = tau,
+            |t, x| observe(t, x),
+        )
+    };
+    assert!(run(Integrator::Rk4, 100, &mut |_, _| {}).is_err());
+    let mut worst = 0.0_f64;
+    let mut q_half = 0.0;
+    let x = run(Integrator::Etdrk4, 100, &mut |t, x| {
+        let v = v_inf * (1.0 - (-1000.0 * t).exp());
+        worst = worst.max((x.qd[0] - v).abs() / v_inf);
+        if (t - 0.5).abs() < 1e-9 {
+            q_half = x.q[0];
+        }
+    })
+    .unwrap();
+    assert!(worst < 1e-13, "velocity error {worst:e} of v∞");
+    // After the transient the position grows at exactly v∞ (the transient's own position
+    // error is bounded by v∞/λ = 1e-5 m here).
+    let slope = (x.q[0] - q_half) / 0.5;
+    assert!((slope / v_inf - 1.0).abs() < 1e-12, "{slope} vs {v_inf}");
+    let q_exact = v_inf * (1.0 - (1.0 - (-1000.0_f64).exp()) / 1000.0);
+    assert!((x.q[0] - q_exact).abs() < v_inf / 1000.0, "{}", x.q[0]);
+}
+
+#[test]
+fn a_zero_order_hold_is_followed_exactly_by_both_integrators() {
+    // A free mass under a piecewise-constant force: q is piecewise quadratic, which RK4 and
+    // ETDRK4 (Λ = 0 here) integrate exactly, provided each step's last stage takes the force
+    // held over the step, not the next sample's (InputSignal::before).
+    use lockstep::simulation::{Hold, InputSignal};
+    let tau = vec![vec![95.0, -190.0, 285.0, 0.0, -95.0, 47.5]];
+    let t: Vec<f64> = (0..6).map(|k| k as f64 * 0.01).collect();
+    let input = InputSignal {
+        t0: 0.0,
+        dt: 0.01,
+        tau: &tau,
+        hold: Hold::Zoh,
+    };
+    // Exact: on [t_k, t_k+1) q̈ = τ_k / M.
+    let (mut q, mut v) = (vec![0.0], 0.0);
+    for k in 0..5 {
+        let a = tau[0][k] / M;
+        q.push(q[k] + v * 0.01 + 0.5 * a * 1e-4);
+        v += a * 0.01;
+    }
+    for integrator in [Integrator::Rk4, Integrator::Etdrk4] {
+        let plant = PlantModel {
+            integrator,
+            ..emps(JointTerms::default())
+        };
+        let traj = plant
+            .simulate_at(State::at_rest(vec![0.0]), 0.0025, &input, &t, 10.0)
+            .unwrap();
+        for (k, (a, b)) in traj.q[0].iter().zip(&q).enumerate() {
+            assert!((a - b).abs() < 1e-15, "{integrator} sample {k}: {a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn phi_functions_match_their_closed_forms_and_limits() {
+    for x in [
+        -3e4, -40.0, -2.0, -0.6, -0.4, -1e-3, 0.0, 1e-3, 0.3, 0.7, 3.0,
+    ] {
+        let [p1, p2, p3, p4] = phi1234(x);
+        if x.abs() > 0.1 {
+            let e: f64 = x.exp();
+            let c = [
+                (e - 1.0) / x,
+                (e - 1.0 - x) / (x * x),
+                (e - 1.0 - x - x * x / 2.0) / x.powi(3),
+                (e - 1.0 - x - x * x / 2.0 - x.powi(3) / 6.0) / x.powi(4),
+            ];
+            for (k, (p, c)) in [p1, p2, p3, p4].iter().zip(c).enumerate() {
+                assert!(
+                    (p - c).abs() < 1e-10 * p.abs(),
+                    "φ{}({x}) = {p} vs {c}",
+                    k + 1
+                );
+            }
+        } else {
+            // Taylor: φk(x) ≈ 1/k! + x/(k+1)!.
+            assert!((p1 - (1.0 + x / 2.0)).abs() <= x * x, "φ1({x})");
+            assert!((p2 - (0.5 + x / 6.0)).abs() <= x * x, "φ2({x})");
+            assert!((p3 - (1.0 / 6.0 + x / 24.0)).abs() <= x * x, "φ3({x})");
+            assert!((p4 - (1.0 / 24.0 + x / 120.0)).abs() <= x * x, "φ4({x})");
+        }
+    }
+    // Continuity across the switch from the series to the closed forms at |x| = 1/2.
+    for x in [-0.5, 0.5] {
+        let (a, b) = (phi1234(x * (1.0 - 1e-15)), phi1234(x * (1.0 + 1e-15)));
+        for k in 0..4 {
+            assert!((a[k] - b[k]).abs() < 1e-14, "{a:?} {b:?}");
+        }
+    }
 }
 
 #[test]

@@ -22,7 +22,7 @@
 
 use super::equation_error::{Cutoff, EquationError};
 use crate::plant::{ConsistencyPolicy, Plant};
-use crate::simulation::{Hold, InputSignal, State, Trajectory};
+use crate::simulation::{Hold, InputSignal, Integrator, State, Trajectory};
 use anyhow::{bail, Result};
 use generated::Configuration;
 use nalgebra::DMatrix;
@@ -99,8 +99,10 @@ pub struct OutputErrorOptions {
     pub weighting: TimeWeighting,
     /// Joint weight λ of the joint(s) of interest (thesis: 50); others 1.
     pub interest_weight: f64,
-    /// RK4 step (s); the thesis uses 1/6000 s for the coupled method.
+    /// Integration step (s); the thesis uses RK4 at 1/6000 s for the coupled method.
     pub h: f64,
+    /// Integration scheme ([`crate::simulation::Integrator`]).
+    pub integrator: Integrator,
     /// Hold of the measured torques between samples.
     #[serde(skip)]
     pub hold: Hold,
@@ -190,6 +192,7 @@ impl Default for OutputErrorOptions {
             weighting: TimeWeighting::SkipTransient(1000),
             interest_weight: 50.0,
             h: 1.0 / 6000.0,
+            integrator: Integrator::Rk4,
             hold: Hold::Zoh,
             max_speed: 100.0,
             xtol: 2e-6,
@@ -726,6 +729,14 @@ impl Problem {
         &self.options
     }
 
+    /// The same problem simulated at step `h` (s) by `integrator`.
+    pub fn with_step(&self, h: f64, integrator: Integrator) -> Problem {
+        let mut p = self.clone();
+        p.options.h = h;
+        p.options.integrator = integrator;
+        p
+    }
+
     /// The configuration.
     pub fn configuration(&self) -> &'static Configuration {
         self.conf
@@ -782,9 +793,10 @@ impl Problem {
     /// The plant cannot be configured or the simulation diverges (message with the file).
     pub fn simulate(&self, plant: &Plant, r: &Record) -> Result<Trajectory, TrialFailure> {
         let fail = |e: String| TrialFailure(format!("{}: {e}", r.file.display()));
-        let sim = plant
+        let mut sim = plant
             .simulator(self.conf.name, &r.q_all, ConsistencyPolicy::Warn)
             .map_err(|e| fail(format!("{e:#}")))?;
+        sim.model.integrator = self.options.integrator;
         let mut x0 = State::at_rest(self.conf.free.iter().map(|&j| r.q_all[j]).collect());
         if let Some(qd0) = &r.qd0 {
             for (a, &v) in qd0.iter().enumerate() {

@@ -7,14 +7,16 @@ use crate::identify::output_error::{
     FitResult, JointFit, OutputErrorOptions, Problem, Record, TimeWeighting,
 };
 use crate::plant::{HistoryEntry, Plant};
-use crate::simulation::Hold;
+use crate::simulation::{Hold, Integrator};
 use anyhow::{anyhow, Result};
 
 /// Settings of a refit.
 #[derive(Debug, Clone)]
 pub struct RefitOptions {
-    /// RK4 step (s).
+    /// Integration step (s).
     pub h: f64,
+    /// Integration scheme.
+    pub integrator: Integrator,
     /// Hold of the measured torques.
     pub hold: Hold,
     /// Divergence bound on |q̇| (rad/s or m/s).
@@ -35,6 +37,7 @@ impl Default for RefitOptions {
     fn default() -> Self {
         RefitOptions {
             h: 1.0 / 6000.0,
+            integrator: Integrator::Rk4,
             hold: Hold::Zoh,
             max_speed: 100.0,
             skip: 0,
@@ -53,6 +56,7 @@ impl RefitOptions {
             weighting: TimeWeighting::SkipTransient(self.skip),
             interest_weight: 1.0,
             h: self.h,
+            integrator: self.integrator,
             hold: self.hold,
             max_speed: self.max_speed,
             max_iter: self.max_iter,

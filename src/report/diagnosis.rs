@@ -57,8 +57,10 @@ pub struct Inputs {
     pub space: String,
     /// Torque space: preparation of the records.
     pub idim: IdimOptions,
-    /// Output space: RK4 step (s).
+    /// Output space: integration step (s).
     pub h: f64,
+    /// Output space: integration scheme.
+    pub integrator: crate::simulation::Integrator,
     /// Output space: samples skipped at the start of each file.
     pub skip: usize,
     /// Output space: largest motion (rad) of a locked joint.
@@ -192,6 +194,7 @@ pub fn compare_command(
                 config,
                 records,
                 inputs.h,
+                inputs.integrator,
                 inputs.estimate_initial,
                 inputs.skip,
             )?
@@ -287,6 +290,7 @@ pub fn diagnose(
 fn refit_options(inputs: &Inputs) -> RefitOptions {
     RefitOptions {
         h: inputs.h,
+        integrator: inputs.integrator,
         skip: inputs.skip,
         estimate_initial: inputs.estimate_initial,
         ..RefitOptions::default()
