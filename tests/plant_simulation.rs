@@ -288,12 +288,9 @@ fn static_stribeck_friction_reaches_its_terminal_velocity() {
     );
 }
 
-#[test]
-fn the_thesis_step_diverges_near_the_wrist_singularity_and_halving_it_converges() {
-    // k2 (joints 3, 4, 5) with the full coupled-method plant on the Table 4.7 inputs: at the
-    // thesis's 1/6000 s, RK4 leaves its stability region (DESIGN.md §2: a mode of link 7's
-    // tiny inertia against LuGre damping) and the simulator reports the time and joint;
-    // 1/12000 s and below converge.
+/// k2 (joints 3, 4, 5) of the coupled-method plant, and the Table 4.7 inputs of its free
+/// joints for `secs` seconds at 100 Hz: (model, sample times, torques per free joint).
+fn k2_table_4_7(secs: f64) -> (lockstep::simulation::PlantModel, Vec<f64>, Vec<Vec<f64>>) {
     let p = coupled_consistent();
     let s = p
         .simulator("k2", &[0.0; 6], ConsistencyPolicy::Refuse)
@@ -301,8 +298,17 @@ fn the_thesis_step_diverges_near_the_wrist_singularity_and_halving_it_converges(
         .model;
     let ex = lockstep::excitation::Excitations::bundled(p.model).unwrap();
     let test = ex.table("4.7").unwrap().test(None).unwrap();
-    let (t, u, _) = test.sample(6, &[3, 4, 5], 5.0, 100.0);
-    let tau: Vec<Vec<f64>> = [3, 4, 5].iter().map(|&j| u[j].clone()).collect();
+    let (t, u, _) = test.sample(6, &[3, 4, 5], secs, 100.0);
+    (s, t, [3, 4, 5].iter().map(|&j| u[j].clone()).collect())
+}
+
+#[test]
+fn the_thesis_step_diverges_near_the_wrist_singularity_and_halving_it_converges() {
+    // k2 (joints 3, 4, 5) with the full coupled-method plant on the Table 4.7 inputs: at the
+    // thesis's 1/6000 s, RK4 leaves its stability region (DESIGN.md §2: a mode of link 7's
+    // tiny inertia against LuGre damping) and the simulator reports the time and joint;
+    // 1/12000 s and below converge.
+    let (s, t, tau) = k2_table_4_7(5.0);
     let input = InputSignal {
         t0: 0.0,
         dt: 0.01,
@@ -342,15 +348,7 @@ fn etdrk4_runs_the_wrist_at_a_step_where_rk4_diverges() {
     // that damping exactly, stays within 5e-5 rad (a quarter of the synthetic data's noise σ)
     // of RK4 at 1/48000 s over a 10 s run that spins joint 4 through 10 rad with many
     // stick-slip switches, and within 2e-6 rad at 1/4000 s.
-    let p = coupled_consistent();
-    let mut s = p
-        .simulator("k2", &[0.0; 6], ConsistencyPolicy::Refuse)
-        .unwrap()
-        .model;
-    let ex = lockstep::excitation::Excitations::bundled(p.model).unwrap();
-    let test = ex.table("4.7").unwrap().test(None).unwrap();
-    let (t, u, _) = test.sample(6, &[3, 4, 5], 10.0, 100.0);
-    let tau: Vec<Vec<f64>> = [3, 4, 5].iter().map(|&j| u[j].clone()).collect();
+    let (mut s, t, tau) = k2_table_4_7(10.0);
     let input = InputSignal {
         t0: 0.0,
         dt: 0.01,
