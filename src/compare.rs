@@ -364,7 +364,7 @@ fn comparison(file: &Path, joint: &str, s: Signals, unit: &'static str) -> Compa
 /// positions (output space), one [`Comparison`] per free joint and record; the simulation
 /// starts at rest (z = 0) at the first measured position, or, with `estimate_initial`, at
 /// the initial position that fits the file best
-/// ([`Problem::estimate_initial_positions`], as MATLAB `compare`); RK4 step `h`. The
+/// ([`Problem::estimate_initial_positions`], as MATLAB `compare`); step `h` of `integrator`. The
 /// first `skip` samples of each file are simulated but left out of the initial-position
 /// fit and of every figure of merit (0: the whole file, as MATLAB `compare`).
 ///

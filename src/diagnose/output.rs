@@ -40,7 +40,7 @@ use rayon::prelude::*;
 /// Settings of an output-space diagnosis.
 #[derive(Debug, Clone)]
 pub struct OutputOptions {
-    /// Simulation and fit settings (RK4 step, hold, transient skip, initial positions,
+    /// Simulation and fit settings (integration step and scheme, hold, transient skip, initial positions,
     /// iterations of a confirmation fit).
     pub fit: RefitOptions,
     /// Leading candidates confirmed by a nonlinear fit (0: linearisation only).

@@ -604,7 +604,7 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
     let o = &report.options;
     let _ = writeln!(
         s,
-        "# Output-error identification: {} method\n\nPlant: `{}`. Cost: {}; joint of interest weighted {}; RK4 step {:.6e} s; stop at relative step < {:e} or relative cost decrease < {:e}; {} start(s).\n",
+        "# Output-error identification: {} method\n\nPlant: `{}`. Cost: {}; joint of interest weighted {}; {} step {:.6e} s; stop at relative step < {:e} or relative cost decrease < {:e}; {} start(s).\n",
         report.sequence,
         report.plant,
         match o.weighting {
@@ -614,6 +614,10 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                 format!("(4.3), first {n} samples skipped"),
         },
         o.interest_weight,
+        match o.integrator {
+            crate::simulation::Integrator::Rk4 => "RK4",
+            crate::simulation::Integrator::Etdrk4 => "ETDRK4",
+        },
         o.h,
         o.xtol,
         o.ftol,
