@@ -185,8 +185,8 @@ pub enum Integrator {
     Rk4,
     /// Exponential time differencing RK4 (Cox & Matthews, J. Comput. Phys. 176 (2002), (26)–(29);
     /// coefficients as φ-functions after Hochbruck & Ostermann, Acta Numerica 19 (2010), (2.40)):
-    /// the state is split as ẋ = A x + N(x), A frozen at the start of each step and taken
-    /// exactly, N = f − A x by the four RK stages. A holds the friction's own damping: on the
+    /// the state is split as ẋ = A x + N(x), A frozen and taken exactly, N = f − A x by the
+    /// four RK stages. A holds the friction's own damping: on the
     /// velocities −D_FF⁻¹ C (D_FF the inertia matrix (3.2), C = diag(∂F_i/∂q̇_i) with F_i all
     /// friction of joint i and its bias, at the current (q̇_i, z_i); growth capped at
     /// λh = 10), the positions integrated along that same flow, and ∂ż_i/∂z_i = −σ0|q̇_i|/g on
@@ -194,9 +194,15 @@ pub enum Integrator {
     /// stay in N. A step in which a joint's friction switches regime is redone in substeps
     /// ([`PlantModel::etdrk4_with_switches`]). Fourth order where A h is small, exact for a
     /// joint whose damping dominates under a constant force, and within 2.3e-5 rad of a
-    /// converged RK4 on the Freedom 6S's wrist at 1/2000 s, where RK4 diverges. Per step on
-    /// top of RK4's four right-hand sides: the inertia matrix, its Cholesky factor and inverse
-    /// and a symmetric eigendecomposition (≈ 3 RK4 steps in all).
+    /// converged RK4 on the Freedom 6S's wrist at 1/2000 s over 10 s, where RK4 diverges.
+    /// Its local error is far above RK4's at RK4's stable step, though: on a 40 s Table 4.7
+    /// run of k3, whose trajectory amplifies early errors a thousandfold, it deviates by
+    /// 3.0e-3 rad at 1/2000 s and 2.4e-4 rad at 1/4000 s, RK4 at 1/12000 s by 2.1e-6 rad
+    /// (`tests/plant_simulation.rs`). Per step on top of RK4's four right-hand sides: the
+    /// inertia matrix and the friction slopes; the velocity block's decomposition (Cholesky
+    /// factor, inverse, symmetric eigendecomposition) only when it has drifted
+    /// ([`REFREEZE`]; ≈ 1 step in 7 on the Freedom 6S runs). A 40 s file at 1/2000 s costs
+    /// 0.3–0.4 × RK4 at 1/12000 s.
     Etdrk4,
 }
 
@@ -327,8 +333,6 @@ struct Scratch {
     applied: Vec<f64>,
     k: [State; 4],
     stage: State,
-    /// The inertia matrix (NF·NF, column-major) for [`Integrator::Etdrk4`].
-    mass: Vec<f64>,
     /// The rest of [`Integrator::Etdrk4`]'s work space.
     etd: EtdScratch,
     /// The state and stage inputs at the start of a step redone in substeps
@@ -348,7 +352,7 @@ struct Scratch {
 
 /// Work space of one [`Integrator::Etdrk4`] step, in the coordinates u = (q̃, ṽ, w) (3·NF)
 /// where its linear part is diagonal but for each mode's position row
-/// ([`PlantModel::etd_lambda`]).
+/// ([`PlantModel::etd_lambda`]), and the frozen velocity block that later steps reuse.
 #[derive(Debug, Clone, Default)]
 struct EtdScratch {
     /// u at the step start and the stages a, b, c.
@@ -366,9 +370,20 @@ struct EtdScratch {
     lambda: Vec<f64>,
     /// g_i = ∂ż_i/∂q̇_i of the deflection coordinates w_i = z_i − g_i q_i (NF).
     g: Vec<f64>,
-    /// Friction slopes c_i = ∂F_i/∂q̇_i at the step start and (D⁻¹)_ii there (NF).
+    /// Friction slopes c_i = ∂F_i/∂q̇_i at the current state (NF).
     c: Vec<f64>,
+    /// The inertia matrix D_FF at the current state (NF·NF, column-major).
+    mass: Vec<f64>,
+    /// The velocity block in force: the slopes and inertia matrix it was decomposed at,
+    /// its modal rates μ (uncapped), (D⁻¹)_ii, and the step its coefficients are for
+    /// (NaN: none yet).
+    frozen_c: Vec<f64>,
+    frozen_mass: Vec<f64>,
+    mu: Vec<f64>,
     d_inv_diag: Vec<f64>,
+    coef_h: f64,
+    /// NF·NF scratch of [`EtdScratch::velocity_block_is_stale`].
+    work: Vec<f64>,
 }
 
 impl Scratch {
@@ -392,7 +407,6 @@ impl Scratch {
             applied: vec![0.0; nf],
             k: [z(), z(), z(), z()],
             stage: z(),
-            mass: vec![0.0; nf * nf],
             redo: (
                 z(),
                 [vec![0.0; nf], vec![0.0; nf], vec![0.0; nf]],
@@ -408,7 +422,13 @@ impl Scratch {
                 lambda: vec![0.0; 3 * nf],
                 g: vec![0.0; nf],
                 c: vec![0.0; nf],
+                mass: vec![0.0; nf * nf],
+                frozen_c: vec![f64::NAN; nf],
+                frozen_mass: vec![f64::NAN; nf * nf],
+                mu: vec![0.0; nf],
                 d_inv_diag: vec![0.0; nf],
+                coef_h: f64::NAN,
+                work: vec![0.0; nf * nf],
             },
             tau: [vec![0.0; nf], vec![0.0; nf], vec![0.0; nf]],
             injection: None,
@@ -416,6 +436,129 @@ impl Scratch {
             sides: vec![None; nf],
             crossing: vec![f64::INFINITY; nf],
             start: z(),
+        }
+    }
+}
+
+/// Largest change of the frozen velocity block that [`Integrator::Etdrk4`] leaves to its
+/// explicit part before decomposing again, as h ‖ΔΛ_v‖ (estimated by
+/// [`EtdScratch::velocity_block_is_stale`]). ETDRK4 is fourth order for any frozen Λ; a
+/// Λ off the Jacobian by ΔΛ only moves hΔΛ into the explicit stages, whose RK4 stability
+/// limit is 2.78. On the Freedom 6S's 40 s Table 4.7 runs at 1/2000 s the decomposition then
+/// runs on 11–15 % of the steps, and the positions move by at most 7e-10 rad (k5) from a
+/// decomposition at every step.
+const REFREEZE: f64 = 0.05;
+
+impl EtdScratch {
+    /// Whether the velocity block frozen at (C_f, D_f) is off the current (C, D) by more than
+    /// [`REFREEZE`] in h‖ΔΛ‖, to first order in modal coordinates: there the frozen mass
+    /// matrix is I and damping −diag(μ), the current ones I + E and −diag(μ) + F with
+    /// E = T⁻ᵀ (D − D_f) T⁻¹ and F = T⁻ᵀ (C − C_f) T⁻¹, so ΔΛ ≈ −F − E diag(μ); ‖F‖_F ≤
+    /// Σ_i (D_f⁻¹)_ii |c_i − c_f,i| (row i of T⁻¹ has the squared norm (D_f⁻¹)_ii) and
+    /// ‖E diag(μ)‖_F is formed (2 NF³ flops). Always true before the first decomposition.
+    fn velocity_block_is_stale(&mut self, h: f64) -> bool {
+        let nf = self.c.len();
+        let r_c: f64 = self
+            .c
+            .iter()
+            .zip(&self.frozen_c)
+            .zip(&self.d_inv_diag)
+            .map(|((c, f), d)| d * (c - f).abs())
+            .sum();
+        // NaN before the first decomposition (frozen slopes NaN).
+        if r_c.is_nan() || h * r_c > REFREEZE {
+            return true;
+        }
+        // work = (D − D_f) T⁻¹, then ‖T⁻ᵀ work diag(μ)‖_F.
+        for j in 0..nf {
+            for i in 0..nf {
+                self.work[j * nf + i] = (0..nf)
+                    .map(|k| {
+                        (self.mass[k * nf + i] - self.frozen_mass[k * nf + i])
+                            * self.t_inv[j * nf + k]
+                    })
+                    .sum();
+            }
+        }
+        let mut r_d = 0.0;
+        for j in 0..nf {
+            for i in 0..nf {
+                let e_ij: f64 = (0..nf)
+                    .map(|k| self.t_inv[i * nf + k] * self.work[j * nf + k])
+                    .sum();
+                r_d += (e_ij * self.mu[j]).powi(2);
+            }
+        }
+        r_d.is_nan() || h * (r_c + r_d.sqrt()) > REFREEZE
+    }
+
+    /// Freeze the velocity block at the current (C, D): D = L Lᵀ, B = −L⁻¹ C L⁻ᵀ = V diag(μ)
+    /// Vᵀ, T = Vᵀ Lᵀ, T⁻¹ = L⁻ᵀ V ([`PlantModel::etd_lambda`]); where D is not positive
+    /// definite, T = I and μ = 0.
+    fn decompose(&mut self, nf: usize) {
+        self.frozen_c.copy_from_slice(&self.c);
+        self.frozen_mass.copy_from_slice(&self.mass);
+        let d = nalgebra::DMatrix::from_column_slice(nf, nf, &self.mass);
+        let modal = nalgebra::Cholesky::new(d).and_then(|ch| {
+            let l = ch.l();
+            let l_inv = l.clone().try_inverse()?;
+            let c = nalgebra::DVector::from_column_slice(&self.c);
+            let mut b = -(&l_inv * nalgebra::DMatrix::from_diagonal(&c) * l_inv.transpose());
+            b = (&b + b.transpose()) * 0.5;
+            let eig = b.symmetric_eigen();
+            let t = eig.eigenvectors.transpose() * l.transpose();
+            let w_back = l_inv.transpose() * &eig.eigenvectors;
+            for i in 0..nf {
+                self.d_inv_diag[i] = l_inv.column(i).norm_squared();
+            }
+            Some((eig.eigenvalues, t, w_back))
+        });
+        match modal {
+            Some((mu, t, w_back)) => {
+                self.mu.copy_from_slice(mu.as_slice());
+                self.t.copy_from_slice(t.as_slice());
+                self.t_inv.copy_from_slice(w_back.as_slice());
+            }
+            None => {
+                self.d_inv_diag.fill(0.0);
+                self.mu.fill(0.0);
+                self.t.fill(0.0);
+                self.t_inv.fill(0.0);
+                for i in 0..nf {
+                    self.t[i * nf + i] = 1.0;
+                    self.t_inv[i * nf + i] = 1.0;
+                }
+            }
+        }
+    }
+
+    /// The ETDRK4 coefficients (E, Q, E², f1, f2, f3) of step `h` for the components
+    /// `range` of Λ, and of each mode's position row on its velocity where `range` holds
+    /// velocity components ([`PlantModel::etdrk4_in_place`]).
+    fn coefficients(&mut self, range: std::ops::Range<usize>, h: f64) {
+        let nf = self.g.len();
+        for m in range {
+            let l = self.lambda[m];
+            let p = phi1234(l * h);
+            let ph = phi1234(l * h / 2.0);
+            self.coef[m] = [
+                (l * h / 2.0).exp(),
+                h / 2.0 * ph[0],
+                (l * h).exp(),
+                h * (p[0] - 3.0 * p[1] + 4.0 * p[2]),
+                h * (p[1] - 2.0 * p[2]),
+                h * (4.0 * p[2] - p[1]),
+            ];
+            if (nf..2 * nf).contains(&m) {
+                self.cross[m - nf] = [
+                    h / 2.0 * ph[0],
+                    h * h / 4.0 * ph[1],
+                    h * p[0],
+                    h * h * (p[1] - 3.0 * p[2] + 4.0 * p[3]),
+                    h * h * (p[2] - 2.0 * p[3]),
+                    h * h * (4.0 * p[3] - p[2]),
+                ];
+            }
         }
     }
 }
@@ -677,7 +820,7 @@ impl PlantModel {
         let r = (0..self.nf())
             .map(|i| {
                 let (c_end, ..) = self.friction_slopes(i, x, w.sides[i]);
-                let mut jump = (c_end - w.etd.c[i]).abs();
+                let mut jump = (c_end - w.etd.frozen_c[i]).abs();
                 let (v0, v1) = (x0.qd[i], x.qd[i]);
                 if let Some(l) = &self.terms[i].lugre {
                     // The step may have passed q̇ = 0, where ∂F/∂q̇ jumps by 2σ1σ0|z|/g.
@@ -759,53 +902,33 @@ impl PlantModel {
     /// On q: 0. The deflections are taken as w_i = z_i − g_i q_i with g_i = ∂ż_i/∂q̇_i: ż_i
     /// follows a fast velocity transient with the gain g_i (1 while the joint sticks), w_i
     /// does not. Where D_FF(q) is not positive definite (parameters not physical) Λ_v = 0 and
-    /// the velocities step as in RK4.
+    /// the velocities step as in RK4. The velocity block (T, T⁻¹, μ and its coefficients) is
+    /// kept from an earlier step while it stays within [`REFREEZE`] of the current one
+    /// ([`EtdScratch::velocity_block_is_stale`]); the deflections' rates are taken afresh
+    /// every step.
     fn etd_lambda(&self, x: &State, h: f64, w: &mut Scratch) {
         let nf = self.nf();
         self.put_free(&x.q, &mut w.q_full);
-        (self.conf.mass_matrix)(&w.q_full, &self.p, &mut w.mass);
-        let d = nalgebra::DMatrix::from_column_slice(nf, nf, &w.mass);
         let e = &mut w.etd;
-        e.lambda[..nf].fill(0.0);
+        (self.conf.mass_matrix)(&w.q_full, &self.p, &mut e.mass);
         for i in 0..nf {
             let (df, dzv, dzz) = self.friction_slopes(i, x, w.sides[i]);
             e.c[i] = df;
             e.g[i] = dzv;
             e.lambda[2 * nf + i] = dzz.min(0.0);
         }
-        let modal = nalgebra::Cholesky::new(d).and_then(|ch| {
-            let l = ch.l();
-            let l_inv = l.clone().try_inverse()?;
-            let c = nalgebra::DVector::from_column_slice(&e.c);
-            let mut b = -(&l_inv * nalgebra::DMatrix::from_diagonal(&c) * l_inv.transpose());
-            b = (&b + b.transpose()) * 0.5;
-            let eig = b.symmetric_eigen();
-            let t = eig.eigenvectors.transpose() * l.transpose();
-            let w_back = l_inv.transpose() * &eig.eigenvectors;
-            for i in 0..nf {
-                e.d_inv_diag[i] = l_inv.column(i).norm_squared();
-            }
-            Some((eig.eigenvalues, t, w_back))
-        });
-        match modal {
-            Some((mu, t, w_back)) => {
-                for (l, m) in e.lambda[nf..2 * nf].iter_mut().zip(mu.iter()) {
-                    *l = m.min(GROWTH_MAX / h);
-                }
-                e.t.copy_from_slice(t.as_slice());
-                e.t_inv.copy_from_slice(w_back.as_slice());
-            }
-            None => {
-                e.d_inv_diag.fill(0.0);
-                e.lambda[nf..2 * nf].fill(0.0);
-                e.t.fill(0.0);
-                e.t_inv.fill(0.0);
-                for i in 0..nf {
-                    e.t[i * nf + i] = 1.0;
-                    e.t_inv[i * nf + i] = 1.0;
-                }
-            }
+        let decomposed = e.velocity_block_is_stale(h);
+        if decomposed {
+            e.decompose(nf);
         }
+        if decomposed || e.coef_h != h {
+            for i in 0..nf {
+                e.lambda[nf + i] = e.mu[i].min(GROWTH_MAX / h);
+            }
+            e.coefficients(0..2 * nf, h);
+            e.coef_h = h;
+        }
+        e.coefficients(2 * nf..3 * nf, h);
     }
 
     /// ETDRK4 (Cox & Matthews 2002, (26)–(29)) on `x` with the stage torques in `w.tau`, in
@@ -829,30 +952,6 @@ impl PlantModel {
         let mut k = std::mem::take(&mut w.k);
         let mut y = std::mem::take(&mut w.stage);
         let tau = std::mem::take(&mut w.tau);
-        // Diagonal coefficients (E, Q, E², f1, f2, f3) per component and those of the
-        // position rows on the velocities per mode.
-        for (m, &l) in e.lambda.iter().enumerate() {
-            let p = phi1234(l * h);
-            let ph = phi1234(l * h / 2.0);
-            e.coef[m] = [
-                (l * h / 2.0).exp(),
-                h / 2.0 * ph[0],
-                (l * h).exp(),
-                h * (p[0] - 3.0 * p[1] + 4.0 * p[2]),
-                h * (p[1] - 2.0 * p[2]),
-                h * (4.0 * p[2] - p[1]),
-            ];
-            if (nf..2 * nf).contains(&m) {
-                e.cross[m - nf] = [
-                    h / 2.0 * ph[0],
-                    h * h / 4.0 * ph[1],
-                    h * p[0],
-                    h * h * (p[1] - 3.0 * p[2] + 4.0 * p[3]),
-                    h * h * (p[2] - 2.0 * p[3]),
-                    h * h * (4.0 * p[3] - p[2]),
-                ];
-            }
-        }
         // out = M v for an NF × NF column-major M.
         let mat_vec = |m: &[f64], v: &[f64], out: &mut [f64]| {
             for (i, o) in out.iter_mut().enumerate() {
