@@ -506,6 +506,12 @@ pub struct OutputErrorArgs {
     /// Most iterations per start.
     #[arg(long, default_value_t = 100)]
     pub max_iter: usize,
+    /// A finite-difference Jacobian (one simulation per fitted parameter) at most every N
+    /// iterations of a stage, Broyden's rank-one update from the step taken between them;
+    /// a step that did not lower the cost, and the end of every stage, take a fresh one.
+    /// 1: finite differences at every iteration.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub jacobian_refresh: usize,
     /// Multiple-shooting warm-up, e.g. `--segments 1,4`: one more start from the plant's
     /// values fits every file cut into segments of these lengths (s) in turn, each segment
     /// simulated from the measured state at its start (velocities from the positions), then
@@ -589,8 +595,8 @@ impl OutputErrorArgs {
         if !(self.weight > 0.0 && self.weight.is_finite()) {
             bail!("--weight: expected a positive weight, got {}", self.weight);
         }
-        if self.starts == 0 || self.max_iter == 0 {
-            bail!("--starts and --max-iter must be at least 1");
+        if self.starts == 0 || self.max_iter == 0 || self.jacobian_refresh == 0 {
+            bail!("--starts, --max-iter and --jacobian-refresh must be at least 1");
         }
         if !(self.xtol > 0.0 && self.ftol > 0.0) {
             bail!("--xtol and --ftol must be positive");
@@ -634,6 +640,7 @@ impl OutputErrorArgs {
             xtol: self.xtol,
             ftol: self.ftol,
             max_iter: self.max_iter,
+            jacobian_refresh: self.jacobian_refresh,
             starts: self.starts,
             seed: self.seed,
             horizons,

@@ -121,6 +121,14 @@ pub struct OutputErrorOptions {
     pub seed: u64,
     /// Finite-difference step in the scaled parameters (fraction of the bound width).
     pub fd_step: f64,
+    /// A finite-difference Jacobian (one simulation per parameter) at most every this many
+    /// Levenberg–Marquardt iterations of a stage; between them Broyden's rank-one update
+    /// from the step just taken (Dennis & Schnabel, *Numerical Methods for Unconstrained
+    /// Optimization*, 8.1), no simulation. A fresh Jacobian is also taken after a step
+    /// that did not lower the cost, and a stage that converged on an updated one is run
+    /// on from a fresh one, so every stage ends on a finite-difference Jacobian. 1: a
+    /// finite-difference Jacobian at every iteration (MINPACK's `lmdif`).
+    pub jacobian_refresh: usize,
     /// Growing horizons: the fit runs on the first fraction of every file's weighted
     /// samples, then on longer ones, each stage starting where the last ended (a long
     /// output-error horizon has local minima that a short one does not; the last entry
@@ -201,6 +209,7 @@ impl Default for OutputErrorOptions {
             starts: 1,
             seed: 1,
             fd_step: 1e-6,
+            jacobian_refresh: 1,
             horizons: vec![0.05, 0.1, 0.25, 0.5, 1.0],
             segments: Vec::new(),
             least_change: false,
@@ -1483,6 +1492,7 @@ impl Problem {
             stage,
             cache: None,
             failures: 0,
+            jacobian: None,
             config: MPConfig {
                 xtol,
                 ftol,
@@ -1503,12 +1513,25 @@ impl Problem {
                 .collect(),
             start_cost,
         };
-        let result = fitter.mpfit(u);
+        let mut result = fitter.mpfit(u);
+        let mut iterations = result.as_ref().map_or(0, |st| st.n_iter);
+        // A stage that stopped on a Broyden-updated Jacobian goes on from a
+        // finite-difference one (its stopping rules then hold for the true Jacobian).
+        let mut reruns = 0;
+        while result.is_ok()
+            && fitter.jacobian.as_ref().is_some_and(|j| j.updates > 0)
+            && reruns < 3
+        {
+            fitter.jacobian = None;
+            result = fitter.mpfit(u);
+            iterations += result.as_ref().map_or(0, |st| st.n_iter);
+            reruns += 1;
+        }
         let failures = fitter.failures;
         match result {
             Ok(st) => StageOutcome {
-                status: format!("{:?} after {} iteration(s)", st.success, st.n_iter),
-                iterations: st.n_iter,
+                status: format!("{:?} after {iterations} iteration(s)", st.success),
+                iterations,
                 failures,
                 stop: false,
             },
@@ -2163,10 +2186,53 @@ struct Fitter<'a> {
     stage: Stage,
     cache: Option<(Vec<f64>, Vec<f64>)>,
     failures: usize,
+    /// The last Jacobian handed to the optimiser ([`OutputErrorOptions::jacobian_refresh`]).
+    jacobian: Option<LastJacobian>,
 
     config: MPConfig,
     pars: Vec<MPPar>,
     start_cost: f64,
+}
+
+/// A Jacobian of the simulated residuals and where it was taken.
+struct LastJacobian {
+    /// Scaled parameters.
+    u: Vec<f64>,
+    /// Residuals there (the simulated ones, without the prior's rows).
+    r: Vec<f64>,
+    /// ∂r/∂u_i per parameter.
+    columns: Vec<Vec<f64>>,
+    /// Broyden updates since the last finite-difference Jacobian (0: it is one).
+    updates: usize,
+}
+
+impl LastJacobian {
+    /// Broyden's rank-one update to the point `u` with residuals `r`:
+    /// J ← J + (Δr − J Δu) Δuᵀ / (Δuᵀ Δu), the least change of J that maps the step taken
+    /// to the residual change seen. False (J unchanged) for a zero step.
+    fn broyden(&mut self, u: &[f64], r: &[f64]) -> bool {
+        let du: Vec<f64> = u.iter().zip(&self.u).map(|(a, b)| a - b).collect();
+        let du2: f64 = du.iter().map(|d| d * d).sum();
+        if du2.is_nan() || du2 <= 0.0 {
+            return false;
+        }
+        let mut defect: Vec<f64> = r.iter().zip(&self.r).map(|(a, b)| a - b).collect();
+        for (col, d) in self.columns.iter().zip(&du) {
+            for (e, c) in defect.iter_mut().zip(col) {
+                *e -= c * d;
+            }
+        }
+        for (col, d) in self.columns.iter_mut().zip(&du) {
+            let f = d / du2;
+            for (c, e) in col.iter_mut().zip(&defect) {
+                *c += e * f;
+            }
+        }
+        self.u = u.to_vec();
+        self.r = r.to_vec();
+        self.updates += 1;
+        true
+    }
 }
 
 impl Fitter<'_> {
@@ -2233,23 +2299,44 @@ impl MPFitter for Fitter<'_> {
         let r0 = self.evaluate(params);
         deviates.copy_from_slice(&r0);
         self.context.jacobians.fetch_add(1, Ordering::Relaxed);
-        let h = self.problem.options.fd_step;
-        let steps: Vec<f64> = params
-            .iter()
-            .map(|&u| if u + h > 1.0 { -h } else { h })
-            .collect();
         let p = self.problem;
         let m = p.m;
-        let cols = p.jacobian_columns(
-            params,
-            &r0[..m],
-            &steps,
-            &|x: &[f64]| p.to_physical(x),
-            false,
-        );
-        self.context
-            .evaluations
-            .fetch_add(params.len(), Ordering::Relaxed);
+        let sum_sq = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
+        // Broyden's update where the last step lowered the simulated cost and the refresh
+        // interval allows it; otherwise finite differences.
+        let updated = match &mut self.jacobian {
+            Some(last)
+                if last.updates + 1 < p.options.jacobian_refresh
+                    && sum_sq(&r0[..m]) < sum_sq(&last.r) =>
+            {
+                last.broyden(params, &r0[..m])
+            }
+            _ => false,
+        };
+        if !updated {
+            let h = p.options.fd_step;
+            let steps: Vec<f64> = params
+                .iter()
+                .map(|&u| if u + h > 1.0 { -h } else { h })
+                .collect();
+            let columns = p.jacobian_columns(
+                params,
+                &r0[..m],
+                &steps,
+                &|x: &[f64]| p.to_physical(x),
+                false,
+            );
+            self.context
+                .evaluations
+                .fetch_add(params.len(), Ordering::Relaxed);
+            self.jacobian = Some(LastJacobian {
+                u: params.to_vec(),
+                r: r0[..m].to_vec(),
+                columns,
+                updates: 0,
+            });
+        }
+        let cols = &self.jacobian.as_ref().expect("set above").columns;
         // rmpfit's deviates are (y − f): the derivative of the residual as defined here;
         // the prior's rows are the weight on the diagonal.
         for (i, d) in derivs.iter_mut().enumerate() {
@@ -2267,7 +2354,58 @@ impl MPFitter for Fitter<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::savitzky_golay_velocity;
+    use super::{savitzky_golay_velocity, LastJacobian};
+
+    /// Broyden's update meets the secant condition J⁺ Δu = Δr, changes J only along Δu
+    /// (J⁺ v = J v for v ⟂ Δu), leaves an exact Jacobian of a linear map as it is, and
+    /// refuses a zero step.
+    #[test]
+    fn broyden_update_meets_the_secant_condition_and_nothing_more() {
+        // r(u) = A u + b + 0.3 u0² e0: nonlinear in u0 only.
+        let a = [[1.0, 2.0], [-0.5, 3.0], [4.0, 0.25]];
+        let r = |u: &[f64]| -> Vec<f64> {
+            (0..3)
+                .map(|i| {
+                    a[i][0] * u[0] + a[i][1] * u[1] + if i == 0 { 0.3 * u[0] * u[0] } else { 0.0 }
+                })
+                .collect()
+        };
+        let columns = |u0: f64| vec![vec![1.0 + 0.6 * u0, -0.5, 4.0], vec![2.0, 3.0, 0.25]];
+        let u0 = [0.2, -0.1];
+        let mut j = LastJacobian {
+            u: u0.to_vec(),
+            r: r(&u0),
+            columns: columns(u0[0]),
+            updates: 0,
+        };
+        let u1 = [0.5, 0.3];
+        let before = j.columns.clone();
+        assert!(j.broyden(&u1, &r(&u1)));
+        assert_eq!(j.updates, 1);
+        let du = [u1[0] - u0[0], u1[1] - u0[1]];
+        let dr: Vec<f64> = r(&u1).iter().zip(r(&u0)).map(|(x, y)| x - y).collect();
+        let apply = |c: &[Vec<f64>], v: [f64; 2]| -> Vec<f64> {
+            (0..3).map(|i| c[0][i] * v[0] + c[1][i] * v[1]).collect()
+        };
+        for (x, y) in apply(&j.columns, du).iter().zip(&dr) {
+            assert!((x - y).abs() < 1e-14, "secant: {x} vs {y}");
+        }
+        let perp = [-du[1], du[0]];
+        for (x, y) in apply(&j.columns, perp).iter().zip(apply(&before, perp)) {
+            assert!(
+                (x - y).abs() < 1e-14,
+                "orthogonal direction moved: {x} vs {y}"
+            );
+        }
+        // Only row 0 is nonlinear: the others were exact and stay so.
+        for c in 0..2 {
+            for i in 1..3 {
+                assert!((j.columns[c][i] - before[c][i]).abs() < 1e-14);
+            }
+        }
+        assert!(!j.broyden(&u1, &r(&u1)), "a zero step is no update");
+        assert_eq!(j.updates, 1);
+    }
 
     /// The 7-point cubic Savitzky–Golay derivative is exact for quartics (its error term is
     /// the fifth derivative) and its noise gain is √Σc² / 252 ≈ 0.51 per Δt.
