@@ -494,7 +494,8 @@ impl EtdScratch {
 
     /// Freeze the velocity block at the current (C, D): D = L Lᵀ, B = −L⁻¹ C L⁻ᵀ = V diag(μ)
     /// Vᵀ, T = Vᵀ Lᵀ, T⁻¹ = L⁻ᵀ V ([`PlantModel::etd_lambda`]); where D is not positive
-    /// definite, T = I and μ = 0.
+    /// definite, T = I and μ = 0 for this step only (the frozen slopes are set to NaN, so
+    /// the next step decomposes again, as it did before the block was reused).
     fn decompose(&mut self, nf: usize) {
         self.frozen_c.copy_from_slice(&self.c);
         self.frozen_mass.copy_from_slice(&self.mass);
@@ -520,6 +521,7 @@ impl EtdScratch {
                 self.t_inv.copy_from_slice(w_back.as_slice());
             }
             None => {
+                self.frozen_c.fill(f64::NAN);
                 self.d_inv_diag.fill(0.0);
                 self.mu.fill(0.0);
                 self.t.fill(0.0);
