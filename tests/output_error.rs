@@ -526,16 +526,43 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
     let ob = d.path().join("outside.toml");
     std::fs::write(&ob, text).unwrap();
     fails(&run(&ob, &data, "k1"), &["outside.toml", "G_4to5"]);
-    // Horizons that leave nothing to fit, or that do not grow to the whole files.
-    for (horizons, needles) in [
-        ("none", &["--horizons none", "--equation-error"][..]),
-        ("0.5,0.2,1", &["--horizons", "increasing", "0.5,0.2,1"][..]),
-        ("0.1,0.5", &["--horizons", "ending with 1"][..]),
+    // Horizons that leave nothing to fit, or that do not grow to the whole files; the
+    // coupled method's defaults (no horizons, the equation error and the predictor) with
+    // both warm-ups turned off; a predictor step that is not a step.
+    let no_warm_up = ["--equation-error", "off", "--predictor", "none"];
+    for (more, needles) in [
+        (
+            &[
+                "--horizons",
+                "none",
+                "--equation-error",
+                "off",
+                "--predictor",
+                "none",
+            ][..],
+            &["--horizons none:", "--equation-error"][..],
+        ),
+        (
+            &no_warm_up[..],
+            &[
+                "--horizons none (the coupled method's default)",
+                "--predictor",
+            ][..],
+        ),
+        (
+            &["--horizons", "0.5,0.2,1"][..],
+            &["--horizons", "increasing", "0.5,0.2,1"][..],
+        ),
+        (
+            &["--horizons", "0.1,0.5"][..],
+            &["--horizons", "ending with 1"][..],
+        ),
+        (
+            &["--predictor-step", "0"][..],
+            &["--predictor-step", "positive step", "got '0'"][..],
+        ),
     ] {
-        fails(
-            &run_with(&start, &data, "k1", &["--horizons", horizons]),
-            needles,
-        );
+        fails(&run_with(&start, &data, "k1", more), needles);
     }
     assert!(!d.path().join("out").exists(), "nothing may be written");
 }
