@@ -602,9 +602,28 @@ fn fmt_g(x: f64) -> String {
 pub fn markdown(report: &SequenceReport, model: &Model) -> String {
     let mut s = String::new();
     let o = &report.options;
+    let integrator = |i: crate::simulation::Integrator| match i {
+        crate::simulation::Integrator::Rk4 => "RK4",
+        crate::simulation::Integrator::Etdrk4 => "ETDRK4",
+    };
+    let mut simulation = format!("{} step {:.6e} s", integrator(o.integrator), o.h);
+    if let (Some((h, i)), false) = (o.predictor_step, o.predictor.is_empty()) {
+        let _ = write!(
+            simulation,
+            " (the predictor's stages: {} step {h:.6e} s)",
+            integrator(i)
+        );
+    }
+    if o.jacobian_refresh > 1 {
+        let _ = write!(
+            simulation,
+            "; a finite-difference Jacobian at most every {} iterations, Broyden's update between",
+            o.jacobian_refresh
+        );
+    }
     let _ = writeln!(
         s,
-        "# Output-error identification: {} method\n\nPlant: `{}`. Cost: {}; joint of interest weighted {}; {} step {:.6e} s; stop at relative step < {:e} or relative cost decrease < {:e}; {} start(s).\n",
+        "# Output-error identification: {} method\n\nPlant: `{}`. Cost: {}; joint of interest weighted {}; {}; stop at relative step < {:e} or relative cost decrease < {:e}; {} start(s).\n",
         report.sequence,
         report.plant,
         match o.weighting {
@@ -614,11 +633,7 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                 format!("(4.3), first {n} samples skipped"),
         },
         o.interest_weight,
-        match o.integrator {
-            crate::simulation::Integrator::Rk4 => "RK4",
-            crate::simulation::Integrator::Etdrk4 => "ETDRK4",
-        },
-        o.h,
+        simulation,
         o.xtol,
         o.ftol,
         o.starts
