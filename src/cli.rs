@@ -585,18 +585,17 @@ pub struct OutputErrorArgs {
 }
 
 impl OutputErrorArgs {
-    fn options(&self, method: &str) -> Result<OutputErrorOptions> {
+    fn options<'a>(&'a self, method: &str) -> Result<OutputErrorOptions> {
         use crate::identify::output_error::TimeWeighting;
         // The coupled method's defaults are the settings that took k1..k4 of the Freedom
         // 6S sequence to the noise floor (README); the isolated method keeps the thesis's
         // growing horizons.
         let coupled = method == "coupled";
-        let pick =
-            |given: &Option<String>, coupled_default: &'static str, isolated: &'static str| {
-                given
-                    .clone()
-                    .unwrap_or_else(|| if coupled { coupled_default } else { isolated }.to_string())
-            };
+        let pick = |given: &'a Option<String>, coupled_default: &'a str, isolated: &'a str| {
+            given
+                .as_deref()
+                .unwrap_or(if coupled { coupled_default } else { isolated })
+        };
         let horizons_arg = pick(&self.horizons, "none", "0.05,0.1,0.25,0.5,1");
         let predictor_arg = pick(&self.predictor, "100,30,10,3,1", "none");
         let equation_error_arg = pick(&self.equation_error, "on", "off");
@@ -627,7 +626,7 @@ impl OutputErrorArgs {
         }
         let horizons = positive_list(
             "--horizons",
-            &horizons_arg,
+            horizons_arg,
             "increasing fractions in (0, 1] ending with 1 such as 0.1,0.5,1",
         )?;
         if !horizons.is_empty()
@@ -647,7 +646,7 @@ impl OutputErrorArgs {
         )?;
         let predictor = positive_list(
             "--predictor",
-            &predictor_arg,
+            predictor_arg,
             "bandwidths in rad/s such as 3,1",
         )?;
         let hold = match self.hold.as_str() {

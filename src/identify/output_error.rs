@@ -2321,39 +2321,40 @@ impl MPFitter for Fitter<'_> {
         let sum_sq = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
         // Broyden's update where the last step lowered the simulated cost and the refresh
         // interval allows it; otherwise finite differences.
-        let updated = match &mut self.jacobian {
-            Some(last)
-                if last.updates + 1 < p.options.jacobian_refresh
-                    && sum_sq(&r0[..m]) < sum_sq(&last.r) =>
-            {
-                last.broyden(params, &r0[..m])
+        let updated = self
+            .jacobian
+            .take()
+            .filter(|last| {
+                last.updates + 1 < p.options.jacobian_refresh && sum_sq(&r0[..m]) < sum_sq(&last.r)
+            })
+            .and_then(|mut last| last.broyden(params, &r0[..m]).then_some(last));
+        let last = match updated {
+            Some(last) => last,
+            None => {
+                let h = p.options.fd_step;
+                let steps: Vec<f64> = params
+                    .iter()
+                    .map(|&u| if u + h > 1.0 { -h } else { h })
+                    .collect();
+                let columns = p.jacobian_columns(
+                    params,
+                    &r0[..m],
+                    &steps,
+                    &|x: &[f64]| p.to_physical(x),
+                    false,
+                );
+                self.context
+                    .evaluations
+                    .fetch_add(params.len(), Ordering::Relaxed);
+                LastJacobian {
+                    u: params.to_vec(),
+                    r: r0[..m].to_vec(),
+                    columns,
+                    updates: 0,
+                }
             }
-            _ => false,
         };
-        if !updated {
-            let h = p.options.fd_step;
-            let steps: Vec<f64> = params
-                .iter()
-                .map(|&u| if u + h > 1.0 { -h } else { h })
-                .collect();
-            let columns = p.jacobian_columns(
-                params,
-                &r0[..m],
-                &steps,
-                &|x: &[f64]| p.to_physical(x),
-                false,
-            );
-            self.context
-                .evaluations
-                .fetch_add(params.len(), Ordering::Relaxed);
-            self.jacobian = Some(LastJacobian {
-                u: params.to_vec(),
-                r: r0[..m].to_vec(),
-                columns,
-                updates: 0,
-            });
-        }
-        let cols = &self.jacobian.as_ref().expect("set above").columns;
+        let cols = &self.jacobian.insert(last).columns;
         // rmpfit's deviates are (y − f): the derivative of the residual as defined here;
         // the prior's rows are the weight on the diagonal.
         for (i, d) in derivs.iter_mut().enumerate() {

@@ -602,10 +602,8 @@ fn fmt_g(x: f64) -> String {
 pub fn markdown(report: &SequenceReport, model: &Model) -> String {
     let mut s = String::new();
     let o = &report.options;
-    let integrator = |i: crate::simulation::Integrator| match i {
-        crate::simulation::Integrator::Rk4 => "RK4",
-        crate::simulation::Integrator::Etdrk4 => "ETDRK4",
-    };
+    // The CLI's name of the scheme ("rk4", "etdrk4"), as the field writes it.
+    let integrator = |i: crate::simulation::Integrator| i.to_string().to_uppercase();
     let mut simulation = format!("{} step {:.6e} s", integrator(o.integrator), o.h);
     if let (Some((h, i)), false) = (o.predictor_step, o.predictor.is_empty()) {
         let _ = write!(
