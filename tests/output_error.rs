@@ -181,10 +181,25 @@ fn fit_c1(d: &Path) -> (serde_json::Value, Plant, PathBuf) {
 /// the problem with the plant at the truth, the fitted parameters' true values, and their
 /// values in the ±25 % start of [`perturbed_start`].
 fn problem_at_truth(d: &Path, test: &str, step: usize) -> (Problem, Vec<f64>, Vec<f64>) {
+    problem_of_step(d, "isolated", "4.3", Some(test), |steps| {
+        step.min(steps.len())
+    })
+}
+
+/// [`problem_at_truth`] for the step `pick` chooses of the `method`'s plan, excited by
+/// `table`/`test` for 40 s.
+fn problem_of_step(
+    d: &Path,
+    method: &str,
+    table: &str,
+    test: Option<&str>,
+    pick: impl Fn(&[lockstep::identify::sequence::Step]) -> usize,
+) -> (Problem, Vec<f64>, Vec<f64>) {
     let truth_file = truth(d);
     let truth = Plant::load(&truth_file).unwrap();
-    let s = plan(&truth, "isolated").unwrap().swap_remove(step);
-    make_data(d, &truth_file, "4.3", Some(test), &s.config, "40");
+    let mut steps = plan(&truth, method).unwrap();
+    let s = steps.swap_remove(pick(&steps));
+    make_data(d, &truth_file, table, test, &s.config, "40");
     let start = d.join("start.toml");
     perturbed_start(&truth_file, &s.fitted, &start);
     // The start's bounds, the truth's values.
@@ -1224,6 +1239,68 @@ fn the_prediction_error_homotopy_takes_c4_from_the_equation_error_to_the_noise_f
         joint.rms
     );
     assert!(at_equation_error > 100.0 * start.cost(&fitted), "{trail}");
+}
+
+/// The coarse predictor step is used only where it is checked to predict what the user's
+/// step does ([`Problem::predictor_step_disagreement`]): on k3 of the coupled method (Table
+/// 4.7, 40 s, at the truth, against RK4 at 1/12000 s) the difference of the predicted
+/// positions in units of the noise grows as the step grows and as the output injection's
+/// pull weakens. Measured (root mean square over s̄ at ω = 100, 30, 10, 3, 1 rad/s):
+/// ETDRK4 at 1/2000 s 0.000, 0.000, 0.001, 0.002, 0.004 (every stage may use it); at
+/// 1/1000 s 0.0005 … 0.074; at 1/500 s 0.007, 0.033, 0.078, 0.20 and 6.4 — the stage at
+/// 1 rad/s goes back to the user's step. Without a predictor step, or at ω = 0, there is
+/// nothing to check.
+#[test]
+fn the_coarse_predictor_step_is_checked_against_the_users_step_stage_by_stage() {
+    use lockstep::identify::output_error::COARSE_PREDICTOR_AGREEMENT;
+    use lockstep::simulation::Integrator;
+    let d = tempfile::tempdir().unwrap();
+    let (p, at_truth, _) = problem_of_step(d.path(), "coupled", "4.7", None, |steps| {
+        steps.iter().position(|s| s.config == "k3").unwrap()
+    });
+    assert_eq!(
+        p.predictor_step_disagreement(100.0, &at_truth).unwrap(),
+        None
+    );
+    let omegas = [100.0, 30.0, 10.0, 3.0, 1.0];
+    let ratios = |h: f64| -> Vec<f64> {
+        let checked = Problem::new(
+            &p.plant_at(&at_truth),
+            p.configuration(),
+            p.names.clone(),
+            p.records.clone(),
+            &[2],
+            OutputErrorOptions {
+                predictor_step: Some((h, Integrator::Etdrk4)),
+                ..p.options().clone()
+            },
+        )
+        .unwrap();
+        assert_eq!(
+            checked.predictor_step_disagreement(0.0, &at_truth).unwrap(),
+            None
+        );
+        omegas
+            .iter()
+            .map(|&w| {
+                checked
+                    .predictor_step_disagreement(w, &at_truth)
+                    .unwrap()
+                    .unwrap()
+            })
+            .collect()
+    };
+    let (fine, coarse) = (ratios(1.0 / 2000.0), ratios(1.0 / 500.0));
+    let trail = format!("d / s̄ at ω = {omegas:?} rad/s: 1/2000 s {fine:.4?}, 1/500 s {coarse:.4?}");
+    println!("{trail}");
+    assert!(fine.iter().all(|&r| r > 0.0 && r < 0.02), "{trail}");
+    assert!(
+        coarse[..4].iter().all(|&r| r <= COARSE_PREDICTOR_AGREEMENT),
+        "{trail}"
+    );
+    assert!(coarse[4] > 4.0 * COARSE_PREDICTOR_AGREEMENT, "{trail}");
+    assert!(coarse.windows(2).all(|w| w[0] < w[1]), "{trail}");
+    assert!(fine.iter().zip(&coarse).all(|(f, c)| f < c), "{trail}");
 }
 
 /// Isolated step c5 (joint 1 alone, the other joints locked) sees 42 rigid-body symbols

@@ -41,6 +41,12 @@ const WARM_UP_FTOL: f64 = 1e-6;
 /// of its 79 iterations (134 of 598 s), the rest creeping by ~2e-5 per iteration.
 const PREDICTOR_FTOL: f64 = 1e-4;
 
+/// Largest root-mean-square difference, in units of the noise's s̄, between the positions
+/// predicted at [`OutputErrorOptions::predictor_step`] and at the user's step for which a
+/// predictor stage runs on the coarse step ([`Problem::checked_predictor`]): a quarter of
+/// the noise, so the coarse stage's minimum lies well within the scatter the data allow.
+pub const COARSE_PREDICTOR_AGREEMENT: f64 = 0.25;
+
 /// Scaled distance from a bound within which a parameter is put on the bound before a
 /// stage ([`Problem::run_stage`]).
 const BOUND_SNAP: f64 = 1e-9;
@@ -189,7 +195,11 @@ pub struct OutputErrorOptions {
     /// (about the noise σ) at 1 rad/s, where the whole file needs RK4 at 1/12000 s (ETDRK4
     /// at 1/2000 s: 3.0e-3 rad, [`crate::simulation::Integrator::Etdrk4`]). The whole
     /// files, the segments, the horizons and the final report stay on [`Self::h`], so the
-    /// fit ends on the accurate simulation. `None`: the predictor's stages on [`Self::h`].
+    /// fit ends on the accurate simulation. A stage runs on this step only where, at its
+    /// start, it predicts the positions within [`COARSE_PREDICTOR_AGREEMENT`] × the noise of
+    /// the user's step; otherwise on the user's step ([`Problem::predictor_step_disagreement`];
+    /// the report names each stage's step and the figure). `None`: the predictor's stages
+    /// on [`Self::h`].
     pub predictor_step: Option<(f64, Integrator)>,
 }
 
@@ -522,16 +532,7 @@ impl Problem {
             if !(tau > 0.0 && tau.is_finite()) {
                 bail!("prior: expected a positive relative spread τ (such as 0.1), got {tau}");
             }
-            // Expected cost per residual from the noise alone: mean of w λ² σ̂².
-            let mut expected = 0.0;
-            for w in &problem.sqrt_w {
-                for &sw in w.iter().filter(|&&x| x > 0.0) {
-                    for a in 0..nf {
-                        expected += (sw * problem.lambda[a] * problem.noise[a]).powi(2);
-                    }
-                }
-            }
-            let s_bar = (expected / m as f64).sqrt();
+            let s_bar = problem.noise_residual_rms();
             let p0 = problem.initial_values();
             // Spread τ |p₀| in the parameter's units (τ × the bound width for a value near
             // zero), in the scaled coordinates u: τ |p₀| / width.
@@ -551,6 +552,21 @@ impl Problem {
             ));
         }
         Ok(problem)
+    }
+
+    /// s̄: the root mean square of a residual from the measurement noise alone, √(mean of
+    /// w λ² σ̂²) over the weighted samples and the free joints (the residuals' units: rad
+    /// times √w λ). The scale of the prior's weights and of the coarse predictor's check.
+    fn noise_residual_rms(&self) -> f64 {
+        let mut expected = 0.0;
+        for w in &self.sqrt_w {
+            for &sw in w.iter().filter(|&&x| x > 0.0) {
+                for (l, s) in self.lambda.iter().zip(&self.noise) {
+                    expected += (sw * l * s).powi(2);
+                }
+            }
+        }
+        (expected / self.m.max(1) as f64).sqrt()
     }
 
     /// The fitted parameters' values in the plant the problem was set up with (the start
@@ -743,6 +759,70 @@ impl Problem {
             p.options.integrator = integrator;
         }
         p
+    }
+
+    /// The predictor's stage at `omega` (rad/s) for a start at scaled parameters `u`, with a
+    /// note for the report. With [`OutputErrorOptions::predictor_step`] set, the coarse step
+    /// serves the stage only where it is checked to: at `u` the coarse and the user's step
+    /// must predict the same positions within [`COARSE_PREDICTOR_AGREEMENT`] × s̄ (root mean
+    /// square over the weighted residuals, s̄ that of the noise alone). The output
+    /// injection's damping of an early error weakens as ω falls: on the 40 s k3 file of the
+    /// Freedom 6S, ETDRK4 at 1/2000 s is within 0.004 s̄ at every ω down to 1 rad/s, at
+    /// 1/500 s within 0.20 s̄ down to 3 rad/s but 6.4 s̄ at 1 rad/s, where a fit would
+    /// hand the whole files a point the accurate simulation does not share. A stage that
+    /// fails the check runs on the user's step.
+    fn checked_predictor(&self, omega: f64, u: &[f64]) -> (Problem, String) {
+        let Some((h, integrator)) = self.options.predictor_step.filter(|_| omega > 0.0) else {
+            return (self.predictor(omega), String::new());
+        };
+        let coarse = format!("{} at {h:.4e} s", integrator.to_string().to_uppercase());
+        match self.predictor_step_disagreement(omega, &self.to_physical(u)) {
+            Ok(Some(d)) if d <= COARSE_PREDICTOR_AGREEMENT => (
+                self.predictor(omega),
+                format!(" ({coarse}: within {d:.2} s̄ of the user's step)"),
+            ),
+            Ok(d) => (
+                self.predictor_on_user_step(omega),
+                format!(
+                    " (on the user's step: {coarse} off by {:.2} s̄)",
+                    d.unwrap_or(f64::NAN)
+                ),
+            ),
+            Err(why) => (
+                self.predictor_on_user_step(omega),
+                format!(" (on the user's step: {coarse} not checked: {})", why.0),
+            ),
+        }
+    }
+
+    /// [`Problem::predictor`] on the user's step whatever
+    /// [`OutputErrorOptions::predictor_step`] says.
+    fn predictor_on_user_step(&self, omega: f64) -> Problem {
+        let mut p = self.clone();
+        p.options.predictor_step = None;
+        p.predictor(omega)
+    }
+
+    /// How far the positions predicted at bandwidth `omega` (rad/s) on
+    /// [`OutputErrorOptions::predictor_step`] lie from those on the user's step
+    /// ([`OutputErrorOptions::h`], [`OutputErrorOptions::integrator`]) at physical parameters
+    /// `p`: the root mean square of the difference of the weighted residuals over s̄, that
+    /// of the noise alone (dimensionless; 1 = as far as the noise). `Ok(None)` without a
+    /// predictor step or at `omega` = 0. Errors: either simulation fails.
+    pub fn predictor_step_disagreement(
+        &self,
+        omega: f64,
+        p: &[f64],
+    ) -> Result<Option<f64>, TrialFailure> {
+        if self.options.predictor_step.is_none() || omega <= 0.0 {
+            return Ok(None);
+        }
+        let coarse = self.predictor(omega).residuals(p)?;
+        let fine = self.predictor_on_user_step(omega).residuals(p)?;
+        let squares: f64 = coarse.iter().zip(&fine).map(|(a, b)| (a - b).powi(2)).sum();
+        Ok(Some(
+            (squares / coarse.len().max(1) as f64).sqrt() / self.noise_residual_rms(),
+        ))
     }
 
     /// Number of residuals.
@@ -1389,6 +1469,7 @@ impl Problem {
         let mut ended: Vec<String> = Vec::new();
         for &stage in stages {
             let staged;
+            let mut step_note = String::new();
             let problem = match stage {
                 Stage::Segments(seconds) => {
                     staged = self.segmented(seconds);
@@ -1400,7 +1481,9 @@ impl Problem {
                 }
                 Stage::Horizon(_) => self,
                 Stage::Predictor(omega) => {
-                    staged = self.predictor(omega);
+                    let note;
+                    (staged, note) = self.checked_predictor(omega, &u);
+                    step_note = note;
                     &staged
                 }
                 Stage::EquationError => match equation_error {
@@ -1416,7 +1499,7 @@ impl Problem {
             diverged += outcome.failures;
             iterations += outcome.iterations;
             ended.push(format!(
-                "{stage}: {}{}",
+                "{stage}{step_note}: {}{}",
                 outcome.status,
                 problem.equation_error_note()
             ));
