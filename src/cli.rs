@@ -545,6 +545,13 @@ pub struct OutputErrorArgs {
     /// the next. `none`: the thesis cost alone.
     #[arg(long, default_value = "none", value_name = "TAU")]
     pub prior: String,
+    /// Sequential prior on carried symbols: each step records, in the plant it writes, the
+    /// standard errors of the rigid-body symbols it fitted at the noise floor but could not
+    /// determine; with `on`, the next step that fits them again holds them to those values
+    /// with those standard errors (what the earlier step's data say about them), instead of
+    /// letting its own joint of interest trade them away. Overrides `--prior` for them.
+    #[arg(long, default_value = "off", value_parser = ["on", "off"])]
+    pub carried_prior: String,
     /// Equation-error warm start: one more start from the plant's values first fits the
     /// torque balance at every sample (positions low-passed and differentiated, LuGre
     /// bristles driven by the estimated velocities; no simulation, so no drift), then the
@@ -677,6 +684,7 @@ impl OutputErrorArgs {
                     _ => bail!("--prior: expected 'none' or a positive relative spread such as 0.1, got '{x}'"),
                 },
             },
+            carried_prior: self.carried_prior == "on",
             equation_error: match equation_error_arg.trim() {
                 "off" | "none" => None,
                 "on" => Some(Cutoff::Residual),

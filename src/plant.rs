@@ -80,6 +80,12 @@ pub struct PlantFile {
     /// ([`crate::identify::sequence::run`]), also when it is run alone with `--config`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub undetermined: Vec<String>,
+    /// Standard errors (SI) of undetermined symbols, from the step that last fitted them at
+    /// the noise floor (its Jacobian: what that step's data say about them, though not
+    /// enough to call them identifiable). The next step that fits them again takes them as
+    /// a prior with `--carried-prior on` ([`crate::identify::output_error::OutputErrorOptions::carried_prior`]).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub standard_errors: BTreeMap<String, f64>,
 }
 
 /// One step of a plant's history: a change (an effect added, parameters refitted), the
@@ -126,6 +132,9 @@ pub struct Plant {
     /// Rigid-body symbols fitted by a sequence step but not determined there
     /// ([`PlantFile::undetermined`]).
     pub undetermined: Vec<String>,
+    /// Standard errors of undetermined symbols from the step that last fitted them
+    /// ([`PlantFile::standard_errors`]).
+    pub standard_errors: BTreeMap<String, f64>,
 }
 
 /// One physical-consistency finding of a link of a plant.
@@ -196,6 +205,7 @@ impl Plant {
             bounds: BTreeMap::new(),
             history: Vec::new(),
             undetermined: Vec::new(),
+            standard_errors: BTreeMap::new(),
         })
     }
 
@@ -239,6 +249,7 @@ impl Plant {
         plant.description = spec.description.clone();
         plant.history = spec.history.clone();
         plant.undetermined = spec.undetermined.clone();
+        plant.standard_errors = spec.standard_errors.clone();
         for (i, e) in spec.effects.iter().enumerate() {
             let item = format!("effect {} ({})", i + 1, e.kind);
             let mut effects = Vec::new();
@@ -306,6 +317,17 @@ impl Plant {
                     plant.model.name,
                     plant.model.inertial_symbols.join(", ")
                 );
+            }
+        }
+        for (k, &se) in &spec.standard_errors {
+            if !spec.undetermined.contains(k) {
+                bail!(
+                    "[standard_errors] '{k}': not listed in 'undetermined' (standard errors are \
+                     kept only for the symbols a later step fits again)"
+                );
+            }
+            if !(se.is_finite() && se > 0.0) {
+                bail!("[standard_errors] '{k}': expected a positive finite standard error, found {se}");
             }
         }
         plant.parameters = spec.parameters;
@@ -772,6 +794,7 @@ impl Plant {
                 .collect(),
             history: self.history.clone(),
             undetermined: self.undetermined.clone(),
+            standard_errors: self.standard_errors.clone(),
         }
     }
 

@@ -182,6 +182,23 @@ fn plant_file_errors_name_file_and_item() {
         e.contains("p5.toml") && e.contains("'undetermined': 'Fc_0' is not a rigid-body symbol"),
         "{e}"
     );
+    // Standard errors are kept only for undetermined symbols, and must be positive.
+    for (file, text, needle) in [
+        (
+            "p6.toml",
+            "model = \"emps\"\n[standard_errors]\nM = 0.1\n",
+            "[standard_errors] 'M': not listed in 'undetermined'",
+        ),
+        (
+            "p7.toml",
+            "model = \"emps\"\nundetermined = [\"M\"]\n[standard_errors]\nM = -0.1\n",
+            "[standard_errors] 'M': expected a positive finite standard error, found -0.1",
+        ),
+    ] {
+        let p = write(d.path(), file, text);
+        let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();
+        assert!(e.contains(file) && e.contains(needle), "{e}");
+    }
 }
 
 #[test]

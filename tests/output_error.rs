@@ -348,6 +348,23 @@ fn isolated_step_c1_reaches_the_noise_floor_and_recovers_everything_it_calls_ide
         )
         .collect();
     assert_eq!(fitted_plant.undetermined, undetermined);
+    // At the noise floor it also records their standard errors (for `--carried-prior`):
+    // the report's, for every undetermined symbol it fitted off its bounds.
+    let std_err: Vec<Option<f64>> = column(&report["steps"][0]["fit"], &["statistics", "std_err"]);
+    let at_bound: Vec<bool> = column(&report["steps"][0]["fit"], &["statistics", "at_bound"]);
+    let recorded: Vec<(String, f64)> = names
+        .iter()
+        .enumerate()
+        .filter(|&(i, n)| undetermined.contains(n) && !at_bound[i])
+        .filter_map(|(i, n)| Some((n.clone(), std_err[i].filter(|s| s.is_finite())?)))
+        .collect();
+    assert!(!recorded.is_empty());
+    assert_eq!(
+        fitted_plant.standard_errors,
+        recorded
+            .into_iter()
+            .collect::<std::collections::BTreeMap<_, _>>()
+    );
     assert!(std::fs::read_to_string(out_dir.join("report.md"))
         .unwrap()
         .contains("| parameter | initial | fitted | std error"));
@@ -1301,6 +1318,62 @@ fn the_coarse_predictor_step_is_checked_against_the_users_step_stage_by_stage() 
     assert!(coarse[4] > 4.0 * COARSE_PREDICTOR_AGREEMENT, "{trail}");
     assert!(coarse.windows(2).all(|w| w[0] < w[1]), "{trail}");
     assert!(fine.iter().zip(&coarse).all(|(f, c)| f < c), "{trail}");
+}
+
+/// `--carried-prior`: a carried symbol with a standard error σ recorded in the plant is held
+/// by a Gaussian prior whose term is what that much data would add, s̄² (Δp / σ)² (s̄ the
+/// noise's RMS residual), and no other parameter gets one; without the option, none.
+#[test]
+fn the_carried_prior_weighs_a_carried_symbol_by_its_earlier_standard_error() {
+    let d = tempfile::tempdir().unwrap();
+    let (p, at_truth, _) = problem_at_truth(d.path(), "J4", 0);
+    let mut plant = p.plant_at(&at_truth);
+    let k = p
+        .names
+        .iter()
+        .position(|n| plant.model.inertial_symbols.contains(&n.as_str()))
+        .unwrap();
+    let name = p.names[k].clone();
+    let sigma = 0.01 * (p.upper[k] - p.lower[k]);
+    plant.undetermined = vec![name.clone()];
+    plant.standard_errors.insert(name.clone(), sigma);
+    let on = |carried_prior: bool| {
+        Problem::new(
+            &plant,
+            p.configuration(),
+            p.names.clone(),
+            p.records.clone(),
+            &[4],
+            OutputErrorOptions {
+                carried_prior,
+                ..p.options().clone()
+            },
+        )
+        .unwrap()
+    };
+    let (with, without) = (on(true), on(false));
+    let s_bar = with.noise_residual_rms();
+    // One free joint, every weighted sample weighted 1: s̄ = λ σ̂.
+    assert_eq!(with.lambda.len(), 1);
+    let expected = with.lambda[0] * with.noise[0];
+    assert!(
+        (s_bar / expected - 1.0).abs() < 1e-12,
+        "s̄ = {s_bar}, λ σ̂ = {expected}"
+    );
+    let moved = |i: usize, by: f64| {
+        let mut x = at_truth.clone();
+        x[i] += by;
+        with.to_scaled(&x)
+    };
+    let term = with.prior_penalty(&moved(k, 2.0 * sigma));
+    assert!(
+        (term / (4.0 * s_bar * s_bar) - 1.0).abs() < 1e-9,
+        "{name}: {term}"
+    );
+    assert_eq!(without.prior_penalty(&moved(k, 2.0 * sigma)), 0.0);
+    let other = (k + 1) % p.names.len();
+    let span = p.upper[other] - p.lower[other];
+    assert_eq!(with.prior_penalty(&moved(other, 0.01 * span)), 0.0);
 }
 
 /// Isolated step c5 (joint 1 alone, the other joints locked) sees 42 rigid-body symbols

@@ -167,6 +167,16 @@ pub struct OutputErrorOptions {
     /// less than the noise (the coupled k1 fit of the Freedom 6S drifts m7·z7 by 24 %
     /// there). `None`: the thesis cost alone.
     pub prior: Option<f64>,
+    /// Sequential prior on carried symbols: a symbol an earlier step fitted at the noise
+    /// floor without determining it, whose standard error there the plant records
+    /// ([`crate::plant::Plant::standard_errors`]), gets a Gaussian prior about the plant's
+    /// value with that standard error (weight s̄ / σ, so the penalty is what the earlier
+    /// step's data would add to its cost, linearised and without the correlations). Without
+    /// it, a later step weighted toward its joint of interest (λ = 50) may trade a carried
+    /// wrist symbol for a slightly better fit of that joint: k4 of the Freedom 6S pushed y6
+    /// from k3's −0.03 % to its bound (+30 %), a move of 3.8 standard errors of k3, and left
+    /// the wrist above the noise floor. Overrides [`Self::prior`] for those symbols.
+    pub carried_prior: bool,
     /// Equation-error warm start: when set, one more start from the plant's values first
     /// fits the equation error of the whole files ([`Problem::equation_error_stage`]: the
     /// torque balance at every sample from the filtered, differentiated positions, no
@@ -234,6 +244,7 @@ impl Default for OutputErrorOptions {
             segments: Vec::new(),
             least_change: false,
             prior: None,
+            carried_prior: false,
             equation_error: None,
             predictor: Vec::new(),
             predictor_step: None,
@@ -532,24 +543,40 @@ impl Problem {
             if !(tau > 0.0 && tau.is_finite()) {
                 bail!("prior: expected a positive relative spread τ (such as 0.1), got {tau}");
             }
+        }
+        // The carried symbols' standard errors from the step that last fitted them.
+        let carried: Vec<Option<f64>> = problem
+            .names
+            .iter()
+            .map(|n| {
+                problem
+                    .options
+                    .carried_prior
+                    .then(|| problem.plant.standard_errors.get(n).copied())
+                    .flatten()
+            })
+            .collect();
+        if problem.options.prior.is_some() || carried.iter().any(Option::is_some) {
             let s_bar = problem.noise_residual_rms();
             let p0 = problem.initial_values();
-            // Spread τ |p₀| in the parameter's units (τ × the bound width for a value near
-            // zero), in the scaled coordinates u: τ |p₀| / width.
-            let spread: Vec<f64> = (0..p0.len())
+            // Spread in the scaled coordinates u (the parameter's units / bound width): the
+            // carried standard error, else τ |p₀| (τ × the width for a value near zero),
+            // else none (weight 0).
+            let weight: Vec<f64> = (0..p0.len())
                 .map(|i| {
                     let width = problem.upper[i] - problem.lower[i];
-                    tau * if p0[i].abs() > 1e-3 * width {
-                        p0[i].abs() / width
-                    } else {
-                        1.0
-                    }
+                    let spread = match (carried[i], problem.options.prior) {
+                        (Some(se), _) => se / width,
+                        (None, Some(tau)) if p0[i].abs() > 1e-3 * width => {
+                            tau * p0[i].abs() / width
+                        }
+                        (None, Some(tau)) => tau,
+                        (None, None) => return 0.0,
+                    };
+                    s_bar / spread
                 })
                 .collect();
-            problem.prior = Some((
-                problem.to_scaled(&p0),
-                spread.iter().map(|sp| s_bar / sp).collect(),
-            ));
+            problem.prior = Some((problem.to_scaled(&p0), weight));
         }
         Ok(problem)
     }
@@ -557,7 +584,7 @@ impl Problem {
     /// s̄: the root mean square of a residual from the measurement noise alone, √(mean of
     /// w λ² σ̂²) over the weighted samples and the free joints (the residuals' units: rad
     /// times √w λ). The scale of the prior's weights and of the coarse predictor's check.
-    fn noise_residual_rms(&self) -> f64 {
+    pub fn noise_residual_rms(&self) -> f64 {
         let mut expected = 0.0;
         for w in &self.sqrt_w {
             for &sw in w.iter().filter(|&&x| x > 0.0) {

@@ -347,6 +347,9 @@ pub struct StepReport {
     /// or inertia not positive definite), from [`impossible_links`]: the fit is valid for
     /// this configuration's data, but the configurations named there cannot be simulated.
     pub impossible: Vec<String>,
+    /// With [`OutputErrorOptions::carried_prior`]: the carried symbols held to their values
+    /// by a prior, with its standard deviation (SI; the earlier step's standard error).
+    pub carried_prior: Vec<(String, f64)>,
 }
 
 /// Links that `plant` leaves physically impossible ([`crate::plant::Finding::is_blocking`])
@@ -540,6 +543,14 @@ pub fn run(
         )
         .with_context(|| format!("step '{}'", s.config))?
         .with_held_ties(s.tied_held.clone());
+        let carried_prior: Vec<(String, f64)> = if opts.fit.carried_prior {
+            s.fitted
+                .iter()
+                .filter_map(|n| current.standard_errors.get(n).map(|&se| (n.clone(), se)))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let cname = s.config.clone();
         let fit = problem.fit(&|p| progress(&cname, p))?;
         fit.apply(&mut current);
@@ -555,11 +566,13 @@ pub fn run(
             }
         }
         current.undetermined = undetermined.clone();
+        record_standard_errors(&mut current, &fit);
         let impossible = impossible_links(&current, &fit.names)?;
         report.steps.push(StepReport {
             step: s,
             fit,
             impossible,
+            carried_prior,
         });
         current.description = format!(
             "{} — identified by lockstep ({} method, steps {})",
@@ -583,6 +596,28 @@ pub fn run(
         )?;
     }
     Ok(report)
+}
+
+/// Keep in `plant` ([`Plant::standard_errors`]) the standard errors of the undetermined
+/// symbols `fit` fitted, when it reached the noise floor (elsewhere the residuals are not
+/// noise and the standard errors say nothing), have a finite one and are not at a bound
+/// (there the Jacobian's one-sided information is no Gaussian); drop those of symbols no
+/// longer undetermined and of symbols this fit did not qualify.
+fn record_standard_errors(plant: &mut Plant, fit: &FitResult) {
+    let stats = &fit.statistics;
+    let at_floor = stats.above_floor.is_empty();
+    for (i, n) in fit.names.iter().enumerate() {
+        let se = stats.std_err[i];
+        if at_floor && se.is_finite() && se > 0.0 && !stats.at_bound[i] {
+            plant.standard_errors.insert(n.clone(), se);
+        } else {
+            plant.standard_errors.remove(n);
+        }
+    }
+    let undetermined = plant.undetermined.clone();
+    plant
+        .standard_errors
+        .retain(|n, _| undetermined.contains(n));
 }
 
 fn fmt_g(x: f64) -> String {
@@ -689,6 +724,19 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
             let _ = writeln!(
                 s,
                 "Prior: Gaussian about the initial values, spread {tau} × each value; its term at the result {} (the fit minimised cost + prior term).\n",
+                fmt_g(f.prior_penalty)
+            );
+        }
+        if !st.carried_prior.is_empty() {
+            let each: Vec<String> = st
+                .carried_prior
+                .iter()
+                .map(|(n, se)| format!("{n} ± {}", fmt_g(*se)))
+                .collect();
+            let _ = writeln!(
+                s,
+                "Carried prior (`--carried-prior on`): Gaussian about the values the earlier steps left, standard deviation their standard errors there: {}; the prior's term at the result {} (the fit minimised cost + prior term).\n",
+                each.join(", "),
                 fmt_g(f.prior_penalty)
             );
         }
