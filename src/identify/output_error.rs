@@ -806,12 +806,12 @@ impl Problem {
         match self.predictor_step_disagreement(omega, &self.to_physical(u)) {
             Ok(Some(d)) if d <= COARSE_PREDICTOR_AGREEMENT => (
                 self.predictor(omega),
-                format!(" ({coarse}: within {d:.2} s̄ of the user's step)"),
+                format!(" ({coarse}: within {d:.1e} s̄ of the user's step)"),
             ),
             Ok(d) => (
                 self.predictor_on_user_step(omega),
                 format!(
-                    " (on the user's step: {coarse} off by {:.2} s̄)",
+                    " (on the user's step: {coarse} off by {:.1e} s̄)",
                     d.unwrap_or(f64::NAN)
                 ),
             ),
