@@ -2100,7 +2100,7 @@ pub struct JointFit {
 }
 
 /// Uncertainty and fit figures at a solution.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Default, Serialize)]
 pub struct Statistics {
     /// Standard error per parameter (its units).
     pub std_err: Vec<f64>,

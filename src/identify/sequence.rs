@@ -10,7 +10,7 @@
 //! interrupted run (Ctrl-C) leaves the last completed step's results intact.
 
 use super::identifiability::{occurrence, spanning_symbols, structural_companions, Occurrence};
-use super::output_error::{FitResult, OutputErrorOptions, Problem, Progress, Record};
+use super::output_error::{FitResult, OutputErrorOptions, Problem, Progress, Record, Statistics};
 use crate::measurement::{check_sampling, Table};
 use crate::plant::Plant;
 use crate::util::write_atomic;
@@ -566,7 +566,7 @@ pub fn run(
             }
         }
         current.undetermined = undetermined.clone();
-        record_standard_errors(&mut current, &fit);
+        record_standard_errors(&mut current, &fit.names, &fit.statistics);
         let impossible = impossible_links(&current, &fit.names)?;
         report.steps.push(StepReport {
             step: s,
@@ -599,14 +599,14 @@ pub fn run(
 }
 
 /// Keep in `plant` ([`Plant::standard_errors`]) the standard errors of the undetermined
-/// symbols `fit` fitted, when it reached the noise floor (elsewhere the residuals are not
-/// noise and the standard errors say nothing), have a finite one and are not at a bound
-/// (there the Jacobian's one-sided information is no Gaussian); drop those of symbols no
-/// longer undetermined and of symbols this fit did not qualify.
-fn record_standard_errors(plant: &mut Plant, fit: &FitResult) {
-    let stats = &fit.statistics;
+/// symbols among `names` (a fit's parameters, with its `stats`), when the fit reached the
+/// noise floor (elsewhere the residuals are not noise and the standard errors say
+/// nothing), have a finite one and are not at a bound (there the Jacobian's one-sided
+/// information is no Gaussian); drop those of symbols no longer undetermined and of symbols
+/// this fit did not qualify.
+fn record_standard_errors(plant: &mut Plant, names: &[String], stats: &Statistics) {
     let at_floor = stats.above_floor.is_empty();
-    for (i, n) in fit.names.iter().enumerate() {
+    for (i, n) in names.iter().enumerate() {
         let se = stats.std_err[i];
         if at_floor && se.is_finite() && se > 0.0 && !stats.at_bound[i] {
             plant.standard_errors.insert(n.clone(), se);
@@ -856,4 +856,36 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Only undetermined symbols of a fit at the noise floor, with a finite standard error
+    /// off their bounds, are recorded; an earlier record of a symbol this fit does not
+    /// qualify, or of one no longer undetermined, is dropped.
+    #[test]
+    fn standard_errors_are_recorded_for_undetermined_symbols_at_the_floor() {
+        let mut plant = Plant::new("planar2r", vec![]).unwrap();
+        plant.undetermined = ["m1", "m2", "I2", "I1"].map(String::from).to_vec();
+        plant.standard_errors.insert("I1".into(), 9.0);
+        plant.standard_errors.insert("gone".into(), 1.0);
+        let names: Vec<String> = ["m1", "m2", "I2", "I1", "Kp_0"].map(String::from).to_vec();
+        let mut stats = Statistics {
+            std_err: vec![0.1, f64::INFINITY, 0.3, 0.4, 0.5],
+            at_bound: vec![false, false, false, true, false],
+            ..Statistics::default()
+        };
+        record_standard_errors(&mut plant, &names, &stats);
+        let recorded: Vec<(&str, f64)> = plant
+            .standard_errors
+            .iter()
+            .map(|(n, &v)| (n.as_str(), v))
+            .collect();
+        assert_eq!(recorded, [("I2", 0.3), ("m1", 0.1)]);
+        stats.above_floor = vec!["q0 RMS 3.1 σ̂".into()];
+        record_standard_errors(&mut plant, &names, &stats);
+        assert!(plant.standard_errors.is_empty());
+    }
 }
