@@ -727,6 +727,15 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                 fmt_g(f.prior_penalty)
             );
         }
+        if report.options.carried_prior
+            && st.carried_prior.is_empty()
+            && !st.step.carried.is_empty()
+        {
+            let _ = writeln!(
+                s,
+                "Carried prior (`--carried-prior on`): none of the carried symbols has a standard error in the plant (recorded only by a step at the noise floor that fitted them with a finite one, off their bounds), so none is held.\n"
+            );
+        }
         if !st.carried_prior.is_empty() {
             let each: Vec<String> = st
                 .carried_prior
