@@ -1267,12 +1267,11 @@ fn the_prediction_error_homotopy_takes_c4_from_the_equation_error_to_the_noise_f
 /// The coarse predictor step is used only where it is checked to predict what the user's
 /// step does ([`Problem::predictor_step_disagreement`]): on k3 of the coupled method (Table
 /// 4.7, 40 s, at the truth, against RK4 at 1/12000 s) the difference of the predicted
-/// positions in units of the noise grows as the step grows and as the output injection's
-/// pull weakens. Measured (root mean square over s̄ at ω = 100, 30, 10, 3, 1 rad/s):
-/// ETDRK4 at 1/2000 s 0.000, 0.000, 0.001, 0.002, 0.004 (every stage may use it); at
-/// 1/1000 s 0.0005 … 0.074; at 1/500 s 0.007, 0.033, 0.078, 0.20 and 6.4 — the stage at
-/// 1 rad/s goes back to the user's step. Without a predictor step, or at ω = 0, there is
-/// nothing to check.
+/// positions, per joint in units of its noise σ̂ (the largest over the joints), grows with
+/// the step and, at a coarse step, as the output injection's pull weakens. Measured (at
+/// ω = 100, 30, 10, 3, 1 rad/s): ETDRK4 at 1/2000 s 0.003, 0.006, 0.044, 0.035, 0.090 (every
+/// stage may use it); at 1/500 s 0.15, 0.79, 1.5, 2.8 and 84 — only the 100 rad/s stage
+/// keeps it. Without a predictor step, or at ω = 0, there is nothing to check.
 #[test]
 fn the_coarse_predictor_step_is_checked_against_the_users_step_stage_by_stage() {
     use lockstep::identify::output_error::COARSE_PREDICTOR_AGREEMENT;
@@ -1313,15 +1312,27 @@ fn the_coarse_predictor_step_is_checked_against_the_users_step_stage_by_stage() 
             })
             .collect()
     };
-    let (fine, coarse) = (ratios(1.0 / 2000.0), ratios(1.0 / 500.0));
-    let trail = format!("d / s̄ at ω = {omegas:?} rad/s: 1/2000 s {fine:.4?}, 1/500 s {coarse:.4?}");
+    let (fine, middle, coarse) = (
+        ratios(1.0 / 2000.0),
+        ratios(1.0 / 1000.0),
+        ratios(1.0 / 500.0),
+    );
+    let trail = format!(
+        "largest RMS difference / σ̂ at ω = {omegas:?} rad/s: 1/2000 s {fine:.4?}, \
+         1/1000 s {middle:.4?}, 1/500 s {coarse:.4?}"
+    );
     println!("{trail}");
-    assert!(fine.iter().all(|&r| r > 0.0 && r < 0.02), "{trail}");
     assert!(
-        coarse[..4].iter().all(|&r| r <= COARSE_PREDICTOR_AGREEMENT),
+        fine.iter()
+            .all(|&r| r > 0.0 && r < 0.5 * COARSE_PREDICTOR_AGREEMENT),
         "{trail}"
     );
-    assert!(coarse[4] > 4.0 * COARSE_PREDICTOR_AGREEMENT, "{trail}");
+    assert!(coarse[0] <= COARSE_PREDICTOR_AGREEMENT, "{trail}");
+    assert!(
+        coarse[1..].iter().all(|&r| r > COARSE_PREDICTOR_AGREEMENT),
+        "{trail}"
+    );
+    assert!(coarse[4] > 100.0 * COARSE_PREDICTOR_AGREEMENT, "{trail}");
     assert!(coarse.windows(2).all(|w| w[0] < w[1]), "{trail}");
     assert!(fine.iter().zip(&coarse).all(|(f, c)| f < c), "{trail}");
 }
