@@ -259,6 +259,20 @@ fn read_report(dir: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
 }
 
+/// `p` set up again on `plant` with `options`: the same configuration, fitted names and
+/// files, joints `interest` weighted as the joints of interest.
+fn rebuilt(p: &Problem, plant: &Plant, interest: &[usize], options: OutputErrorOptions) -> Problem {
+    Problem::new(
+        plant,
+        p.configuration(),
+        p.names.clone(),
+        p.records.clone(),
+        interest,
+        options,
+    )
+    .unwrap()
+}
+
 /// The standard errors a step's plant should record ([`Plant::standard_errors`]): those of
 /// the report's fit (`fit`, at the noise floor) for the `undetermined` symbols it fitted,
 /// finite and off their bounds.
@@ -1223,17 +1237,7 @@ fn the_prediction_error_homotopy_takes_c4_from_the_equation_error_to_the_noise_f
         horizons: vec![1.0],
         ..p.options().clone()
     };
-    let on = |plant: &Plant| {
-        Problem::new(
-            plant,
-            p.configuration(),
-            p.names.clone(),
-            p.records.clone(),
-            &[2],
-            options.clone(),
-        )
-        .unwrap()
-    };
+    let on = |plant: &Plant| rebuilt(&p, plant, &[2], options.clone());
     let start = on(&p.plant_at(&off));
     let (est, _) = start
         .fit_equation_error(Cutoff::Fixed(DEFAULT_CUTOFF))
@@ -1286,18 +1290,15 @@ fn the_coarse_predictor_step_is_checked_against_the_users_step_stage_by_stage() 
     );
     let omegas = [100.0, 30.0, 10.0, 3.0, 1.0];
     let ratios = |h: f64| -> Vec<f64> {
-        let checked = Problem::new(
+        let checked = rebuilt(
+            &p,
             &p.plant_at(&at_truth),
-            p.configuration(),
-            p.names.clone(),
-            p.records.clone(),
             &[2],
             OutputErrorOptions {
                 predictor_step: Some((h, Integrator::Etdrk4)),
                 ..p.options().clone()
             },
-        )
-        .unwrap();
+        );
         assert_eq!(
             checked.predictor_step_disagreement(0.0, &at_truth).unwrap(),
             None
@@ -1355,18 +1356,11 @@ fn the_carried_prior_weighs_a_carried_symbol_by_its_earlier_standard_error() {
     plant.undetermined = vec![name.clone()];
     plant.standard_errors.insert(name.clone(), sigma);
     let on = |carried_prior: bool| {
-        Problem::new(
-            &plant,
-            p.configuration(),
-            p.names.clone(),
-            p.records.clone(),
-            &[4],
-            OutputErrorOptions {
-                carried_prior,
-                ..p.options().clone()
-            },
-        )
-        .unwrap()
+        let options = OutputErrorOptions {
+            carried_prior,
+            ..p.options().clone()
+        };
+        rebuilt(&p, &plant, &[4], options)
     };
     let (with, without) = (on(true), on(false));
     let s_bar = with.noise_residual_rms();

@@ -549,13 +549,7 @@ impl Problem {
         let carried: Vec<Option<f64>> = problem
             .names
             .iter()
-            .map(|n| {
-                problem
-                    .options
-                    .carried_prior
-                    .then(|| problem.plant.standard_errors.get(n).copied())
-                    .flatten()
-            })
+            .map(|n| problem.carried_standard_error(n))
             .collect();
         if problem.options.prior.is_some() || carried.iter().any(Option::is_some) {
             let s_bar = problem.noise_residual_rms();
@@ -580,6 +574,25 @@ impl Problem {
             problem.prior = Some((problem.to_scaled(&p0), weight));
         }
         Ok(problem)
+    }
+
+    /// The fitted symbols [`OutputErrorOptions::carried_prior`] holds, with the standard
+    /// deviation of their prior (SI: the standard error the plant records from the step that
+    /// last fitted them, [`Plant::standard_errors`]), in the order of [`Problem::names`];
+    /// empty without the option.
+    pub fn carried_prior(&self) -> Vec<(String, f64)> {
+        self.names
+            .iter()
+            .filter_map(|n| Some((n.clone(), self.carried_standard_error(n)?)))
+            .collect()
+    }
+
+    /// The standard deviation (SI) of the carried prior on symbol `name`, if it has one.
+    fn carried_standard_error(&self, name: &str) -> Option<f64> {
+        self.options
+            .carried_prior
+            .then(|| self.plant.standard_errors.get(name).copied())
+            .flatten()
     }
 
     /// s̄: the root mean square of a residual from the measurement noise alone, √(mean of
@@ -798,24 +811,21 @@ impl Problem {
     /// Freedom 6S, ETDRK4 at 1/2000 s is within 0.09 σ̂ at every ω down to 1 rad/s, at
     /// 1/1000 s 0.32 σ̂ at 3 and 1.5 σ̂ at 1 rad/s, at 1/500 s 0.15 σ̂ at 100 rad/s but
     /// 0.79 at 30 and 84 at 1 rad/s, where a fit would hand the whole files a point the
-    /// accurate simulation does not share. A stage that
-    /// fails the check runs on the user's step.
+    /// accurate simulation does not share. A stage that fails the check runs on the user's
+    /// step.
     fn checked_predictor(&self, omega: f64, u: &[f64]) -> (Problem, String) {
         let Some((h, integrator)) = self.options.predictor_step.filter(|_| omega > 0.0) else {
             return (self.predictor(omega), String::new());
         };
         let coarse = format!("{} at {h:.4e} s", integrator.to_string().to_uppercase());
-        match self.predictor_step_disagreement(omega, &self.to_physical(u)) {
-            Ok(Some(d)) if d <= COARSE_PREDICTOR_AGREEMENT => (
+        match self.coarse_step_disagreement(omega, &self.to_physical(u)) {
+            Ok(d) if d <= COARSE_PREDICTOR_AGREEMENT => (
                 self.predictor(omega),
                 format!(" ({coarse}: within {d:.1e} σ̂ of the user's step)"),
             ),
             Ok(d) => (
                 self.predictor_on_user_step(omega),
-                format!(
-                    " (on the user's step: {coarse} off by {:.1e} σ̂)",
-                    d.unwrap_or(f64::NAN)
-                ),
+                format!(" (on the user's step: {coarse} off by {d:.1e} σ̂)"),
             ),
             Err(why) => (
                 self.predictor_on_user_step(omega),
@@ -848,6 +858,11 @@ impl Problem {
         if self.options.predictor_step.is_none() || omega <= 0.0 {
             return Ok(None);
         }
+        self.coarse_step_disagreement(omega, p).map(Some)
+    }
+
+    /// [`Problem::predictor_step_disagreement`] where a predictor step is set and ω > 0.
+    fn coarse_step_disagreement(&self, omega: f64, p: &[f64]) -> Result<f64, TrialFailure> {
         let coarse = self.predictor(omega).trajectories(p)?;
         let fine = self.predictor_on_user_step(omega).trajectories(p)?;
         let mut worst: f64 = 0.0;
@@ -861,7 +876,7 @@ impl Problem {
             }
             worst = worst.max((squares / n.max(1) as f64).sqrt() / sigma);
         }
-        Ok(Some(worst))
+        Ok(worst)
     }
 
     /// Number of residuals.

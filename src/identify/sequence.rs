@@ -543,14 +543,7 @@ pub fn run(
         )
         .with_context(|| format!("step '{}'", s.config))?
         .with_held_ties(s.tied_held.clone());
-        let carried_prior: Vec<(String, f64)> = if opts.fit.carried_prior {
-            s.fitted
-                .iter()
-                .filter_map(|n| current.standard_errors.get(n).map(|&se| (n.clone(), se)))
-                .collect()
-        } else {
-            Vec::new()
-        };
+        let carried_prior = problem.carried_prior();
         let cname = s.config.clone();
         let fit = problem.fit(&|p| progress(&cname, p))?;
         fit.apply(&mut current);
@@ -727,10 +720,7 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
                 fmt_g(f.prior_penalty)
             );
         }
-        if report.options.carried_prior
-            && st.carried_prior.is_empty()
-            && !st.step.carried.is_empty()
-        {
+        if o.carried_prior && st.carried_prior.is_empty() && !st.step.carried.is_empty() {
             let _ = writeln!(
                 s,
                 "Carried prior (`--carried-prior on`): none of the carried symbols has a standard error in the plant (recorded only by a step at the noise floor that fitted them with a finite one, off their bounds), so none is held.\n"
