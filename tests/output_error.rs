@@ -3,6 +3,7 @@
 //! the noise floor and recover what it calls identifiable; bad input is refused before any
 //! optimisation with the file and item named.
 
+use lockstep::identify::equation_error::Cutoff;
 use lockstep::identify::output_error::{OutputErrorOptions, Problem, TimeWeighting, WarmUp};
 use lockstep::identify::sequence::{plan, read_record};
 use lockstep::plant::Plant;
@@ -1139,7 +1140,7 @@ fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
 
 #[test]
 fn the_equation_error_holds_at_the_truth_and_keeps_the_gain_scale_symmetry() {
-    use lockstep::identify::equation_error::{Cutoff, EquationError, DEFAULT_CUTOFF};
+    use lockstep::identify::equation_error::{EquationError, DEFAULT_CUTOFF};
     let d = tempfile::tempdir().unwrap();
     let (p, at_truth, off) = problem_at_truth(d.path(), "J2", 3);
     assert_eq!(p.configuration().name, "c4");
@@ -1385,6 +1386,11 @@ fn the_carried_prior_weighs_a_carried_symbol_by_its_earlier_standard_error() {
     let other = (k + 1) % p.names.len();
     let span = p.upper[other] - p.lower[other];
     assert_eq!(with.prior_penalty(&moved(other, 0.01 * span)), 0.0);
+    // The equation-error warm start (no prior: torque residuals) holds the carried symbol
+    // at its value instead of letting it drift; only there.
+    let ee = |p: &Problem| p.equation_error_stage(Cutoff::Fixed(0.5)).unwrap().frozen();
+    assert_eq!(ee(&with), [name]);
+    assert!(ee(&without).is_empty() && with.frozen().is_empty());
 }
 
 /// Isolated step c5 (joint 1 alone, the other joints locked) sees 42 rigid-body symbols

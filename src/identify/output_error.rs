@@ -388,6 +388,9 @@ pub struct Problem {
     /// counts them, so a fitted symbol determined only given a held one is not called
     /// identifiable.
     held_ties: Vec<String>,
+    /// Per parameter, held at its start by the stage (the optimiser does not vary it);
+    /// empty: none ([`Problem::equation_error_stage`]).
+    frozen: Vec<bool>,
     options: OutputErrorOptions,
 }
 
@@ -538,6 +541,7 @@ impl Problem {
             equation_error: None,
             predictor: None,
             held_ties: Vec::new(),
+            frozen: Vec::new(),
             options,
         };
         if let Some(tau) = problem.options.prior {
@@ -679,6 +683,7 @@ impl Problem {
             equation_error: None,
             predictor: self.predictor,
             held_ties: self.held_ties.clone(),
+            frozen: self.frozen.clone(),
             options: self.options.clone(),
         }
     }
@@ -696,7 +701,11 @@ impl Problem {
     /// The same parameters, bounds and Fs ≥ Fc on the equation error of the whole files
     /// ([`EquationError`], position filter cut-off `cutoff`):
     /// its residuals are torque balances, not position errors, so it has no prior (the
-    /// prior's weight is set by the position noise) and serves only as a warm start.
+    /// prior's weight is set by the position noise) and serves only as a warm start. The
+    /// symbols the carried prior holds ([`OutputErrorOptions::carried_prior`]) stay at
+    /// their values there: without their prior the torque balance moved them hundreds of
+    /// the earlier step's standard errors (k4 of the Freedom 6S), a start the first
+    /// predictor stage then began 100 times above its end.
     ///
     /// # Errors
     /// A file too short for the filter, or a cut-off outside (0, 1).
@@ -705,8 +714,24 @@ impl Problem {
         let mut problem = self.with_records(self.records.clone(), self.sqrt_w.clone());
         problem.m = ee.len();
         problem.prior = None;
+        problem.frozen = self
+            .names
+            .iter()
+            .map(|n| self.carried_standard_error(n).is_some())
+            .collect();
         problem.equation_error = Some(std::sync::Arc::new(ee));
         Ok(problem)
+    }
+
+    /// The parameters this stage holds at their start (the optimiser does not vary them):
+    /// in the equation-error stage, the symbols the carried prior holds; none elsewhere.
+    pub fn frozen(&self) -> Vec<String> {
+        self.names
+            .iter()
+            .zip(&self.frozen)
+            .filter(|(_, &f)| f)
+            .map(|(n, _)| n.clone())
+            .collect()
     }
 
     /// For the equation-error stage, the position filter's cut-off per free joint
@@ -1656,7 +1681,8 @@ impl Problem {
                 ..MPConfig::new()
             },
             pars: (0..n)
-                .map(|_| MPPar {
+                .map(|i| MPPar {
+                    fixed: self.frozen.get(i).copied().unwrap_or(false),
                     limited_low: true,
                     limited_up: true,
                     limit_low: 0.0,
