@@ -388,9 +388,6 @@ pub struct Problem {
     /// counts them, so a fitted symbol determined only given a held one is not called
     /// identifiable.
     held_ties: Vec<String>,
-    /// Per parameter, held at its start by the stage (the optimiser does not vary it);
-    /// empty: none ([`Problem::equation_error_stage`]).
-    frozen: Vec<bool>,
     options: OutputErrorOptions,
 }
 
@@ -541,7 +538,6 @@ impl Problem {
             equation_error: None,
             predictor: None,
             held_ties: Vec::new(),
-            frozen: Vec::new(),
             options,
         };
         if let Some(tau) = problem.options.prior {
@@ -683,7 +679,6 @@ impl Problem {
             equation_error: None,
             predictor: self.predictor,
             held_ties: self.held_ties.clone(),
-            frozen: self.frozen.clone(),
             options: self.options.clone(),
         }
     }
@@ -714,11 +709,6 @@ impl Problem {
         let mut problem = self.with_records(self.records.clone(), self.sqrt_w.clone());
         problem.m = ee.len();
         problem.prior = None;
-        problem.frozen = self
-            .names
-            .iter()
-            .map(|n| self.carried_standard_error(n).is_some())
-            .collect();
         problem.equation_error = Some(std::sync::Arc::new(ee));
         Ok(problem)
     }
@@ -728,10 +718,14 @@ impl Problem {
     pub fn frozen(&self) -> Vec<String> {
         self.names
             .iter()
-            .zip(&self.frozen)
-            .filter(|(_, &f)| f)
-            .map(|(n, _)| n.clone())
+            .filter(|n| self.is_frozen(n))
+            .cloned()
             .collect()
+    }
+
+    /// Whether this stage holds parameter `name` at its start ([`Problem::frozen`]).
+    fn is_frozen(&self, name: &str) -> bool {
+        self.equation_error.is_some() && self.carried_standard_error(name).is_some()
     }
 
     /// For the equation-error stage, the position filter's cut-off per free joint
@@ -1682,7 +1676,7 @@ impl Problem {
             },
             pars: (0..n)
                 .map(|i| MPPar {
-                    fixed: self.frozen.get(i).copied().unwrap_or(false),
+                    fixed: self.is_frozen(&self.names[i]),
                     limited_low: true,
                     limited_up: true,
                     limit_low: 0.0,
