@@ -365,8 +365,9 @@ fn comparison(file: &Path, joint: &str, s: Signals, unit: &'static str) -> Compa
 /// starts at rest (z = 0) at the first measured position, or, with `estimate_initial`, at
 /// the initial position that fits the file best
 /// ([`Problem::estimate_initial_positions`], as MATLAB `compare`); step `h` of `integrator`. The
-/// first `skip` samples of each file are simulated but left out of the initial-position
-/// fit and of every figure of merit (0: the whole file, as MATLAB `compare`).
+/// first `skip` samples of each file are simulated but left out of every figure of merit
+/// (0: the whole file, as MATLAB `compare`); the initial-position fit uses every sample
+/// (the start is seen best before the trajectory amplifies it).
 ///
 /// # Errors
 /// Unknown configuration, a parameter without value, a file with no more than `skip`

@@ -768,6 +768,27 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
             let _ = writeln!(s);
         }
         let stats = &f.statistics;
+        if let Some(offsets) = &f.initial_positions {
+            let each: Vec<String> = f
+                .files
+                .iter()
+                .zip(offsets)
+                .map(|(file, d)| {
+                    let joints: Vec<String> = stats
+                        .joints
+                        .iter()
+                        .zip(d)
+                        .map(|(j, &d)| format!("{} {:+.2} σ̂", j.joint, d / j.noise))
+                        .collect();
+                    format!("{}: {}", file.display(), joints.join(", "))
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "Initial positions estimated with the parameters (`--initial-positions estimate`; the figures below are on these starts), estimate − first sample: {}.\n",
+                each.join("; ")
+            );
+        }
         if !stats.above_floor.is_empty() {
             let _ = writeln!(
                 s,
