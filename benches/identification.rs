@@ -21,7 +21,9 @@ use criterion::{criterion_group, Criterion};
 use lockstep::excitation::Excitations;
 use lockstep::identify::equation_error::Cutoff;
 use lockstep::identify::output_error::{OutputErrorOptions, Problem};
-use lockstep::identify::sequence::{plan, read_record, run, RigidBodyFit, SequenceOptions};
+use lockstep::identify::sequence::{
+    plan, read_record, run, JointFitMode, RigidBodyFit, SequenceOptions,
+};
 use lockstep::plant::Plant;
 use lockstep::simulation::Integrator;
 use lockstep::synthetic::{excite, simulate_file, SimulateOptions};
@@ -149,6 +151,7 @@ fn sequence(dir: &Path, data: &Path, truth: &Plant) {
         locked_tolerance: 0.01,
         out: dir.join("out"),
         rigid_body: RigidBodyFit::Spanning,
+        joint: JointFitMode::Off,
     };
     let report = run(&start, &[data.to_path_buf()], &opts, &|_, _| {}).unwrap();
     println!(

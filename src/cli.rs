@@ -4,7 +4,7 @@ use crate::identify::equation_error::Cutoff;
 use crate::identify::identifiability::{base_parameters, markdown, occurrence};
 use crate::identify::idim::{least_squares, observation, IdimOptions};
 use crate::identify::output_error::OutputErrorOptions;
-use crate::identify::sequence::{RigidBodyFit, SequenceOptions};
+use crate::identify::sequence::{JointFitMode, RigidBodyFit, SequenceOptions};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::diagnosis::{
@@ -586,6 +586,15 @@ pub struct OutputErrorArgs {
     /// isolated.
     #[arg(long, value_parser = ["estimate", "measured"])]
     pub initial_positions: Option<String>,
+    /// Joint fit of the sequence's steps: `after` the step-by-step fits, every parameter the
+    /// steps fit is refined on every step's files at once (each file in its configuration,
+    /// every free joint weighted 1), from the values the steps left; its standard errors
+    /// and identifiable calls are those of all the data, not conditional on values earlier
+    /// steps fixed. `only`: the joint fit alone from the plant's values (a plant a sequence
+    /// run wrote). It covers the steps up to --config's (all without it); their files must
+    /// be in --data. `off`: the steps alone (the thesis).
+    #[arg(long, default_value = "off", value_parser = ["off", "after", "only"])]
+    pub joint_fit: String,
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
@@ -758,6 +767,11 @@ fn identify_sequence(
         } else {
             RigidBodyFit::All
         },
+        joint: match oe.joint_fit.as_str() {
+            "after" => JointFitMode::After,
+            "only" => JointFitMode::Only,
+            _ => JointFitMode::Off,
+        },
     };
     let bar = indicatif::ProgressBar::new_spinner();
     bar.enable_steady_tick(std::time::Duration::from_millis(250));
@@ -794,7 +808,7 @@ fn identify_sequence(
         "{:<6} {:>6} {:>12} {:>12} {:>9} {:>8} {:>6}  fit % per joint",
         "step", "params", "cost before", "cost after", "wall s", "evals", "ident."
     );
-    for s in &report.steps {
+    for s in report.steps.iter().chain(&report.joint) {
         let f = &s.fit;
         println!(
             "{:<6} {:>6} {:>12.4e} {:>12.4e} {:>9.1} {:>8} {:>6}  {}",
@@ -813,7 +827,7 @@ fn identify_sequence(
                 .join(", ")
         );
     }
-    for s in &report.steps {
+    for s in report.steps.iter().chain(&report.joint) {
         for line in &s.impossible {
             eprintln!(
                 "warning: step {}: physically impossible: {line}",

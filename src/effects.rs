@@ -205,6 +205,13 @@ impl Effect {
         }
     }
 
+    /// Whether the effect acts in a configuration with free joints `free` (model indices):
+    /// its joint is free, and for an input coupling the joint it passes the command from
+    /// too (a locked joint has no command, [`crate::plant::Plant::simulator`]).
+    pub fn acts_with(&self, free: &[usize]) -> bool {
+        free.contains(&self.joint) && self.from.is_none_or(|f| free.contains(&f))
+    }
+
     /// Parameter names, e.g. `["Fv_0"]`; an input coupling from 5 to 4 has `["G_5to4"]`.
     pub fn parameter_names(&self) -> Vec<String> {
         match self.from {

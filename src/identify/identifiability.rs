@@ -512,35 +512,47 @@ pub fn least_change_along_ties(
     Ok(values)
 }
 
-/// G = ∂β/∂s: the base parameters β of `conf` (rows, unscaled) by the rigid-body symbols
-/// `names[rigid[c]]` (columns, each times `scale(i, s_i)`: the change of the symbol the
-/// column stands for), by central differences of step 1e-6 × that scale — exact, β is at
-/// most quadratic in each symbol. Returns β at the plant's values and G.
+/// G = ∂β/∂s: the base parameters β of every configuration of `places` (rows, unscaled;
+/// each configuration with its locked joints at its positions, [`BaseMap::at`]; the
+/// configurations' rows stacked in order) by the rigid-body symbols `names[rigid[c]]`
+/// (columns, each times `scale(i, s_i)`: the change of the symbol the column stands for),
+/// by central differences of step 1e-6 × that scale — exact, β is at most quadratic in each
+/// symbol. Returns β at the plant's values and G.
 fn base_jacobian(
     plant: &crate::plant::Plant,
-    conf: &Configuration,
+    places: &[(&Configuration, &[Vec<f64>])],
     names: &[String],
     rigid: &[usize],
     scale: &dyn Fn(usize, f64) -> f64,
-    locked_at: &[Vec<f64>],
 ) -> anyhow::Result<(Vec<f64>, DMatrix<f64>)> {
-    let base = BaseMap::at(plant.model, conf, locked_at);
+    let maps: Vec<BaseMap> = places
+        .iter()
+        .map(|(conf, locked_at)| BaseMap::at(plant.model, conf, locked_at))
+        .collect();
+    let values = |at: &crate::plant::Plant| -> anyhow::Result<Vec<f64>> {
+        let mut out = Vec::new();
+        for map in &maps {
+            out.extend(map.values(at)?);
+        }
+        Ok(out)
+    };
     let beta = |name: &str, v: f64| -> anyhow::Result<Vec<f64>> {
         let mut at = plant.clone();
         at.parameters.insert(name.to_string(), v);
-        base.values(&at)
+        values(&at)
     };
-    let mut g = DMatrix::zeros(base.len(), rigid.len());
+    let rows: usize = maps.iter().map(BaseMap::len).sum();
+    let mut g = DMatrix::zeros(rows, rigid.len());
     for (c, &i) in rigid.iter().enumerate() {
         let v = plant.value(&names[i])?;
         let scale = scale(i, v);
         let h = 1e-6 * scale;
         let (bp, bm) = (beta(&names[i], v + h)?, beta(&names[i], v - h)?);
-        for k in 0..base.len() {
+        for k in 0..rows {
             g[(k, c)] = (bp[k] - bm[k]) / (2.0 * h) * scale;
         }
     }
-    Ok((base.values(plant)?, g))
+    Ok((values(plant)?, g))
 }
 
 /// Of the rigid-body symbols among `names`, a set that spans the base parameters β of
@@ -567,12 +579,28 @@ pub fn spanning_symbols(
     width: &dyn Fn(usize) -> f64,
     locked_at: &[Vec<f64>],
 ) -> anyhow::Result<Vec<usize>> {
+    spanning_symbols_across(plant, &[(conf, locked_at)], names, width)
+}
+
+/// [`spanning_symbols`] of several configurations together (`places`: each with its locked
+/// joints' positions): a set of the rigid-body symbols among `names` that spans the base
+/// parameters of all of them (the joint fit of a locking sequence,
+/// [`super::joint::JointProblem`]).
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing).
+pub fn spanning_symbols_across(
+    plant: &crate::plant::Plant,
+    places: &[(&Configuration, &[Vec<f64>])],
+    names: &[String],
+    width: &dyn Fn(usize) -> f64,
+) -> anyhow::Result<Vec<usize>> {
     let rigid = rigid_body_indices(plant.model, names);
     if rigid.is_empty() {
         return Ok(Vec::new());
     }
     // Columns per bound width: how far each symbol can move β within its bounds.
-    let (beta, mut g) = base_jacobian(plant, conf, names, &rigid, &|i, _| width(i), locked_at)?;
+    let (beta, mut g) = base_jacobian(plant, places, names, &rigid, &|i, _| width(i))?;
     let largest = beta.iter().fold(0.0f64, |a, b| a.max(b.abs()));
     for (k, b) in beta.iter().enumerate() {
         let scale = 1.0 / b.abs().max(1e-9 * largest).max(1e-300);
@@ -626,6 +654,21 @@ pub fn structural_companions(
     names: &[String],
     width: &dyn Fn(usize) -> f64,
 ) -> anyhow::Result<Vec<Vec<String>>> {
+    structural_companions_across(plant, &[(conf, &[])], names, width)
+}
+
+/// [`structural_companions`] in several configurations together (`places`: each with its
+/// locked joints' positions, empty: anywhere): the ties no configuration's base parameters
+/// break (the null directions of the stacked ∂β/∂s).
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing).
+pub fn structural_companions_across(
+    plant: &crate::plant::Plant,
+    places: &[(&Configuration, &[Vec<f64>])],
+    names: &[String],
+    width: &dyn Fn(usize) -> f64,
+) -> anyhow::Result<Vec<Vec<String>>> {
     let n = names.len();
     let mut out = vec![Vec::new(); n];
     let model = plant.model;
@@ -641,7 +684,7 @@ pub fn structural_companions(
             width(i)
         }
     };
-    let g = base_jacobian(plant, conf, names, &rigid, &relative, &[])?.1;
+    let g = base_jacobian(plant, places, names, &rigid, &relative)?.1;
     let eig = (g.transpose() * &g).symmetric_eigen();
     let largest = eig.eigenvalues.amax();
     for (k, &ev) in eig.eigenvalues.iter().enumerate() {

@@ -5,10 +5,12 @@
 //! change, with the error per joint before and after. [`identifiability`]: parameter occurrence
 //! per configuration and locking sequence, base parameters. [`equation_error`]: the torque
 //! balance at every sample from the measured motion, the cheap warm start of an
-//! output-error fit.
+//! output-error fit. [`joint`]: the joint fit of a locking sequence's steps, every
+//! parameter on every step's files at once.
 pub mod equation_error;
 pub mod identifiability;
 pub mod idim;
+pub mod joint;
 pub mod output_error;
 pub mod refit;
 pub mod sequence;

@@ -317,6 +317,9 @@ pub enum Stage {
     /// The whole files simulated by the predictor of output-injection bandwidth ω (rad/s)
     /// ([`Problem::predictor`]).
     Predictor(f64),
+    /// The whole files of every step of a locking sequence at once
+    /// ([`super::joint::JointProblem`]).
+    Joint,
 }
 
 /// How a start is warmed up before the fit of the whole files.
@@ -337,6 +340,9 @@ pub enum WarmUp {
     /// bandwidths up to [`STRIBECK_BRANCH_OMEGA`] and the whole files
     /// ([`Problem::stribeck_reseed`]).
     StribeckBranch,
+    /// None: the joint fit of a locking sequence starts from the values its steps left
+    /// ([`super::joint::JointProblem::fit`]).
+    Sequence,
 }
 
 impl Stage {
@@ -353,6 +359,7 @@ impl std::fmt::Display for Stage {
             Stage::Horizon(h) => write!(f, "horizon {:.0} %", 100.0 * h),
             Stage::EquationError => write!(f, "equation error"),
             Stage::Predictor(omega) => write!(f, "predictor ω = {omega} rad/s"),
+            Stage::Joint => write!(f, "joint fit"),
         }
     }
 }
@@ -439,66 +446,8 @@ impl Problem {
         if records.is_empty() {
             bail!("configuration '{}': no measurement files", conf.name);
         }
-        let pname = plant.name();
-        let mut lower = Vec::new();
-        let mut upper = Vec::new();
-        for n in &names {
-            let v = plant.value(n)?;
-            let Some(&(lo, hi)) = plant.bounds.get(n) else {
-                bail!("{pname}: parameter '{n}' is fitted in configuration '{}' but has no bounds (add `{n} = [lower, upper]` under [bounds])", conf.name);
-            };
-            if lo >= hi {
-                bail!("{pname}: bounds of '{n}' are [{lo}, {hi}]: lower must be below upper for a fitted parameter");
-            }
-            if !(lo..=hi).contains(&v) {
-                bail!("{pname}: '{n}' = {v} is outside its bounds [{lo}, {hi}]");
-            }
-            lower.push(lo);
-            upper.push(hi);
-        }
-        // Fs ≥ Fc per joint (4.1): both fitted → mapped pair; one fitted → a bound.
-        let mut pairs = Vec::new();
-        for (i, n) in names.iter().enumerate() {
-            let Some(j) = n.strip_prefix("Fc_") else {
-                continue;
-            };
-            let fs = format!("Fs_{j}");
-            match names.iter().position(|x| *x == fs) {
-                Some(k) => {
-                    upper[i] = upper[i].min(upper[k]);
-                    if upper[i] < lower[i] {
-                        bail!(
-                            "{pname}: Fs_{j} ≥ Fc_{j} cannot hold: Fs_{j} ≤ {} but Fc_{j} ≥ {}",
-                            upper[k],
-                            lower[i]
-                        );
-                    }
-                    pairs.push((i, k));
-                }
-                None => {
-                    if let Ok(fs_v) = plant.value(&fs) {
-                        upper[i] = upper[i].min(fs_v);
-                        if upper[i] < lower[i] {
-                            bail!("{pname}: Fs_{j} = {fs_v} (fixed) is below the lower bound {} of Fc_{j}", lower[i]);
-                        }
-                    }
-                }
-            }
-        }
-        for (k, n) in names.iter().enumerate() {
-            let Some(j) = n.strip_prefix("Fs_") else {
-                continue;
-            };
-            let fc = format!("Fc_{j}");
-            if !names.contains(&fc) {
-                if let Ok(fc_v) = plant.value(&fc) {
-                    lower[k] = lower[k].max(fc_v);
-                    if upper[k] < lower[k] {
-                        bail!("{pname}: Fc_{j} = {fc_v} (fixed) is above the upper bound {} of Fs_{j}", upper[k]);
-                    }
-                }
-            }
-        }
+        let (lower, upper, pairs) =
+            feasible_bounds(plant, &names, &format!("configuration '{}'", conf.name))?;
         let nf = conf.free.len();
         let lambda: Vec<f64> = conf
             .free
@@ -949,38 +898,12 @@ impl Problem {
 
     /// Physical parameters from scaled ones (u ∈ [0, 1]ⁿ).
     pub fn to_physical(&self, u: &[f64]) -> Vec<f64> {
-        let mut p: Vec<f64> = (0..u.len())
-            .map(|i| {
-                // lower + 1 × (upper − lower) can round past upper; the plant file written
-                // from these values must read back within its bounds.
-                (self.lower[i] + u[i].clamp(0.0, 1.0) * (self.upper[i] - self.lower[i]))
-                    .clamp(self.lower[i], self.upper[i])
-            })
-            .collect();
-        for &(c, s) in &self.pairs {
-            let lo = p[c].max(self.lower[s]);
-            p[s] = (lo + u[s].clamp(0.0, 1.0) * (self.upper[s] - lo).max(0.0))
-                .clamp(lo, self.upper[s].max(lo));
-        }
-        p
+        scaled_to_physical(&self.lower, &self.upper, &self.pairs, u)
     }
 
     /// Scaled parameters of physical ones (clamped into the feasible set).
     pub fn to_scaled(&self, p: &[f64]) -> Vec<f64> {
-        let mut u: Vec<f64> = (0..p.len())
-            .map(|i| ((p[i] - self.lower[i]) / (self.upper[i] - self.lower[i])).clamp(0.0, 1.0))
-            .collect();
-        for &(c, s) in &self.pairs {
-            let pc = self.lower[c] + u[c] * (self.upper[c] - self.lower[c]);
-            let lo = pc.max(self.lower[s]);
-            let w = self.upper[s] - lo;
-            u[s] = if w > 0.0 {
-                ((p[s] - lo) / w).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-        }
-        u
+        physical_to_scaled(&self.lower, &self.upper, &self.pairs, p)
     }
 
     /// The plant with the fitted parameters set to `p`.
@@ -1125,7 +1048,7 @@ impl Problem {
     }
 
     /// Residual vector (length [`Problem::residual_count`]) of the files' trajectories.
-    fn residuals_of(&self, trajectories: &[Trajectory]) -> Vec<f64> {
+    pub(crate) fn residuals_of(&self, trajectories: &[Trajectory]) -> Vec<f64> {
         let mut r = vec![0.0; self.m];
         let mut at = 0;
         for (ri, traj) in trajectories.iter().enumerate() {
@@ -1166,28 +1089,12 @@ impl Problem {
         (0..x.len())
             .into_par_iter()
             .map(|i| {
-                if central {
-                    let at = |s: f64| {
-                        let mut xi = x.to_vec();
-                        xi[i] += s;
-                        self.residuals(&p_of(&xi))
-                    };
-                    if let (Ok(rp), Ok(rm)) = (at(steps[i]), at(-steps[i])) {
-                        return rp
-                            .iter()
-                            .zip(&rm)
-                            .map(|(a, b)| (a - b) / (2.0 * steps[i]))
-                            .collect();
-                    }
-                }
-                for s in [steps[i], -steps[i]] {
+                let at = |s: f64| {
                     let mut xi = x.to_vec();
                     xi[i] += s;
-                    if let Ok(ri) = self.residuals(&p_of(&xi)) {
-                        return ri.iter().zip(r0).map(|(a, b)| (a - b) / s).collect();
-                    }
-                }
-                vec![0.0; r0.len()]
+                    self.residuals(&p_of(&xi))
+                };
+                difference_column(&at, r0, steps[i], central)
             })
             .collect()
     }
@@ -1550,7 +1457,9 @@ impl Problem {
                 .chain(predictor)
                 .chain([Stage::Horizon(1.0)])
                 .collect(),
-            WarmUp::Predictor => predictor.chain([Stage::Horizon(1.0)]).collect(),
+            WarmUp::Predictor | WarmUp::Sequence => {
+                predictor.chain([Stage::Horizon(1.0)]).collect()
+            }
             WarmUp::StribeckBranch => predictor
                 .filter(|s| matches!(s, Stage::Predictor(w) if *w <= STRIBECK_BRANCH_OMEGA))
                 .chain([Stage::Horizon(1.0)])
@@ -1620,7 +1529,7 @@ impl Problem {
                     staged = self.truncated(frac);
                     &staged
                 }
-                Stage::Horizon(_) => self,
+                Stage::Horizon(_) | Stage::Joint => self,
                 Stage::Predictor(omega) => {
                     let note;
                     (staged, note) = self.checked_predictor(omega, &u);
@@ -1767,7 +1676,7 @@ impl Problem {
 
     /// The largest change of a free joint's initial position from `before` to `after`
     /// (records of this problem's files, in order), in units of that joint's noise σ̂.
-    fn initial_position_move(&self, before: &[Record], after: &[Record]) -> f64 {
+    pub(crate) fn initial_position_move(&self, before: &[Record], after: &[Record]) -> f64 {
         before
             .iter()
             .zip(after)
@@ -1790,7 +1699,6 @@ impl Problem {
     /// rules; the equation-error stage, whose evaluations cost no simulation, only on a
     /// standstill (1e-10, at most 500 iterations).
     fn run_stage(&self, stage: Stage, u: &mut [f64], context: &StageContext) -> StageOutcome {
-        let n = u.len();
         let warm_up = !stage.is_final();
         let start_cost = self.cost(&self.to_physical(u));
         if !start_cost.is_finite() {
@@ -1844,70 +1752,16 @@ impl Problem {
                 *x = 1.0;
             }
         }
-        let mut fitter = Fitter {
-            problem: self,
-            context,
-            best: f64::INFINITY,
-            stage,
-            cache: None,
-            failures: 0,
-            jacobian: None,
-            config: MPConfig {
-                xtol,
-                ftol,
-                gtol,
-                max_iter,
-                max_fev: MPMaxFev::Limited(max_fev),
-                ..MPConfig::new()
-            },
-            pars: (0..n)
-                .map(|i| MPPar {
-                    fixed: self.is_frozen(&self.names[i]),
-                    limited_low: true,
-                    limited_up: true,
-                    limit_low: 0.0,
-                    limit_up: 1.0,
-                    side: MPSide::User,
-                    ..MPPar::new()
-                })
-                .collect(),
-            start_cost,
+        let frozen: Vec<bool> = self.names.iter().map(|n| self.is_frozen(n)).collect();
+        let config = MPConfig {
+            xtol,
+            ftol,
+            gtol,
+            max_iter,
+            max_fev: MPMaxFev::Limited(max_fev),
+            ..MPConfig::new()
         };
-        let mut result = fitter.mpfit(u);
-        let mut iterations = result.as_ref().map_or(0, |st| st.n_iter);
-        // A stage that stopped on a Broyden-updated Jacobian goes on from a
-        // finite-difference one (its stopping rules then hold for the true Jacobian).
-        let mut reruns = 0;
-        while result.is_ok()
-            && fitter.jacobian.as_ref().is_some_and(|j| j.updates > 0)
-            && reruns < 3
-        {
-            fitter.jacobian = None;
-            result = fitter.mpfit(u);
-            iterations += result.as_ref().map_or(0, |st| st.n_iter);
-            reruns += 1;
-        }
-        let failures = fitter.failures;
-        match result {
-            Ok(st) => StageOutcome {
-                status: format!("{:?} after {iterations} iteration(s)", st.success),
-                iterations,
-                failures,
-                stop: false,
-            },
-            Err(MPError::Eval) => StageOutcome {
-                status: "stopped, a simulation failed".into(),
-                iterations: 0,
-                failures,
-                stop: true,
-            },
-            Err(e) => StageOutcome {
-                status: format!("optimiser error {e:?}"),
-                iterations: 0,
-                failures,
-                stop: true,
-            },
-        }
+        minimise(self, stage, &frozen, config, u, context, start_cost)
     }
 
     /// Stribeck re-seed of scaled parameters `u` (a fitted minimum) for
@@ -2033,6 +1887,30 @@ impl Problem {
         // directions.
         let cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
         let m = r.len();
+        let dof = m as f64 / (m - n) as f64;
+        let sigma: Vec<f64> = self
+            .residual_variances(&r)
+            .iter()
+            .map(|v| v * dof)
+            .collect();
+        let only_with = self.structural_companions(p)?;
+        let joints = self.joint_fits(&trajectories);
+        covariance_statistics(
+            &self.names,
+            p,
+            (&self.lower, &self.upper),
+            cols,
+            &sigma,
+            only_with,
+            joints,
+        )
+    }
+
+    /// The variance of every residual `r` (this problem's, in order) under the noise model
+    /// of [`Problem::statistics`]: w_k λ_a² s_a², s_a² the mean square of joint a's
+    /// unweighted errors (no correction for the fitted parameters' degrees of freedom).
+    pub(crate) fn residual_variances(&self, r: &[f64]) -> Vec<f64> {
+        let m = r.len();
         // Per-joint noise variance and the diagonal of Σ.
         let nf = self.lambda.len();
         let mut sigma = vec![0.0; m];
@@ -2058,160 +1936,9 @@ impl Problem {
             var[a] /= (cnt[a].max(1)) as f64;
         }
         for k in 0..m {
-            sigma[k] *= var[owner[k]] * m as f64 / (m - n) as f64;
+            sigma[k] *= var[owner[k]];
         }
-        // Columns scaled to unit norm; a zero column (the parameter changes no output)
-        // stays zero and gets an infinite standard error.
-        let norms: Vec<f64> = cols
-            .iter()
-            .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
-            .collect();
-        let cols: Vec<Vec<f64>> = cols
-            .iter()
-            .zip(&norms)
-            .map(|(c, &nrm)| {
-                if nrm > 0.0 && nrm.is_finite() {
-                    c.iter().map(|x| x / nrm).collect()
-                } else {
-                    vec![0.0; c.len()]
-                }
-            })
-            .collect();
-        let mut a = DMatrix::zeros(n, n);
-        let mut b = DMatrix::zeros(n, n);
-        for i in 0..n {
-            for j in i..n {
-                let (mut s, mut t) = (0.0, 0.0);
-                for k in 0..m {
-                    let x = cols[i][k] * cols[j][k];
-                    s += x;
-                    t += x * sigma[k];
-                }
-                a[(i, j)] = s;
-                a[(j, i)] = s;
-                b[(i, j)] = t;
-                b[(j, i)] = t;
-            }
-        }
-        if !(a.iter().all(|x| x.is_finite()) && b.iter().all(|x| x.is_finite())) {
-            bail!("the Jacobian at the fitted values is not finite");
-        }
-        let svd = a.clone().svd(true, true);
-        let smax = svd.singular_values.max();
-        let condition = smax / svd.singular_values.min().max(1e-300);
-        // Directions at rounding level (below 1e-15 of the largest singular value) are not
-        // determined by the data: truncated, and the parameters along them reported with
-        // infinite error. Anything above is inverted, so a near-symmetry (such as the plant
-        // gain against everything it multiplies) shows as large errors and correlations.
-        let cutoff = smax * 1e-15;
-        let ainv = svd
-            .clone()
-            .pseudo_inverse(cutoff)
-            .unwrap_or_else(|_| DMatrix::from_element(n, n, f64::NAN));
-        // A parameter is undetermined when moving along such a direction changes it by a
-        // relative amount of at least 1e-3 of the largest relative change of any parameter
-        // (the plant gain's exact scale family moves all its members by the same fraction,
-        // however different their columns' norms; the rest move by rounding only).
-        let mut undetermined = vec![false; n];
-        if let Some(v_t) = &svd.v_t {
-            for (k, &sv) in svd.singular_values.iter().enumerate() {
-                if sv <= cutoff {
-                    let relative_change: Vec<f64> = (0..n)
-                        .map(|i| {
-                            let scale = p[i].abs().max(1e-3 * (self.upper[i] - self.lower[i]));
-                            if norms[i] > 0.0 {
-                                (v_t[(k, i)] / (norms[i] * scale)).abs()
-                            } else {
-                                0.0
-                            }
-                        })
-                        .collect();
-                    let largest = relative_change.iter().cloned().fold(0.0, f64::max);
-                    for i in 0..n {
-                        if relative_change[i] >= 1e-3 * largest && largest > 0.0 {
-                            undetermined[i] = true;
-                        }
-                    }
-                }
-            }
-        }
-        // Symmetric to rounding: the pseudo-inverse's 1/sv near the cut-off makes the two
-        // halves differ.
-        let cov_scaled = &ainv * b * &ainv;
-        let cov_scaled = (&cov_scaled + cov_scaled.transpose()) * 0.5;
-        let mut std_err = vec![0.0; n];
-        for i in 0..n {
-            std_err[i] = if norms[i] > 0.0 && !undetermined[i] {
-                cov_scaled[(i, i)].max(0.0).sqrt() / norms[i]
-            } else {
-                f64::INFINITY
-            };
-        }
-        let mut correlation = vec![vec![0.0; n]; n];
-        let mut correlated = Vec::new();
-        for i in 0..n {
-            for j in 0..n {
-                let d = (cov_scaled[(i, i)] * cov_scaled[(j, j)]).sqrt();
-                // An undetermined parameter's covariance is rounding amplified by the
-                // pseudo-inverse (k1 of the Freedom 6S: Fs_5 with vs_5 → 0 showed
-                // "correlation −1" with the well-determined qeq_5 one way and none the
-                // other): it has no correlation.
-                correlation[i][j] = if i == j {
-                    1.0
-                } else if undetermined[i] || undetermined[j] {
-                    0.0
-                } else if d > 0.0 && d.is_finite() {
-                    (cov_scaled[(i, j)] / d).clamp(-1.0, 1.0)
-                } else {
-                    0.0
-                };
-                if j > i && correlation[i][j].abs() > CORRELATION_LIMIT {
-                    correlated.push((
-                        self.names[i].clone(),
-                        self.names[j].clone(),
-                        correlation[i][j],
-                    ));
-                }
-            }
-        }
-        let at_bound: Vec<bool> = (0..n)
-            .map(|i| {
-                let w = self.upper[i] - self.lower[i];
-                (p[i] - self.lower[i]).abs() < 1e-4 * w || (self.upper[i] - p[i]).abs() < 1e-4 * w
-            })
-            .collect();
-        let relative: Vec<f64> = (0..n)
-            .map(|i| std_err[i] / p[i].abs().max(1e-300))
-            .collect();
-        let only_with = self.structural_companions(p)?;
-        let joint = self.joint_fits(&trajectories);
-        let above_floor: Vec<String> = joint
-            .iter()
-            .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
-            .map(|j| format!("{} RMS {:.3} σ̂", j.joint, j.rms / j.noise))
-            .collect();
-        let identifiable: Vec<bool> = (0..n)
-            .map(|i| {
-                above_floor.is_empty()
-                    && relative[i].is_finite()
-                    && relative[i] <= RELATIVE_STD_LIMIT
-                    && !at_bound[i]
-                    && only_with[i].is_empty()
-                    && (0..n).all(|j| j == i || correlation[i][j].abs() <= CORRELATION_LIMIT)
-            })
-            .collect();
-        Ok(Statistics {
-            std_err,
-            relative_std_err: relative,
-            correlation,
-            correlated,
-            at_bound,
-            identifiable,
-            only_with,
-            above_floor,
-            condition,
-            joints: joint,
-        })
+        sigma
     }
 
     /// For every fitted parameter, the other rigid-body symbols — fitted or held along
@@ -2273,6 +2000,330 @@ impl Problem {
         }
         joint
     }
+}
+
+/// Lower bounds, upper bounds (physical units) and the (Fc, Fs) index pairs kept feasible by
+/// the scaled coordinates ([`feasible_bounds`]).
+pub(crate) type FeasibleBounds = (Vec<f64>, Vec<f64>, Vec<(usize, usize)>);
+
+/// Bounds of the fitted parameters `names` of `plant` (physical units) with the constraint
+/// Fs ≥ Fc (4.1) folded in: both of a joint fitted → an (Fc, Fs) index pair that the
+/// scaled coordinates keep feasible ([`scaled_to_physical`]); one fitted → a bound from the
+/// other's value. `fitted_in` names the fit for the messages (e.g. "configuration 'k3'").
+///
+/// # Errors
+/// A fitted parameter without value or bounds, with lower ≥ upper, or with its value
+/// outside its bounds; Fs ≥ Fc infeasible within the bounds (all named).
+pub(crate) fn feasible_bounds(
+    plant: &Plant,
+    names: &[String],
+    fitted_in: &str,
+) -> Result<FeasibleBounds> {
+    let pname = plant.name();
+    let mut lower = Vec::new();
+    let mut upper = Vec::new();
+    for n in names {
+        let v = plant.value(n)?;
+        let Some(&(lo, hi)) = plant.bounds.get(n) else {
+            bail!("{pname}: parameter '{n}' is fitted in {fitted_in} but has no bounds (add `{n} = [lower, upper]` under [bounds])");
+        };
+        if lo >= hi {
+            bail!("{pname}: bounds of '{n}' are [{lo}, {hi}]: lower must be below upper for a fitted parameter");
+        }
+        if !(lo..=hi).contains(&v) {
+            bail!("{pname}: '{n}' = {v} is outside its bounds [{lo}, {hi}]");
+        }
+        lower.push(lo);
+        upper.push(hi);
+    }
+    // Fs ≥ Fc per joint (4.1): both fitted → mapped pair; one fitted → a bound.
+    let mut pairs = Vec::new();
+    for (i, n) in names.iter().enumerate() {
+        let Some(j) = n.strip_prefix("Fc_") else {
+            continue;
+        };
+        let fs = format!("Fs_{j}");
+        match names.iter().position(|x| *x == fs) {
+            Some(k) => {
+                upper[i] = upper[i].min(upper[k]);
+                if upper[i] < lower[i] {
+                    bail!(
+                        "{pname}: Fs_{j} ≥ Fc_{j} cannot hold: Fs_{j} ≤ {} but Fc_{j} ≥ {}",
+                        upper[k],
+                        lower[i]
+                    );
+                }
+                pairs.push((i, k));
+            }
+            None => {
+                if let Ok(fs_v) = plant.value(&fs) {
+                    upper[i] = upper[i].min(fs_v);
+                    if upper[i] < lower[i] {
+                        bail!("{pname}: Fs_{j} = {fs_v} (fixed) is below the lower bound {} of Fc_{j}", lower[i]);
+                    }
+                }
+            }
+        }
+    }
+    for (k, n) in names.iter().enumerate() {
+        let Some(j) = n.strip_prefix("Fs_") else {
+            continue;
+        };
+        let fc = format!("Fc_{j}");
+        if !names.contains(&fc) {
+            if let Ok(fc_v) = plant.value(&fc) {
+                lower[k] = lower[k].max(fc_v);
+                if upper[k] < lower[k] {
+                    bail!(
+                        "{pname}: Fc_{j} = {fc_v} (fixed) is above the upper bound {} of Fs_{j}",
+                        upper[k]
+                    );
+                }
+            }
+        }
+    }
+    Ok((lower, upper, pairs))
+}
+
+/// Physical parameters from scaled ones u ∈ [0, 1]ⁿ within `lower`, `upper`, and each
+/// (Fc, Fs) pair of `pairs` as Fs = max(Fc, lo_Fs) + u (hi_Fs − max(Fc, lo_Fs))
+/// ([`feasible_bounds`]).
+pub(crate) fn scaled_to_physical(
+    lower: &[f64],
+    upper: &[f64],
+    pairs: &[(usize, usize)],
+    u: &[f64],
+) -> Vec<f64> {
+    let mut p: Vec<f64> = (0..u.len())
+        .map(|i| {
+            // lower + 1 × (upper − lower) can round past upper; the plant file written
+            // from these values must read back within its bounds.
+            (lower[i] + u[i].clamp(0.0, 1.0) * (upper[i] - lower[i])).clamp(lower[i], upper[i])
+        })
+        .collect();
+    for &(c, s) in pairs {
+        let lo = p[c].max(lower[s]);
+        p[s] = (lo + u[s].clamp(0.0, 1.0) * (upper[s] - lo).max(0.0)).clamp(lo, upper[s].max(lo));
+    }
+    p
+}
+
+/// Scaled parameters of physical ones `p` (clamped into the feasible set), the inverse of
+/// [`scaled_to_physical`].
+pub(crate) fn physical_to_scaled(
+    lower: &[f64],
+    upper: &[f64],
+    pairs: &[(usize, usize)],
+    p: &[f64],
+) -> Vec<f64> {
+    let mut u: Vec<f64> = (0..p.len())
+        .map(|i| ((p[i] - lower[i]) / (upper[i] - lower[i])).clamp(0.0, 1.0))
+        .collect();
+    for &(c, s) in pairs {
+        let pc = lower[c] + u[c] * (upper[c] - lower[c]);
+        let lo = pc.max(lower[s]);
+        let w = upper[s] - lo;
+        u[s] = if w > 0.0 {
+            ((p[s] - lo) / w).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+    }
+    u
+}
+
+/// Standard errors, correlations and identifiability of parameters `names` at physical
+/// values `p` within `(lower, upper)`, from the Jacobian `cols` (∂r/∂p, one column per
+/// parameter) and the variance `sigma` of every residual (degrees of freedom included):
+/// cov = (JᵀJ)⁻¹ Jᵀ Σ J (JᵀJ)⁻¹ on unit-norm columns. `only_with` (the structural ties)
+/// and `joints` (the fit per joint, for the noise floor) go into the verdict and the
+/// result as they are.
+///
+/// # Errors
+/// The Jacobian is not finite.
+pub(crate) fn covariance_statistics(
+    names: &[String],
+    p: &[f64],
+    (lower, upper): (&[f64], &[f64]),
+    cols: Vec<Vec<f64>>,
+    sigma: &[f64],
+    only_with: Vec<Vec<String>>,
+    joints: Vec<JointFit>,
+) -> Result<Statistics> {
+    let n = names.len();
+    let m = sigma.len();
+    // Columns scaled to unit norm; a zero column (the parameter changes no output)
+    // stays zero and gets an infinite standard error.
+    let norms: Vec<f64> = cols
+        .iter()
+        .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
+        .collect();
+    let cols: Vec<Vec<f64>> = cols
+        .iter()
+        .zip(&norms)
+        .map(|(c, &nrm)| {
+            if nrm > 0.0 && nrm.is_finite() {
+                c.iter().map(|x| x / nrm).collect()
+            } else {
+                vec![0.0; c.len()]
+            }
+        })
+        .collect();
+    let mut a = DMatrix::zeros(n, n);
+    let mut b = DMatrix::zeros(n, n);
+    for i in 0..n {
+        for j in i..n {
+            let (mut s, mut t) = (0.0, 0.0);
+            for k in 0..m {
+                let x = cols[i][k] * cols[j][k];
+                s += x;
+                t += x * sigma[k];
+            }
+            a[(i, j)] = s;
+            a[(j, i)] = s;
+            b[(i, j)] = t;
+            b[(j, i)] = t;
+        }
+    }
+    if !(a.iter().all(|x| x.is_finite()) && b.iter().all(|x| x.is_finite())) {
+        bail!("the Jacobian at the fitted values is not finite");
+    }
+    let svd = a.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    let condition = smax / svd.singular_values.min().max(1e-300);
+    // Directions at rounding level (below 1e-15 of the largest singular value) are not
+    // determined by the data: truncated, and the parameters along them reported with
+    // infinite error. Anything above is inverted, so a near-symmetry (such as the plant
+    // gain against everything it multiplies) shows as large errors and correlations.
+    let cutoff = smax * 1e-15;
+    let ainv = svd
+        .clone()
+        .pseudo_inverse(cutoff)
+        .unwrap_or_else(|_| DMatrix::from_element(n, n, f64::NAN));
+    // A parameter is undetermined when moving along such a direction changes it by a
+    // relative amount of at least 1e-3 of the largest relative change of any parameter
+    // (the plant gain's exact scale family moves all its members by the same fraction,
+    // however different their columns' norms; the rest move by rounding only).
+    let mut undetermined = vec![false; n];
+    if let Some(v_t) = &svd.v_t {
+        for (k, &sv) in svd.singular_values.iter().enumerate() {
+            if sv <= cutoff {
+                let relative_change: Vec<f64> = (0..n)
+                    .map(|i| {
+                        let scale = p[i].abs().max(1e-3 * (upper[i] - lower[i]));
+                        if norms[i] > 0.0 {
+                            (v_t[(k, i)] / (norms[i] * scale)).abs()
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                let largest = relative_change.iter().cloned().fold(0.0, f64::max);
+                for i in 0..n {
+                    if relative_change[i] >= 1e-3 * largest && largest > 0.0 {
+                        undetermined[i] = true;
+                    }
+                }
+            }
+        }
+    }
+    // Symmetric to rounding: the pseudo-inverse's 1/sv near the cut-off makes the two
+    // halves differ.
+    let cov_scaled = &ainv * b * &ainv;
+    let cov_scaled = (&cov_scaled + cov_scaled.transpose()) * 0.5;
+    let mut std_err = vec![0.0; n];
+    for i in 0..n {
+        std_err[i] = if norms[i] > 0.0 && !undetermined[i] {
+            cov_scaled[(i, i)].max(0.0).sqrt() / norms[i]
+        } else {
+            f64::INFINITY
+        };
+    }
+    let mut correlation = vec![vec![0.0; n]; n];
+    let mut correlated = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            let d = (cov_scaled[(i, i)] * cov_scaled[(j, j)]).sqrt();
+            // An undetermined parameter's covariance is rounding amplified by the
+            // pseudo-inverse (k1 of the Freedom 6S: Fs_5 with vs_5 → 0 showed
+            // "correlation −1" with the well-determined qeq_5 one way and none the
+            // other): it has no correlation.
+            correlation[i][j] = if i == j {
+                1.0
+            } else if undetermined[i] || undetermined[j] {
+                0.0
+            } else if d > 0.0 && d.is_finite() {
+                (cov_scaled[(i, j)] / d).clamp(-1.0, 1.0)
+            } else {
+                0.0
+            };
+            if j > i && correlation[i][j].abs() > CORRELATION_LIMIT {
+                correlated.push((names[i].clone(), names[j].clone(), correlation[i][j]));
+            }
+        }
+    }
+    let at_bound: Vec<bool> = (0..n)
+        .map(|i| {
+            let w = upper[i] - lower[i];
+            (p[i] - lower[i]).abs() < 1e-4 * w || (upper[i] - p[i]).abs() < 1e-4 * w
+        })
+        .collect();
+    let relative: Vec<f64> = (0..n)
+        .map(|i| std_err[i] / p[i].abs().max(1e-300))
+        .collect();
+    let above_floor: Vec<String> = joints
+        .iter()
+        .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
+        .map(|j| format!("{} RMS {:.3} σ̂", j.joint, j.rms / j.noise))
+        .collect();
+    let identifiable: Vec<bool> = (0..n)
+        .map(|i| {
+            above_floor.is_empty()
+                && relative[i].is_finite()
+                && relative[i] <= RELATIVE_STD_LIMIT
+                && !at_bound[i]
+                && only_with[i].is_empty()
+                && (0..n).all(|j| j == i || correlation[i][j].abs() <= CORRELATION_LIMIT)
+        })
+        .collect();
+    Ok(Statistics {
+        std_err,
+        relative_std_err: relative,
+        correlation,
+        correlated,
+        at_bound,
+        identifiable,
+        only_with,
+        above_floor,
+        condition,
+        joints,
+    })
+}
+
+/// One finite-difference column ∂r/∂x_i of residuals `at(s)` (at x_i + s): central
+/// where `central` and both sides simulate, else forward from `r0` (the residuals at x),
+/// retried with the opposite step; zero where neither side simulates.
+pub(crate) fn difference_column(
+    at: &dyn Fn(f64) -> Result<Vec<f64>, TrialFailure>,
+    r0: &[f64],
+    step: f64,
+    central: bool,
+) -> Vec<f64> {
+    if central {
+        if let (Ok(rp), Ok(rm)) = (at(step), at(-step)) {
+            return rp
+                .iter()
+                .zip(&rm)
+                .map(|(a, b)| (a - b) / (2.0 * step))
+                .collect();
+        }
+    }
+    for s in [step, -step] {
+        if let Ok(ri) = at(s) {
+            return ri.iter().zip(r0).map(|(a, b)| (a - b) / s).collect();
+        }
+    }
+    vec![0.0; r0.len()]
 }
 
 /// q̇ at sample `k` of `q` (3 ≤ k < len − 3, else the nearest such sample) by the 7-point
@@ -2523,31 +2574,166 @@ impl FitResult {
     }
 }
 
-/// The rmpfit adapter: scaled parameters, cached residuals, user (parallel) Jacobian.
+/// Bounded Levenberg–Marquardt (rmpfit) of `problem` from scaled parameters `u` ∈ [0, 1]ⁿ,
+/// updated in place, on the stopping rules of `config`; parameters where `frozen` is true
+/// stay. A run that stopped on a Broyden-updated Jacobian goes on from a finite-difference
+/// one (at most 3 times), so it ends on rules that hold for the true Jacobian. `stage` and
+/// `context` feed the progress display; `start_cost` (the cost at `u`) scales the residuals
+/// a failed simulation returns.
+pub(crate) fn minimise(
+    problem: &dyn LeastSquares,
+    stage: Stage,
+    frozen: &[bool],
+    config: MPConfig,
+    u: &mut [f64],
+    context: &StageContext,
+    start_cost: f64,
+) -> StageOutcome {
+    let mut fitter = Fitter {
+        problem,
+        context,
+        best: f64::INFINITY,
+        stage,
+        cache: None,
+        failures: 0,
+        jacobian: None,
+        config,
+        pars: frozen
+            .iter()
+            .map(|&fixed| MPPar {
+                fixed,
+                limited_low: true,
+                limited_up: true,
+                limit_low: 0.0,
+                limit_up: 1.0,
+                side: MPSide::User,
+                ..MPPar::new()
+            })
+            .collect(),
+        start_cost,
+    };
+    let mut result = fitter.mpfit(u);
+    let mut iterations = result.as_ref().map_or(0, |st| st.n_iter);
+    // A stage that stopped on a Broyden-updated Jacobian goes on from a
+    // finite-difference one (its stopping rules then hold for the true Jacobian).
+    let mut reruns = 0;
+    while result.is_ok() && fitter.jacobian.as_ref().is_some_and(|j| j.updates > 0) && reruns < 3 {
+        fitter.jacobian = None;
+        result = fitter.mpfit(u);
+        iterations += result.as_ref().map_or(0, |st| st.n_iter);
+        reruns += 1;
+    }
+    let failures = fitter.failures;
+    match result {
+        Ok(st) => StageOutcome {
+            status: format!("{:?} after {iterations} iteration(s)", st.success),
+            iterations,
+            failures,
+            stop: false,
+        },
+        Err(MPError::Eval) => StageOutcome {
+            status: "stopped, a simulation failed".into(),
+            iterations: 0,
+            failures,
+            stop: true,
+        },
+        Err(e) => StageOutcome {
+            status: format!("optimiser error {e:?}"),
+            iterations: 0,
+            failures,
+            stop: true,
+        },
+    }
+}
+
 /// What every stage of one start shares: its place among the starts, the fit's counters
 /// and clock, and the progress display.
-struct StageContext<'a> {
-    start: usize,
-    starts: usize,
-    evaluations: &'a AtomicUsize,
-    jacobians: &'a AtomicUsize,
-    started: Instant,
-    progress: &'a (dyn Fn(Progress) + Sync),
+pub(crate) struct StageContext<'a> {
+    pub(crate) start: usize,
+    pub(crate) starts: usize,
+    pub(crate) evaluations: &'a AtomicUsize,
+    pub(crate) jacobians: &'a AtomicUsize,
+    pub(crate) started: Instant,
+    pub(crate) progress: &'a (dyn Fn(Progress) + Sync),
 }
 
 /// How a stage ended.
-struct StageOutcome {
+pub(crate) struct StageOutcome {
     /// For the report, e.g. "Convergence in parameter value after 6 iteration(s)".
-    status: String,
-    iterations: usize,
+    pub(crate) status: String,
+    pub(crate) iterations: usize,
     /// Trial points that could not be simulated.
-    failures: usize,
+    pub(crate) failures: usize,
     /// The start cannot go on to the next stage.
-    stop: bool,
+    pub(crate) stop: bool,
 }
 
+/// What the Levenberg–Marquardt adapter ([`Fitter`]) needs of a fit: residuals at physical
+/// parameters, the scaled coordinates, finite-difference Jacobian columns and the prior's
+/// rows. A configuration's [`Problem`], or the joint fit of several
+/// ([`super::joint::JointProblem`]).
+pub(crate) trait LeastSquares: Sync {
+    /// Number of residuals (the simulated ones, without the prior's rows).
+    fn residual_count(&self) -> usize;
+    /// The residuals at physical parameters `p`.
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure>;
+    /// Physical parameters from scaled ones.
+    fn to_physical(&self, u: &[f64]) -> Vec<f64>;
+    /// ∂r/∂x per parameter, as [`Problem::jacobian_columns`].
+    fn jacobian_columns(
+        &self,
+        x: &[f64],
+        r0: &[f64],
+        steps: &[f64],
+        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+        central: bool,
+    ) -> Vec<Vec<f64>>;
+    /// The fit's settings.
+    fn options(&self) -> &OutputErrorOptions;
+    /// The prior's weight per parameter (its rows' diagonal), if the fit has a prior.
+    fn prior_weight(&self) -> Option<&[f64]> {
+        None
+    }
+    /// The prior's residuals at scaled parameters `u` (empty without a prior).
+    fn prior_residuals(&self, _u: &[f64]) -> Vec<f64> {
+        Vec::new()
+    }
+}
+
+impl LeastSquares for Problem {
+    fn residual_count(&self) -> usize {
+        self.m
+    }
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
+        Problem::residuals(self, p)
+    }
+    fn to_physical(&self, u: &[f64]) -> Vec<f64> {
+        Problem::to_physical(self, u)
+    }
+    fn jacobian_columns(
+        &self,
+        x: &[f64],
+        r0: &[f64],
+        steps: &[f64],
+        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+        central: bool,
+    ) -> Vec<Vec<f64>> {
+        Problem::jacobian_columns(self, x, r0, steps, p_of, central)
+    }
+    fn options(&self) -> &OutputErrorOptions {
+        &self.options
+    }
+    fn prior_weight(&self) -> Option<&[f64]> {
+        self.prior.as_ref().map(|(_, w)| w.as_slice())
+    }
+    fn prior_residuals(&self, u: &[f64]) -> Vec<f64> {
+        Problem::prior_residuals(self, u)
+    }
+}
+
+/// The rmpfit adapter: scaled parameters, cached residuals, user (parallel) Jacobian.
 struct Fitter<'a> {
-    problem: &'a Problem,
+    problem: &'a dyn LeastSquares,
     context: &'a StageContext<'a>,
     best: f64,
     stage: Stage,
@@ -2610,14 +2796,15 @@ impl Fitter<'_> {
             }
         }
         self.context.evaluations.fetch_add(1, Ordering::Relaxed);
+        let m = self.problem.residual_count();
         let mut r = match self.problem.residuals(&self.problem.to_physical(u)) {
             Ok(r) => r,
             Err(_) => {
                 // A trial point where the plant diverges: a cost far above the start's so
                 // that the step is rejected and the trust region shrinks.
                 self.failures += 1;
-                let level = (self.start_cost.max(1e-12) / self.problem.m as f64).sqrt() * 1e3;
-                vec![level; self.problem.m]
+                let level = (self.start_cost.max(1e-12) / m as f64).sqrt() * 1e3;
+                vec![level; m]
             }
         };
         r.extend(self.problem.prior_residuals(u));
@@ -2646,7 +2833,7 @@ impl MPFitter for Fitter<'_> {
     }
 
     fn number_of_points(&self) -> usize {
-        self.problem.m + self.problem.prior.as_ref().map_or(0, |(u0, _)| u0.len())
+        self.problem.residual_count() + self.problem.prior_weight().map_or(0, <[f64]>::len)
     }
 
     fn config(&self) -> &MPConfig {
@@ -2667,7 +2854,7 @@ impl MPFitter for Fitter<'_> {
         deviates.copy_from_slice(&r0);
         self.context.jacobians.fetch_add(1, Ordering::Relaxed);
         let p = self.problem;
-        let m = p.m;
+        let m = p.residual_count();
         let sum_sq = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
         // Broyden's update where the last step lowered the simulated cost and the refresh
         // interval allows it; otherwise finite differences.
@@ -2675,13 +2862,14 @@ impl MPFitter for Fitter<'_> {
             .jacobian
             .take()
             .filter(|last| {
-                last.updates + 1 < p.options.jacobian_refresh && sum_sq(&r0[..m]) < sum_sq(&last.r)
+                last.updates + 1 < p.options().jacobian_refresh
+                    && sum_sq(&r0[..m]) < sum_sq(&last.r)
             })
             .and_then(|mut last| last.broyden(params, &r0[..m]).then_some(last));
         let last = match updated {
             Some(last) => last,
             None => {
-                let h = p.options.fd_step;
+                let h = p.options().fd_step;
                 let steps: Vec<f64> = params
                     .iter()
                     .map(|&u| if u + h > 1.0 { -h } else { h })
@@ -2710,7 +2898,7 @@ impl MPFitter for Fitter<'_> {
         for (i, d) in derivs.iter_mut().enumerate() {
             if let Some(col) = d {
                 col[..m].copy_from_slice(&cols[i]);
-                if let Some((_, weight)) = &p.prior {
+                if let Some(weight) = p.prior_weight() {
                     col[m..].fill(0.0);
                     col[m + i] = weight[i];
                 }

@@ -9,7 +9,10 @@
 //! free. After every step the updated plant and the report are written atomically, so an
 //! interrupted run (Ctrl-C) leaves the last completed step's results intact.
 
-use super::identifiability::{occurrence, spanning_symbols, structural_companions, Occurrence};
+use super::identifiability::{
+    occurrence, spanning_symbols, spanning_symbols_across, structural_companions, Occurrence,
+};
+use super::joint::JointProblem;
 use super::output_error::{FitResult, OutputErrorOptions, Problem, Progress, Record, Statistics};
 use crate::measurement::{check_sampling, Table};
 use crate::plant::Plant;
@@ -109,9 +112,7 @@ fn plan_with(plant: &Plant, sequence: &str, occ: &Occurrence) -> Result<Vec<Step
         let carried = carried_into(&tied, occ, cname, &names);
         names.extend(carried.iter().cloned());
         for e in &plant.effects {
-            let joints_free =
-                conf.free.contains(&e.joint) && e.from.is_none_or(|f| conf.free.contains(&f));
-            if !joints_free {
+            if !e.acts_with(conf.free) {
                 continue;
             }
             for n in e.parameter_names() {
@@ -332,6 +333,10 @@ pub struct SequenceReport {
     pub options: OutputErrorOptions,
     /// Completed steps.
     pub steps: Vec<StepReport>,
+    /// The joint fit of the steps ([`JointFitMode`]), when run: its `step` lists every
+    /// configuration's free joints and the parameters fitted; its fit's statistics are
+    /// those of all the files.
+    pub joint: Option<StepReport>,
     /// Files not used, with the reason.
     pub ignored: Vec<String>,
 }
@@ -405,6 +410,23 @@ pub struct SequenceOptions {
     pub out: PathBuf,
     /// Which rigid-body symbols each step fits.
     pub rigid_body: RigidBodyFit,
+    /// Whether a joint fit of the steps follows (or replaces) the step-by-step fits.
+    pub joint: JointFitMode,
+}
+
+/// The joint fit of a sequence's steps (`lockstep identify --joint-fit`,
+/// [`super::joint::JointProblem`]): every parameter the steps fit, on every step's files at
+/// once, from the values the steps left. It covers the steps of the sequence up to the
+/// last one run (all, or up to `--config`'s).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JointFitMode {
+    /// The steps only (the thesis).
+    Off,
+    /// The steps, then the joint fit.
+    After,
+    /// The joint fit alone, from the plant's values (a plant a sequence run wrote).
+    Only,
 }
 
 /// Run a locking sequence: check every step's data and bounds first, then fit step by
@@ -435,7 +457,21 @@ pub fn run(
                     .join(", ")
             );
         };
-        steps = vec![steps.swap_remove(i)];
+        steps.truncate(i + 1);
+    }
+    // The joint fit covers every step up to the last one run; the per-step fits, that one
+    // alone under --config, none under --joint-fit only.
+    let joint_steps: Vec<Step> = if opts.joint == JointFitMode::Off {
+        Vec::new()
+    } else {
+        steps.clone()
+    };
+    match (&opts.only, opts.joint) {
+        (_, JointFitMode::Only) => steps.clear(),
+        (Some(_), _) => {
+            steps.drain(..steps.len() - 1);
+        }
+        (None, _) => {}
     }
     let (files, mut ignored) = discover(data, model)?;
     // Everything checked before the first fit.
@@ -481,8 +517,34 @@ pub fn run(
                 .with_context(|| format!("step '{}'", s.config))?,
         );
     }
+    // The joint fit's files, checked before any fit too.
+    let mut joint_files: Vec<(&'static Configuration, Vec<Record>)> = Vec::new();
+    for s in &joint_steps {
+        let conf = crate::util::configuration(model, &s.config)?;
+        let recs = files
+            .iter()
+            .filter(|f| f.config == s.config)
+            .map(|f| read_record(&f.path, model, conf, opts.locked_tolerance))
+            .collect::<Result<Vec<_>>>()?;
+        if recs.is_empty() {
+            bail!(
+                "joint fit: step '{}' has no measurement file of its configuration in {} (the joint fit covers the steps up to {})",
+                s.config,
+                data.iter()
+                    .map(|d| d.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                joint_steps.last().map_or("", |s| s.config.as_str())
+            );
+        }
+        joint_files.push((conf, recs));
+    }
     for f in &files {
-        if !steps.iter().any(|s| s.config == f.config) {
+        if !steps
+            .iter()
+            .chain(&joint_steps)
+            .any(|s| s.config == f.config)
+        {
             ignored.push(format!(
                 "{}: configuration '{}' is not a step of this run",
                 f.path.display(),
@@ -499,6 +561,7 @@ pub fn run(
         plant: plant.name(),
         options: opts.fit.clone(),
         steps: Vec::new(),
+        joint: None,
         ignored,
     };
     for (mut s, first) in steps.into_iter().zip(checked) {
@@ -578,17 +641,141 @@ pub fn run(
                 .collect::<Vec<_>>()
                 .join(", ")
         );
-        current.save(&opts.out.join("plant.toml"))?;
-        write_atomic(
-            &opts.out.join("report.json"),
-            serde_json::to_string_pretty(&report)?.as_bytes(),
-        )?;
-        write_atomic(
-            &opts.out.join("report.md"),
-            markdown(&report, model).as_bytes(),
-        )?;
+        save(&current, &report, &opts.out, model)?;
+    }
+    if !joint_files.is_empty() {
+        report.joint = Some(joint_fit(
+            &mut current,
+            &joint_steps,
+            joint_files,
+            &occ,
+            opts,
+            &|p| progress("joint", p),
+        )?);
+        current.description = format!(
+            "{} — identified by lockstep ({} method{}, then the joint fit of {})",
+            plant.description,
+            opts.sequence,
+            if report.steps.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    ", steps {}",
+                    report
+                        .steps
+                        .iter()
+                        .map(|s| s.step.config.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            },
+            joint_steps
+                .iter()
+                .map(|s| s.config.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        save(&current, &report, &opts.out, model)?;
     }
     Ok(report)
+}
+
+/// Write the plant and the report (Markdown and JSON) into `out`, each atomically.
+///
+/// # Errors
+/// A file cannot be written.
+fn save(plant: &Plant, report: &SequenceReport, out: &Path, model: &Model) -> Result<()> {
+    plant.save(&out.join("plant.toml"))?;
+    write_atomic(
+        &out.join("report.json"),
+        serde_json::to_string_pretty(report)?.as_bytes(),
+    )?;
+    write_atomic(&out.join("report.md"), markdown(report, model).as_bytes())
+}
+
+/// The joint fit of `steps` (as planned) on their `files` from `plant`'s values, which it
+/// updates (values, undetermined symbols, standard errors); its report. The parameters: every one the steps fit (rigid-body
+/// symbols and effects), less, under [`RigidBodyFit::Spanning`], the rigid-body symbols
+/// that the others span the base parameters of all the configurations without
+/// ([`spanning_symbols_across`]; held, and left undetermined).
+///
+/// # Errors
+/// Bounds missing or infeasible; the start cannot be simulated.
+fn joint_fit(
+    plant: &mut Plant,
+    steps: &[Step],
+    files: Vec<(&'static Configuration, Vec<Record>)>,
+    occ: &Occurrence,
+    opts: &SequenceOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<StepReport> {
+    let model = plant.model;
+    let mut names: Vec<String> = Vec::new();
+    let mut free: Vec<usize> = Vec::new();
+    let mut held: Vec<String> = Vec::new();
+    for s in steps {
+        for n in &s.fitted {
+            if !names.contains(n) {
+                names.push(n.clone());
+            }
+        }
+        free.extend(
+            s.free
+                .iter()
+                .filter(|j| !free.contains(j))
+                .copied()
+                .collect::<Vec<_>>(),
+        );
+        held.extend(s.held.iter().cloned());
+    }
+    free.sort_unstable();
+    let mut tied_held = Vec::new();
+    if opts.rigid_body == RigidBodyFit::Spanning {
+        let locked_at: Vec<Vec<Vec<f64>>> = files
+            .iter()
+            .map(|(_, recs)| recs.iter().map(|r| r.q_all.clone()).collect())
+            .collect();
+        let places: Vec<(&Configuration, &[Vec<f64>])> = files
+            .iter()
+            .zip(&locked_at)
+            .map(|((conf, _), at)| (*conf, at.as_slice()))
+            .collect();
+        let keep = spanning_symbols_across(plant, &places, &names, &bound_width(plant, &names))
+            .context("joint fit")?;
+        tied_held = names
+            .iter()
+            .enumerate()
+            .filter(|&(i, n)| model.inertial_symbols.contains(&n.as_str()) && !keep.contains(&i))
+            .map(|(_, n)| n.clone())
+            .collect();
+        names.retain(|n| !tied_held.contains(n));
+    }
+    let problem = JointProblem::new(plant, names, tied_held.clone(), files, &opts.fit, occ)?;
+    let fit = problem.fit(progress)?;
+    fit.apply(plant);
+    let mut undetermined = tied_held.clone();
+    for (i, n) in fit.names.iter().enumerate() {
+        if model.inertial_symbols.contains(&n.as_str()) && !fit.statistics.identifiable[i] {
+            undetermined.push(n.clone());
+        }
+    }
+    plant.undetermined = undetermined;
+    record_standard_errors(plant, &fit.names, &fit.statistics);
+    let impossible = impossible_links(plant, &fit.names)?;
+    Ok(StepReport {
+        step: Step {
+            config: "joint".into(),
+            free,
+            interest: Vec::new(),
+            fitted: fit.names.clone(),
+            carried: Vec::new(),
+            held,
+            tied_held,
+        },
+        fit,
+        impossible,
+        carried_prior: Vec::new(),
+    })
 }
 
 /// Keep in `plant` ([`Plant::standard_errors`]) the standard errors of the undetermined
@@ -665,209 +852,14 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
         o.starts
     );
     for st in &report.steps {
-        let f = &st.fit;
-        let joints = |v: &[usize]| {
-            v.iter()
-                .map(|&j| model.joints[j])
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
+        step_markdown(&mut s, st, o, model, false);
+    }
+    if let Some(st) = &report.joint {
         let _ = writeln!(
             s,
-            "## Step {}: free {}, of interest {}\n\n{} file(s): {}. {} residuals, {} parameters. Cost {} → {} ({:.1} % lower). {:.1} s wall, {} cost evaluations and {} Jacobians; best of {} start(s): start {} ({}).\n",
-            st.step.config,
-            joints(&st.step.free),
-            if st.step.interest.is_empty() { "none (all weighted 1)".into() } else { joints(&st.step.interest) },
-            f.files.len(),
-            f.files.iter().map(|p| format!("`{}`", p.display())).collect::<Vec<_>>().join(", "),
-            f.residuals,
-            f.names.len(),
-            fmt_g(f.cost_before),
-            fmt_g(f.cost_after),
-            100.0 * (1.0 - f.cost_after / f.cost_before),
-            f.wall_s,
-            f.evaluations,
-            f.jacobians,
-            f.starts.len(),
-            f.best_start,
-            f.starts.get(f.best_start).map(|x| x.status.as_str()).unwrap_or("")
+            "The joint fit refines every parameter of the steps above on all their files at once, from the values the steps left: its standard errors and identifiable calls are those of all the data, where each step's are conditional on the values earlier steps fixed. The plant written holds its values.\n"
         );
-        if !st.step.carried.is_empty() {
-            let _ = writeln!(
-                s,
-                "Carried from earlier steps, which did not determine them: {}.\n",
-                st.step.carried.join(", ")
-            );
-        }
-        if !st.step.tied_held.is_empty() {
-            let _ = writeln!(
-                s,
-                "Held along exact ties (the fitted symbols span this configuration's base parameters without them; left undetermined): {}.\n",
-                st.step.tied_held.join(", ")
-            );
-        }
-        if !st.step.held.is_empty() {
-            let _ = writeln!(
-                s,
-                "Held at their values (bounds lower = upper): {}.\n",
-                st.step.held.join(", ")
-            );
-        }
-        if let Some(tau) = report.options.prior {
-            let _ = writeln!(
-                s,
-                "Prior: Gaussian about the initial values, spread {tau} × each value; its term at the result {} (the fit minimised cost + prior term).\n",
-                fmt_g(f.prior_penalty)
-            );
-        }
-        if o.carried_prior && st.carried_prior.is_empty() && !st.step.carried.is_empty() {
-            let _ = writeln!(
-                s,
-                "Carried prior (`--carried-prior on`): none of the carried symbols has a standard error in the plant (recorded only by a step at the noise floor that fitted them with a finite one, off their bounds), so none is held.\n"
-            );
-        }
-        if !st.carried_prior.is_empty() {
-            let each: Vec<String> = st
-                .carried_prior
-                .iter()
-                .map(|(n, se)| format!("{n} ± {}", fmt_g(*se)))
-                .collect();
-            let _ = writeln!(
-                s,
-                "Carried prior (`--carried-prior on`): Gaussian about the values the earlier steps left, standard deviation their standard errors there: {}; the prior's term at the result {} (the fit minimised cost + prior term).\n",
-                each.join(", "),
-                fmt_g(f.prior_penalty)
-            );
-        }
-        if let Some(lc) = f.least_change.as_ref().filter(|lc| !lc.moved.is_empty()) {
-            let _ = writeln!(
-                s,
-                "Least change: {} moved from the minimum toward the initial values with this configuration's base parameters unchanged (values these data cannot tell apart); cost {} → {} ({}; one noise variance: {}).\n",
-                lc.moved.join(", "),
-                fmt_g(lc.cost_at_minimum),
-                fmt_g(lc.cost),
-                if lc.accepted { "kept" } else { "rose more than one noise variance: not kept" },
-                fmt_g(lc.allowed_rise),
-            );
-            if let Some(alpha) = lc.gain_scale {
-                let _ = writeln!(
-                    s,
-                    "Plant-gain scale: position data fix the plant gains only together with every force of the configuration (an exact symmetry); all of them were scaled by α = {}, which returns the fitted plant gains to their initial values (geometric mean), the cost unchanged within one noise variance. Their scale is the initial gains': hold one gain at a known value (bounds lower = upper) to set it.\n",
-                    fmt_g(alpha)
-                );
-            }
-        }
-        if !st.impossible.is_empty() {
-            let _ = writeln!(
-                s,
-                "**Physically impossible links after this step** (the data of this configuration are fitted, but no body has these values; the plant-gain scale of an isolated step can drive a link's inertia there):\n"
-            );
-            for line in &st.impossible {
-                let _ = writeln!(s, "- {line}");
-            }
-            let _ = writeln!(s);
-        }
-        let stats = &f.statistics;
-        if let Some(offsets) = &f.initial_positions {
-            let each: Vec<String> = f
-                .files
-                .iter()
-                .zip(offsets)
-                .map(|(file, d)| {
-                    let joints: Vec<String> = stats
-                        .joints
-                        .iter()
-                        .zip(d)
-                        .map(|(j, &d)| format!("{} {:+.2} σ̂", j.joint, d / j.noise))
-                        .collect();
-                    format!("{}: {}", file.display(), joints.join(", "))
-                })
-                .collect();
-            let _ = writeln!(
-                s,
-                "Initial positions estimated with the parameters (`--initial-positions estimate`; the figures below are on these starts), estimate − first sample: {}.\n",
-                each.join("; ")
-            );
-        }
-        if !stats.above_floor.is_empty() {
-            let _ = writeln!(
-                s,
-                "**Not at the noise floor** ({}; the floor is {} σ̂, σ̂ the noise each joint's data show): the residuals are not noise, the standard errors do not bound the error of the values, and no parameter is called identifiable.\n",
-                stats.above_floor.join(", "),
-                super::output_error::FLOOR_FACTOR
-            );
-        }
-        let _ = writeln!(
-            s,
-            "| parameter | initial | fitted | std error | rel. % | bounds | identifiable |\n|---|---|---|---|---|---|---|"
-        );
-        for i in 0..f.names.len() {
-            let mut why = Vec::new();
-            if !stats.above_floor.is_empty() {
-                why.push("not at the noise floor".to_string());
-            }
-            if stats.at_bound[i] {
-                why.push("at a bound".to_string());
-            }
-            if stats.std_err[i].is_infinite() {
-                why.push(
-                    "not determined by the data (moves along an exact symmetry, such as the plant-gain scale)"
-                        .to_string(),
-                );
-            } else if stats.relative_std_err[i] > super::output_error::RELATIVE_STD_LIMIT {
-                why.push(format!(
-                    "σ/|p| > {} %",
-                    100.0 * super::output_error::RELATIVE_STD_LIMIT
-                ));
-            }
-            if !stats.only_with[i].is_empty() {
-                why.push(format!(
-                    "only in combination with {} (base parameters)",
-                    stats.only_with[i].join(", ")
-                ));
-            }
-            for (a, b, c) in &stats.correlated {
-                if *a == f.names[i] || *b == f.names[i] {
-                    let other = if *a == f.names[i] { b } else { a };
-                    why.push(format!("corr {c:+.3} with {other}"));
-                }
-            }
-            let _ = writeln!(
-                s,
-                "| {} | {} | {} | {} | {:.2} | [{}, {}] | {} |",
-                f.names[i],
-                fmt_g(f.initial[i]),
-                fmt_g(f.fitted[i]),
-                fmt_g(stats.std_err[i]),
-                100.0 * stats.relative_std_err[i],
-                fmt_g(f.lower[i]),
-                fmt_g(f.upper[i]),
-                if stats.identifiable[i] {
-                    "yes".to_string()
-                } else {
-                    format!("no: {}", why.join("; "))
-                }
-            );
-        }
-        let _ = writeln!(
-            s,
-            "\nCondition number of the scaled JᵀJ: {:.3e}.\n\n| joint | λ | RMS error (rad) | noise σ̂ (rad) | RMS / σ̂ | max error (rad) | NRMSE fit % |\n|---|---|---|---|---|---|---|",
-            stats.condition
-        );
-        for j in &stats.joints {
-            let _ = writeln!(
-                s,
-                "| {} | {} | {:.4e} | {:.4e} | {:.2} | {:.4e} | {:.2} |",
-                j.joint,
-                j.weight,
-                j.rms,
-                j.noise,
-                j.rms / j.noise.max(1e-300),
-                j.max_abs,
-                j.nrmse_fit
-            );
-        }
-        let _ = writeln!(s);
+        step_markdown(&mut s, st, o, model, true);
     }
     if !report.ignored.is_empty() {
         let _ = writeln!(s, "## Files not used\n");
@@ -876,6 +868,234 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
         }
     }
     s
+}
+
+/// One step's section of [`markdown`] (the joint fit's when `joint`), with the run's
+/// options `o`.
+fn step_markdown(
+    s: &mut String,
+    st: &StepReport,
+    o: &OutputErrorOptions,
+    model: &Model,
+    joint: bool,
+) {
+    let f = &st.fit;
+    let joints = |v: &[usize]| {
+        v.iter()
+            .map(|&j| model.joints[j])
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let title = if joint {
+        format!(
+            "Joint fit of every step's files: free {}, all weighted 1",
+            joints(&st.step.free)
+        )
+    } else {
+        format!(
+            "Step {}: free {}, of interest {}",
+            st.step.config,
+            joints(&st.step.free),
+            if st.step.interest.is_empty() {
+                "none (all weighted 1)".into()
+            } else {
+                joints(&st.step.interest)
+            }
+        )
+    };
+    let _ = writeln!(
+        s,
+        "## {title}\n\n{} file(s): {}. {} residuals, {} parameters. Cost {} → {} ({:.1} % lower). {:.1} s wall, {} cost evaluations and {} Jacobians; best of {} start(s): start {} ({}).\n",
+        f.files.len(),
+        f.files.iter().map(|p| format!("`{}`", p.display())).collect::<Vec<_>>().join(", "),
+        f.residuals,
+        f.names.len(),
+        fmt_g(f.cost_before),
+        fmt_g(f.cost_after),
+        100.0 * (1.0 - f.cost_after / f.cost_before),
+        f.wall_s,
+        f.evaluations,
+        f.jacobians,
+        f.starts.len(),
+        f.best_start,
+        f.starts.get(f.best_start).map(|x| x.status.as_str()).unwrap_or("")
+    );
+    if !st.step.carried.is_empty() {
+        let _ = writeln!(
+            s,
+            "Carried from earlier steps, which did not determine them: {}.\n",
+            st.step.carried.join(", ")
+        );
+    }
+    if !st.step.tied_held.is_empty() {
+        let _ = writeln!(
+            s,
+            "Held along exact ties (the fitted symbols span this configuration's base parameters without them; left undetermined): {}.\n",
+            st.step.tied_held.join(", ")
+        );
+    }
+    if !st.step.held.is_empty() {
+        let _ = writeln!(
+            s,
+            "Held at their values (bounds lower = upper): {}.\n",
+            st.step.held.join(", ")
+        );
+    }
+    if let Some(tau) = o.prior {
+        let _ = writeln!(
+            s,
+            "Prior: Gaussian about the initial values, spread {tau} × each value; its term at the result {} (the fit minimised cost + prior term).\n",
+            fmt_g(f.prior_penalty)
+        );
+    }
+    if o.carried_prior && st.carried_prior.is_empty() && !st.step.carried.is_empty() {
+        let _ = writeln!(
+            s,
+            "Carried prior (`--carried-prior on`): none of the carried symbols has a standard error in the plant (recorded only by a step at the noise floor that fitted them with a finite one, off their bounds), so none is held.\n"
+        );
+    }
+    if !st.carried_prior.is_empty() {
+        let each: Vec<String> = st
+            .carried_prior
+            .iter()
+            .map(|(n, se)| format!("{n} ± {}", fmt_g(*se)))
+            .collect();
+        let _ = writeln!(
+            s,
+            "Carried prior (`--carried-prior on`): Gaussian about the values the earlier steps left, standard deviation their standard errors there: {}; the prior's term at the result {} (the fit minimised cost + prior term).\n",
+            each.join(", "),
+            fmt_g(f.prior_penalty)
+        );
+    }
+    if let Some(lc) = f.least_change.as_ref().filter(|lc| !lc.moved.is_empty()) {
+        let _ = writeln!(
+            s,
+            "Least change: {} moved from the minimum toward the initial values with this configuration's base parameters unchanged (values these data cannot tell apart); cost {} → {} ({}; one noise variance: {}).\n",
+            lc.moved.join(", "),
+            fmt_g(lc.cost_at_minimum),
+            fmt_g(lc.cost),
+            if lc.accepted { "kept" } else { "rose more than one noise variance: not kept" },
+            fmt_g(lc.allowed_rise),
+        );
+        if let Some(alpha) = lc.gain_scale {
+            let _ = writeln!(
+                s,
+                "Plant-gain scale: position data fix the plant gains only together with every force of the configuration (an exact symmetry); all of them were scaled by α = {}, which returns the fitted plant gains to their initial values (geometric mean), the cost unchanged within one noise variance. Their scale is the initial gains': hold one gain at a known value (bounds lower = upper) to set it.\n",
+                fmt_g(alpha)
+            );
+        }
+    }
+    if !st.impossible.is_empty() {
+        let _ = writeln!(
+            s,
+            "**Physically impossible links after this step** (the data of this configuration are fitted, but no body has these values; the plant-gain scale of an isolated step can drive a link's inertia there):\n"
+        );
+        for line in &st.impossible {
+            let _ = writeln!(s, "- {line}");
+        }
+        let _ = writeln!(s);
+    }
+    let stats = &f.statistics;
+    if let Some(offsets) = &f.initial_positions {
+        let each: Vec<String> = f
+            .files
+            .iter()
+            .zip(offsets)
+            .map(|(file, d)| {
+                let joints: Vec<String> = stats
+                    .joints
+                    .iter()
+                    .zip(d)
+                    .map(|(j, &d)| format!("{} {:+.2} σ̂", j.joint, d / j.noise))
+                    .collect();
+                format!("{}: {}", file.display(), joints.join(", "))
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "Initial positions estimated with the parameters (`--initial-positions estimate`; the figures below are on these starts), estimate − first sample: {}.\n",
+            each.join("; ")
+        );
+    }
+    if !stats.above_floor.is_empty() {
+        let _ = writeln!(
+            s,
+            "**Not at the noise floor** ({}; the floor is {} σ̂, σ̂ the noise each joint's data show): the residuals are not noise, the standard errors do not bound the error of the values, and no parameter is called identifiable.\n",
+            stats.above_floor.join(", "),
+            super::output_error::FLOOR_FACTOR
+        );
+    }
+    let _ = writeln!(
+        s,
+        "| parameter | initial | fitted | std error | rel. % | bounds | identifiable |\n|---|---|---|---|---|---|---|"
+    );
+    for i in 0..f.names.len() {
+        let mut why = Vec::new();
+        if !stats.above_floor.is_empty() {
+            why.push("not at the noise floor".to_string());
+        }
+        if stats.at_bound[i] {
+            why.push("at a bound".to_string());
+        }
+        if stats.std_err[i].is_infinite() {
+            why.push(
+                "not determined by the data (moves along an exact symmetry, such as the plant-gain scale)"
+                    .to_string(),
+            );
+        } else if stats.relative_std_err[i] > super::output_error::RELATIVE_STD_LIMIT {
+            why.push(format!(
+                "σ/|p| > {} %",
+                100.0 * super::output_error::RELATIVE_STD_LIMIT
+            ));
+        }
+        if !stats.only_with[i].is_empty() {
+            why.push(format!(
+                "only in combination with {} (base parameters)",
+                stats.only_with[i].join(", ")
+            ));
+        }
+        for (a, b, c) in &stats.correlated {
+            if *a == f.names[i] || *b == f.names[i] {
+                let other = if *a == f.names[i] { b } else { a };
+                why.push(format!("corr {c:+.3} with {other}"));
+            }
+        }
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {:.2} | [{}, {}] | {} |",
+            f.names[i],
+            fmt_g(f.initial[i]),
+            fmt_g(f.fitted[i]),
+            fmt_g(stats.std_err[i]),
+            100.0 * stats.relative_std_err[i],
+            fmt_g(f.lower[i]),
+            fmt_g(f.upper[i]),
+            if stats.identifiable[i] {
+                "yes".to_string()
+            } else {
+                format!("no: {}", why.join("; "))
+            }
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nCondition number of the scaled JᵀJ: {:.3e}.\n\n| joint | λ | RMS error (rad) | noise σ̂ (rad) | RMS / σ̂ | max error (rad) | NRMSE fit % |\n|---|---|---|---|---|---|---|",
+        stats.condition
+    );
+    for j in &stats.joints {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.4e} | {:.4e} | {:.2} | {:.4e} | {:.2} |",
+            j.joint,
+            j.weight,
+            j.rms,
+            j.noise,
+            j.rms / j.noise.max(1e-300),
+            j.max_abs,
+            j.nrmse_fit
+        );
+    }
+    let _ = writeln!(s);
 }
 
 #[cfg(test)]

@@ -1,0 +1,535 @@
+//! The joint fit of a locking sequence: every parameter its steps fitted, on every step's
+//! files at once, each file simulated in its own configuration.
+//!
+//! A locking sequence (thesis 4.2–4.4) fits each step with everything earlier held at its
+//! fitted value. A held value that is off by more than its own standard error — the earlier
+//! step determined it only given values fixed before it — is absorbed by the later step's
+//! parameters, and that step's standard errors, conditional on the held values, do not
+//! show it: on the Freedom 6S's k4 (README) three values called identifiable were 5–93 %
+//! off while k4's own data at the true held values called seven identifiable, all within
+//! 0.83 %. The joint fit refines all of them together from where the sequence ended
+//! (Levenberg–Marquardt on the stacked residuals; the sequence is its initialisation, as a
+//! bundle adjustment follows incremental reconstruction), and its standard errors are those
+//! of all the data, nothing held.
+//!
+//! Cost: Σ over steps of the cost (4.2)/(4.3) of that step's files with every free joint
+//! weighted 1 (no joint of interest: every parameter is fitted here). The Jacobian column of
+//! a parameter simulates only the configurations whose equations contain it (the
+//! occurrence table, Figure 4.2; an effect where its joints are free).
+
+use super::identifiability::{structural_companions_across, Occurrence};
+use super::output_error::{
+    covariance_statistics, difference_column, feasible_bounds, minimise, physical_to_scaled,
+    scaled_to_physical, FitResult, LeastSquares, OutputErrorOptions, Problem, Progress, Record,
+    Stage, StageContext, StartSummary, Statistics, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS,
+    INITIAL_POSITION_SETTLED,
+};
+use crate::plant::Plant;
+use crate::simulation::Trajectory;
+use anyhow::{bail, Context, Result};
+use generated::Configuration;
+use rayon::prelude::*;
+use rmpfit::{MPConfig, MPMaxFev};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// One configuration's files in the joint fit.
+#[derive(Clone)]
+struct Part {
+    /// The configuration's problem: its parameters are those of the joint fit that enter
+    /// its equations, its weights λ = 1 on every free joint.
+    problem: Problem,
+    /// Index in [`JointProblem::names`] of each of `problem.names`.
+    index: Vec<usize>,
+    /// Index of its first residual in the stacked vector.
+    offset: usize,
+}
+
+impl Part {
+    /// This part's parameters out of the joint fit's `p`.
+    fn take(&self, p: &[f64]) -> Vec<f64> {
+        self.index.iter().map(|&i| p[i]).collect()
+    }
+
+    fn len(&self) -> usize {
+        self.problem.residual_count()
+    }
+}
+
+/// The joint fit of several configurations' files ([module docs](self)).
+#[derive(Clone)]
+pub struct JointProblem {
+    plant: Plant,
+    /// Fitted parameter names.
+    pub names: Vec<String>,
+    /// Lower bounds (physical units, Fs ≥ Fc folded in).
+    pub lower: Vec<f64>,
+    /// Upper bounds.
+    pub upper: Vec<f64>,
+    pairs: Vec<(usize, usize)>,
+    parts: Vec<Part>,
+    m: usize,
+    /// Rigid-body symbols held at the plant's values although they tie exactly with fitted
+    /// ones (counted by the structural check, as [`Problem::with_held_ties`]).
+    held_ties: Vec<String>,
+    options: OutputErrorOptions,
+}
+
+/// Whether parameter `name` of `plant` enters configuration `conf`'s simulation: a
+/// rigid-body symbol that the occurrence table `occ` lists there, a parameter of an effect
+/// that acts with its free joints ([`crate::effects::Effect::acts_with`]), or anything else
+/// the plant holds (a barycentric parameter: kept, to be safe).
+fn enters(plant: &Plant, occ: &Occurrence, conf: &Configuration, name: &str) -> bool {
+    if plant.model.inertial_symbols.contains(&name) {
+        return occ.appears_in(name, conf.name);
+    }
+    let mut owners = plant
+        .effects
+        .iter()
+        .filter(|e| e.parameter_names().iter().any(|n| n == name))
+        .peekable();
+    owners.peek().is_none() || owners.any(|e| e.acts_with(conf.free))
+}
+
+impl JointProblem {
+    /// Set up the joint fit of `names` of `plant` on `files` (per configuration, its
+    /// records), with the time weighting, integrator and stopping rules of `options` (its
+    /// prior, carried prior and least change are not used); `held_ties` as
+    /// [`Problem::with_held_ties`]; `occ` the model's occurrence table.
+    ///
+    /// # Errors
+    /// A fitted parameter without value or bounds, or outside them; Fs ≥ Fc infeasible; a
+    /// configuration without records; fewer residuals than parameters.
+    pub fn new(
+        plant: &Plant,
+        names: Vec<String>,
+        held_ties: Vec<String>,
+        files: Vec<(&'static Configuration, Vec<Record>)>,
+        options: &OutputErrorOptions,
+        occ: &Occurrence,
+    ) -> Result<JointProblem> {
+        let (lower, upper, pairs) = feasible_bounds(plant, &names, "the joint fit")?;
+        let options = OutputErrorOptions {
+            prior: None,
+            carried_prior: false,
+            least_change: false,
+            ..options.clone()
+        };
+        let mut parts = Vec::new();
+        let mut m = 0;
+        for (conf, records) in files {
+            let index: Vec<usize> = (0..names.len())
+                .filter(|&i| enters(plant, occ, conf, &names[i]))
+                .collect();
+            let sub: Vec<String> = index.iter().map(|&i| names[i].clone()).collect();
+            let problem = Problem::new(plant, conf, sub, records, &[], options.clone())
+                .with_context(|| format!("joint fit, configuration '{}'", conf.name))?
+                .with_held_ties(
+                    held_ties
+                        .iter()
+                        .filter(|n| occ.appears_in(n, conf.name))
+                        .cloned()
+                        .collect(),
+                );
+            let part = Part {
+                problem,
+                index,
+                offset: m,
+            };
+            m += part.len();
+            parts.push(part);
+        }
+        if m <= names.len() {
+            bail!(
+                "joint fit: {m} weighted residuals for {} parameters",
+                names.len()
+            );
+        }
+        Ok(JointProblem {
+            plant: plant.clone(),
+            names,
+            lower,
+            upper,
+            pairs,
+            parts,
+            m,
+            held_ties,
+            options,
+        })
+    }
+
+    /// The configurations, in order.
+    pub fn configurations(&self) -> Vec<&'static str> {
+        self.parts
+            .iter()
+            .map(|p| p.problem.configuration().name)
+            .collect()
+    }
+
+    /// The fitted parameters that enter configuration `config` (its Jacobian columns are
+    /// simulated there), in the order of [`JointProblem::names`]; empty for a
+    /// configuration the fit does not have.
+    pub fn entering(&self, config: &str) -> Vec<String> {
+        self.parts
+            .iter()
+            .filter(|part| part.problem.configuration().name == config)
+            .flat_map(|part| part.problem.names.clone())
+            .collect()
+    }
+
+    /// Physical parameters from scaled ones (u ∈ [0, 1]ⁿ).
+    pub fn to_physical(&self, u: &[f64]) -> Vec<f64> {
+        scaled_to_physical(&self.lower, &self.upper, &self.pairs, u)
+    }
+
+    /// Scaled parameters of physical ones (clamped into the feasible set).
+    pub fn to_scaled(&self, p: &[f64]) -> Vec<f64> {
+        physical_to_scaled(&self.lower, &self.upper, &self.pairs, p)
+    }
+
+    /// The plant with the fitted parameters set to `p`.
+    pub fn plant_at(&self, p: &[f64]) -> Plant {
+        let mut plant = self.plant.clone();
+        for (n, &v) in self.names.iter().zip(p) {
+            plant.parameters.insert(n.clone(), v);
+        }
+        plant
+    }
+
+    /// Every configuration's trajectories at physical parameters `p` (configurations, and
+    /// files within each, in parallel).
+    ///
+    /// # Errors
+    /// The first failing file's simulation.
+    fn trajectories(&self, p: &[f64]) -> Result<Vec<Vec<Trajectory>>, TrialFailure> {
+        self.parts
+            .par_iter()
+            .map(|part| part.problem.trajectories(&part.take(p)))
+            .collect()
+    }
+
+    /// The stacked residuals (configurations in order) at physical parameters `p`.
+    ///
+    /// # Errors
+    /// The first failing file's simulation.
+    pub fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
+        let blocks: Vec<Vec<f64>> = self
+            .parts
+            .par_iter()
+            .map(|part| part.problem.residuals(&part.take(p)))
+            .collect::<Result<_, _>>()?;
+        Ok(blocks.concat())
+    }
+
+    /// Σ r² at `p`, or +∞ where a simulation fails.
+    pub fn cost(&self, p: &[f64]) -> f64 {
+        self.residuals(p)
+            .map(|r| r.iter().map(|x| x * x).sum())
+            .unwrap_or(f64::INFINITY)
+    }
+
+    /// The same fit with every file's initial positions estimated at `p`
+    /// ([`Problem::estimate_initial_positions`]) where that lowers the configuration's
+    /// cost, and the largest move of an initial position in units of its joint's σ̂.
+    ///
+    /// # Errors
+    /// A simulation fails (file named).
+    fn with_initial_positions_at(&self, p: &[f64]) -> Result<(JointProblem, f64), TrialFailure> {
+        let plant = self.plant_at(p);
+        let moved: Vec<(Option<Problem>, f64)> = self
+            .parts
+            .par_iter()
+            .map(|part| {
+                let next = part.problem.with_initial_positions_of(&plant)?;
+                let q = part.take(p);
+                Ok(if next.cost(&q) < part.problem.cost(&q) {
+                    let moved = part
+                        .problem
+                        .initial_position_move(&part.problem.records, &next.records);
+                    (Some(next), moved)
+                } else {
+                    (None, 0.0)
+                })
+            })
+            .collect::<Result<_, TrialFailure>>()?;
+        let mut out = self.clone();
+        let mut largest: f64 = 0.0;
+        for (part, (next, d)) in out.parts.iter_mut().zip(moved) {
+            if let Some(next) = next {
+                part.problem = next;
+            }
+            largest = largest.max(d);
+        }
+        Ok((out, largest))
+    }
+
+    /// Fit from the plant's values: Levenberg–Marquardt on the whole files of every
+    /// configuration, on the stopping rules of the options; with
+    /// [`OutputErrorOptions::estimate_initial_positions`], the initial positions estimated
+    /// at the start and again after each fit until they settle (as a configuration's fit,
+    /// at most [`INITIAL_POSITION_ROUNDS`] fits). The result's `statistics` are those of
+    /// all the files.
+    ///
+    /// # Errors
+    /// The start cannot be simulated; the statistics cannot be formed.
+    pub fn fit(&self, progress: &(dyn Fn(Progress) + Sync)) -> Result<FitResult> {
+        let started = Instant::now();
+        let p0: Vec<f64> = self
+            .names
+            .iter()
+            .map(|n| self.plant.parameters[n])
+            .collect();
+        let mut notes = Vec::new();
+        let mut current = self.clone();
+        if self.options.estimate_initial_positions {
+            let (next, moved) = self.with_initial_positions_at(&p0).map_err(|e| {
+                anyhow::anyhow!("joint fit: the start cannot be simulated: {}", e.0)
+            })?;
+            notes.push(format!(
+                "initial positions estimated at the start (moved up to {moved:.2} σ̂)"
+            ));
+            current = next;
+        }
+        let cost_before = current.cost(&p0);
+        if !cost_before.is_finite() {
+            bail!("joint fit: the start cannot be simulated");
+        }
+        let evaluations = AtomicUsize::new(0);
+        let jacobians = AtomicUsize::new(0);
+        let context = StageContext {
+            start: 0,
+            starts: 1,
+            evaluations: &evaluations,
+            jacobians: &jacobians,
+            started,
+            progress,
+        };
+        let frozen = vec![false; self.names.len()];
+        let mut u = self.to_scaled(&p0);
+        let (mut iterations, mut diverged) = (0, 0);
+        for round in 1..=INITIAL_POSITION_ROUNDS {
+            let config = MPConfig {
+                xtol: self.options.xtol,
+                ftol: self.options.ftol,
+                gtol: 1e-10,
+                max_iter: self.options.max_iter,
+                max_fev: MPMaxFev::Limited(20 * self.options.max_iter.max(1)),
+                ..MPConfig::new()
+            };
+            let start_cost = current.cost(&self.to_physical(&u));
+            let outcome = minimise(
+                &current,
+                Stage::Joint,
+                &frozen,
+                config,
+                &mut u,
+                &context,
+                start_cost,
+            );
+            iterations += outcome.iterations;
+            diverged += outcome.failures;
+            notes.push(format!("fit {round}: {}", outcome.status));
+            if outcome.stop || !self.options.estimate_initial_positions {
+                break;
+            }
+            let p = self.to_physical(&u);
+            match current.with_initial_positions_at(&p) {
+                Ok((next, moved)) => {
+                    current = next;
+                    let settled = moved <= INITIAL_POSITION_SETTLED;
+                    if settled || round == INITIAL_POSITION_ROUNDS {
+                        notes.push(format!(
+                            "initial positions {} (last move {moved:.2} σ̂)",
+                            if settled { "settled" } else { "not settled" }
+                        ));
+                        break;
+                    }
+                    notes.push(format!("initial positions moved up to {moved:.2} σ̂"));
+                }
+                Err(why) => {
+                    notes.push(format!("initial positions not re-estimated: {}", why.0));
+                    break;
+                }
+            }
+        }
+        let p = self.to_physical(&u);
+        let cost_after = current.cost(&p);
+        let statistics = current.statistics(&p)?;
+        let status = notes.join("; ");
+        Ok(FitResult {
+            configuration: format!("joint ({})", self.configurations().join(", ")),
+            names: self.names.clone(),
+            initial: p0,
+            fitted: p,
+            lower: self.lower.clone(),
+            upper: self.upper.clone(),
+            cost_before,
+            cost_after,
+            prior_penalty: 0.0,
+            least_change: None,
+            statistics,
+            starts: vec![StartSummary {
+                start: 0,
+                start_cost: cost_before,
+                cost: cost_after,
+                iterations,
+                status,
+                diverged,
+                warm_up: WarmUp::Sequence,
+            }],
+            best_start: 0,
+            evaluations: evaluations.load(Ordering::Relaxed),
+            jacobians: jacobians.load(Ordering::Relaxed),
+            wall_s: started.elapsed().as_secs_f64(),
+            residuals: self.m,
+            files: current
+                .parts
+                .iter()
+                .flat_map(|part| part.problem.records.iter().map(|r| r.file.clone()))
+                .collect(),
+            initial_positions: None,
+        })
+    }
+
+    /// Standard errors, correlations and fit figures at physical parameters `p` from all
+    /// the configurations' files: the stacked Jacobian (central differences, step
+    /// [`OutputErrorOptions::fd_step`] of the bound width; a column only where the
+    /// parameter enters), each residual's variance from its configuration and joint
+    /// ([`Problem::residual_variances`]), the structural ties that no configuration breaks
+    /// ([`structural_companions_across`]); fit figures per configuration and joint, named
+    /// "k3 q2".
+    ///
+    /// # Errors
+    /// A simulation at `p` fails; the barycentric parameters cannot be formed.
+    pub fn statistics(&self, p: &[f64]) -> Result<Statistics> {
+        let trajectories = self
+            .trajectories(p)
+            .map_err(|e| anyhow::anyhow!("at the fitted values: {}", e.0))?;
+        let n = self.names.len();
+        let steps: Vec<f64> = (0..n)
+            .map(|i| {
+                let s = self.options.fd_step * (self.upper[i] - self.lower[i]);
+                if p[i] + s > self.upper[i] {
+                    -s
+                } else {
+                    s
+                }
+            })
+            .collect();
+        let mut r = Vec::with_capacity(self.m);
+        let mut variances = Vec::with_capacity(self.m);
+        let mut joints = Vec::new();
+        for (part, traj) in self.parts.iter().zip(&trajectories) {
+            let rk = part.problem.residuals_of(traj);
+            variances.extend(part.problem.residual_variances(&rk));
+            r.extend(rk);
+            let conf = part.problem.configuration().name;
+            joints.extend(part.problem.joint_fits(traj).into_iter().map(|mut j| {
+                j.joint = format!("{conf} {}", j.joint);
+                j
+            }));
+        }
+        let cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
+        let dof = self.m as f64 / (self.m - n) as f64;
+        let sigma: Vec<f64> = variances.iter().map(|v| v * dof).collect();
+        let only_with = self.structural_companions(p)?;
+        covariance_statistics(
+            &self.names,
+            p,
+            (&self.lower, &self.upper),
+            cols,
+            &sigma,
+            only_with,
+            joints,
+        )
+    }
+
+    /// For every fitted parameter, the other rigid-body symbols (fitted, or held along
+    /// ties) it trades with exactly in every configuration at once.
+    ///
+    /// # Errors
+    /// The plant's barycentric parameters cannot be formed.
+    fn structural_companions(&self, p: &[f64]) -> Result<Vec<Vec<String>>> {
+        let plant = self.plant_at(p);
+        let n = self.names.len();
+        let names: Vec<String> = self.names.iter().chain(&self.held_ties).cloned().collect();
+        let width = |i: usize| {
+            if i < n {
+                return self.upper[i] - self.lower[i];
+            }
+            match plant.bounds.get(&names[i]) {
+                Some(&(lo, hi)) if hi > lo => hi - lo,
+                _ => plant
+                    .parameters
+                    .get(&names[i])
+                    .map_or(1.0, |v| v.abs().max(1e-12)),
+            }
+        };
+        let places: Vec<(&Configuration, &[Vec<f64>])> = self
+            .parts
+            .iter()
+            .map(|part| (part.problem.configuration(), &[][..]))
+            .collect();
+        let mut out = structural_companions_across(&plant, &places, &names, &width)?;
+        out.truncate(n);
+        Ok(out)
+    }
+}
+
+impl LeastSquares for JointProblem {
+    fn residual_count(&self) -> usize {
+        self.m
+    }
+
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
+        JointProblem::residuals(self, p)
+    }
+
+    fn to_physical(&self, u: &[f64]) -> Vec<f64> {
+        JointProblem::to_physical(self, u)
+    }
+
+    /// Column i simulates only the configurations that parameter i enters; the other rows
+    /// are zero. All (parameter, configuration) pairs run in parallel.
+    fn jacobian_columns(
+        &self,
+        x: &[f64],
+        r0: &[f64],
+        steps: &[f64],
+        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+        central: bool,
+    ) -> Vec<Vec<f64>> {
+        let tasks: Vec<(usize, usize)> = (0..x.len())
+            .flat_map(|i| {
+                self.parts
+                    .iter()
+                    .enumerate()
+                    .filter(move |(_, part)| part.index.contains(&i))
+                    .map(move |(k, _)| (i, k))
+            })
+            .collect();
+        let blocks: Vec<Vec<f64>> = tasks
+            .par_iter()
+            .map(|&(i, k)| {
+                let part = &self.parts[k];
+                let at = |s: f64| {
+                    let mut xi = x.to_vec();
+                    xi[i] += s;
+                    part.problem.residuals(&part.take(&p_of(&xi)))
+                };
+                let r0k = &r0[part.offset..part.offset + part.len()];
+                difference_column(&at, r0k, steps[i], central)
+            })
+            .collect();
+        let mut cols = vec![vec![0.0; self.m]; x.len()];
+        for (&(i, k), block) in tasks.iter().zip(blocks) {
+            let part = &self.parts[k];
+            cols[i][part.offset..part.offset + part.len()].copy_from_slice(&block);
+        }
+        cols
+    }
+
+    fn options(&self) -> &OutputErrorOptions {
+        &self.options
+    }
+}
