@@ -1691,13 +1691,8 @@ impl Problem {
     }
 
     /// One bounded Levenberg–Marquardt run of `stage` on this problem from the scaled
-    /// parameters `u`, which it updates in place. Segment and short-horizon stages stop on
-    /// looser rules: relative step 1e-4 (or the user's xtol if looser) and the user's
-    /// relative cost decrease (at least [`WARM_UP_FTOL`]); a predictor stage followed by a
-    /// lower bandwidth on the user's step and a relative cost decrease of at least
-    /// [`PREDICTOR_FTOL`]; the last predictor stage and the whole files on the user's
-    /// rules; the equation-error stage, whose evaluations cost no simulation, only on a
-    /// standstill (1e-10, at most 500 iterations).
+    /// parameters `u`, which it updates in place, on the stage's stopping rules
+    /// ([`stage_rules`]).
     fn run_stage(&self, stage: Stage, u: &mut [f64], context: &StageContext) -> StageOutcome {
         let warm_up = !stage.is_final();
         let start_cost = self.cost(&self.to_physical(u));
@@ -1710,57 +1705,8 @@ impl Problem {
                 stop: !warm_up,
             };
         }
-        let (xtol, ftol, gtol, max_iter, max_fev) = match stage {
-            // Cheap residuals (no simulation) on a problem with nearly flat directions (the
-            // base parameters' ties): stop only on a standstill.
-            Stage::EquationError => (1e-10, 1e-10, 1e-12, 500, 5000),
-            // The predictor's stages move the parameters most of the way: the last (lowest
-            // ω) runs on the whole files' rules (as measured on c4: 45 iterations at
-            // ω = 3 rad/s); those before it stop once the cost only creeps.
-            Stage::Predictor(omega) if self.options.predictor.iter().any(|&w| w < omega) => (
-                self.options.xtol,
-                self.options.ftol.max(PREDICTOR_FTOL),
-                1e-10,
-                self.options.max_iter,
-                20 * self.options.max_iter.max(1),
-            ),
-            _ if warm_up && !matches!(stage, Stage::Predictor(_)) => (
-                self.options.xtol.max(1e-4),
-                self.options.ftol.max(WARM_UP_FTOL),
-                1e-10,
-                self.options.max_iter,
-                20 * self.options.max_iter.max(1),
-            ),
-            _ => (
-                self.options.xtol,
-                self.options.ftol,
-                1e-10,
-                self.options.max_iter,
-                20 * self.options.max_iter.max(1),
-            ),
-        };
-        // A parameter within rounding of a bound (a value read back from a plant file, or
-        // the Fs of a collapsed Stribeck pair, u ≈ 1e-16) must sit exactly on it: rmpfit
-        // freezes a parameter only when it equals its limit, and otherwise shortens the
-        // whole step to reach the limit, a step of ~1e-16 that it then reports as
-        // convergence after one iteration (k3 of the Freedom 6S from the fitted plant,
-        // I6_13 = −2.1999999999999996e-7 against a bound of −2.2e-7: no stage moved).
-        for x in u.iter_mut() {
-            if *x < BOUND_SNAP {
-                *x = 0.0;
-            } else if *x > 1.0 - BOUND_SNAP {
-                *x = 1.0;
-            }
-        }
         let frozen: Vec<bool> = self.names.iter().map(|n| self.is_frozen(n)).collect();
-        let config = MPConfig {
-            xtol,
-            ftol,
-            gtol,
-            max_iter,
-            max_fev: MPMaxFev::Limited(max_fev),
-            ..MPConfig::new()
-        };
+        let config = stage_rules(&self.options, stage);
         minimise(self, stage, &frozen, config, u, context, start_cost)
     }
 
@@ -1942,33 +1888,20 @@ impl Problem {
     }
 
     /// For every fitted parameter, the other rigid-body symbols — fitted or held along
-    /// ties ([`Problem::with_held_ties`]) — it trades with exactly at `p`
-    /// ([`structural_companions`](super::identifiability::structural_companions)).
+    /// ties ([`Problem::with_held_ties`]) — it trades with exactly at `p`, with the locked
+    /// joints where the files hold them ([`fitted_companions`]).
     ///
     /// # Errors
     /// The plant's barycentric parameters cannot be formed.
     fn structural_companions(&self, p: &[f64]) -> Result<Vec<Vec<String>>> {
-        let plant = self.plant_at(p);
-        let n = self.names.len();
-        let names: Vec<String> = self.names.iter().chain(&self.held_ties).cloned().collect();
-        // A held symbol's scale: its bounds when it has them, else its value.
-        let width = |i: usize| {
-            if i < n {
-                return self.upper[i] - self.lower[i];
-            }
-            let name = &names[i];
-            match plant.bounds.get(name) {
-                Some(&(lo, hi)) if hi > lo => hi - lo,
-                _ => plant
-                    .parameters
-                    .get(name)
-                    .map_or(1.0, |v| v.abs().max(1e-12)),
-            }
-        };
-        let mut out =
-            super::identifiability::structural_companions(&plant, self.conf, &names, &width)?;
-        out.truncate(n);
-        Ok(out)
+        let locked_at: Vec<Vec<f64>> = self.records.iter().map(|r| r.q_all.clone()).collect();
+        fitted_companions(
+            &self.plant_at(p),
+            &self.names,
+            (&self.lower, &self.upper),
+            &self.held_ties,
+            &[(self.conf, &locked_at)],
+        )
     }
 
     /// Fit figures per free joint of the files' `trajectories` (one per record, as from
@@ -2326,6 +2259,44 @@ pub(crate) fn difference_column(
     vec![0.0; r0.len()]
 }
 
+/// For every fitted parameter of `names` (bounds `(lower, upper)`), the other rigid-body
+/// symbols — fitted, or `held` along ties ([`Problem::with_held_ties`]) — it trades with
+/// exactly in every configuration of `places` with its locked joints where its files hold
+/// them ([`structural_companions_across`](super::identifiability::structural_companions_across)):
+/// the ties the data can see, which are more than those of a configuration anywhere (the
+/// spanning symbols, [`super::identifiability::spanning_symbols`], are chosen there too).
+/// Scales: a fitted symbol's bound width; a held one's bounds, else
+/// its value.
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed.
+pub(crate) fn fitted_companions(
+    plant: &Plant,
+    names: &[String],
+    (lower, upper): (&[f64], &[f64]),
+    held: &[String],
+    places: &[(&Configuration, &[Vec<f64>])],
+) -> Result<Vec<Vec<String>>> {
+    let n = names.len();
+    let all: Vec<String> = names.iter().chain(held).cloned().collect();
+    let width = |i: usize| {
+        if i < n {
+            return upper[i] - lower[i];
+        }
+        match plant.bounds.get(&all[i]) {
+            Some(&(lo, hi)) if hi > lo => hi - lo,
+            _ => plant
+                .parameters
+                .get(&all[i])
+                .map_or(1.0, |v| v.abs().max(1e-12)),
+        }
+    };
+    let mut out =
+        super::identifiability::structural_companions_across(plant, places, &all, &width)?;
+    out.truncate(n);
+    Ok(out)
+}
+
 /// q̇ at sample `k` of `q` (3 ≤ k < len − 3, else the nearest such sample) by the 7-point
 /// cubic Savitzky–Golay derivative (22, −67, −58, 0, 58, 67, −22)/(252 Δt): exact for
 /// quartics, noise gain ≈ 0.51 σ/Δt.
@@ -2574,8 +2545,57 @@ impl FitResult {
     }
 }
 
+/// The stopping rules of a fit's `stage` under `options` ([`Problem::run_stage`]):
+/// segment and short-horizon stages relative step 1e-4 (or the user's xtol if looser)
+/// and the user's relative cost decrease, at least [`WARM_UP_FTOL`]; a predictor stage
+/// followed by a lower bandwidth the user's step and a relative cost decrease of at
+/// least [`PREDICTOR_FTOL`]; the last predictor stage and the whole files the user's
+/// rules; the equation-error stage, whose evaluations cost no simulation, only a
+/// standstill (1e-10, at most 500 iterations).
+fn stage_rules(options: &OutputErrorOptions, stage: Stage) -> MPConfig {
+    let warm_up = !stage.is_final();
+    let (xtol, ftol, gtol, max_iter, max_fev) = match stage {
+        // Cheap residuals (no simulation) on a problem with nearly flat directions (the
+        // base parameters' ties): stop only on a standstill.
+        Stage::EquationError => (1e-10, 1e-10, 1e-12, 500, 5000),
+        // The predictor's stages move the parameters most of the way: the last (lowest
+        // ω) runs on the whole files' rules (as measured on c4: 45 iterations at
+        // ω = 3 rad/s); those before it stop once the cost only creeps.
+        Stage::Predictor(omega) if options.predictor.iter().any(|&w| w < omega) => (
+            options.xtol,
+            options.ftol.max(PREDICTOR_FTOL),
+            1e-10,
+            options.max_iter,
+            20 * options.max_iter.max(1),
+        ),
+        _ if warm_up && !matches!(stage, Stage::Predictor(_)) => (
+            options.xtol.max(1e-4),
+            options.ftol.max(WARM_UP_FTOL),
+            1e-10,
+            options.max_iter,
+            20 * options.max_iter.max(1),
+        ),
+        _ => (
+            options.xtol,
+            options.ftol,
+            1e-10,
+            options.max_iter,
+            20 * options.max_iter.max(1),
+        ),
+    };
+    MPConfig {
+        xtol,
+        ftol,
+        gtol,
+        max_iter,
+        max_fev: MPMaxFev::Limited(max_fev),
+        ..MPConfig::new()
+    }
+}
+
 /// Bounded Levenberg–Marquardt (rmpfit) of `problem` from scaled parameters `u` ∈ [0, 1]ⁿ,
-/// updated in place, on the stopping rules of `config`; parameters where `frozen` is true
+/// updated in place (a value within [`BOUND_SNAP`] of a bound put on it first), on the
+/// stopping rules of `config`; parameters where `frozen` is true
 /// stay. A run that stopped on a Broyden-updated Jacobian goes on from a finite-difference
 /// one (at most 3 times), so it ends on rules that hold for the true Jacobian. `stage` and
 /// `context` feed the progress display; `start_cost` (the cost at `u`) scales the residuals
@@ -2589,6 +2609,19 @@ pub(crate) fn minimise(
     context: &StageContext,
     start_cost: f64,
 ) -> StageOutcome {
+    // A parameter within rounding of a bound (a value read back from a plant file, or
+    // the Fs of a collapsed Stribeck pair, u ≈ 1e-16) must sit exactly on it: rmpfit
+    // freezes a parameter only when it equals its limit, and otherwise shortens the
+    // whole step to reach the limit, a step of ~1e-16 that it then reports as
+    // convergence after one iteration (k3 of the Freedom 6S from the fitted plant,
+    // I6_13 = −2.1999999999999996e-7 against a bound of −2.2e-7: no stage moved).
+    for x in u.iter_mut() {
+        if *x < BOUND_SNAP {
+            *x = 0.0;
+        } else if *x > 1.0 - BOUND_SNAP {
+            *x = 1.0;
+        }
+    }
     let mut fitter = Fitter {
         problem,
         context,
