@@ -337,9 +337,10 @@ impl JointProblem {
         };
         let (note, stop) = run(&current, &mut u, 1);
         notes.push(note);
+        // The whole files' cost of `current` at `u`, kept with them.
         let mut cost = current.cost(&self.to_physical(&u));
         if self.options.estimate_initial_positions && !stop {
-            for round in 2..=INITIAL_POSITION_ROUNDS + 1 {
+            for round in 2..=INITIAL_POSITION_ROUNDS {
                 let (next, moved) = match current.with_initial_positions_at(&self.to_physical(&u)) {
                     Ok(estimated) => estimated,
                     Err(why) => {
@@ -350,12 +351,6 @@ impl JointProblem {
                 if moved <= INITIAL_POSITION_SETTLED {
                     notes.push(format!(
                         "initial positions settled (last move {moved:.2} σ̂)"
-                    ));
-                    break;
-                }
-                if round > INITIAL_POSITION_ROUNDS {
-                    notes.push(format!(
-                        "initial positions not settled (last move {moved:.2} σ̂)"
                     ));
                     break;
                 }
@@ -376,10 +371,15 @@ impl JointProblem {
                 if stop {
                     break;
                 }
+                if round == INITIAL_POSITION_ROUNDS {
+                    notes.push(format!(
+                        "initial positions not settled after {round} fits (last move \
+                         {moved:.2} σ̂)"
+                    ));
+                }
             }
         }
         let p = self.to_physical(&u);
-        let cost_after = current.cost(&p);
         let statistics = current.statistics(&p)?;
         let status = notes.join("; ");
         Ok(FitResult {
@@ -390,14 +390,14 @@ impl JointProblem {
             lower: self.lower.clone(),
             upper: self.upper.clone(),
             cost_before,
-            cost_after,
+            cost_after: cost,
             prior_penalty: 0.0,
             least_change: None,
             statistics,
             starts: vec![StartSummary {
                 start: 0,
                 start_cost: cost_before,
-                cost: cost_after,
+                cost,
                 iterations,
                 status,
                 diverged,

@@ -2265,8 +2265,7 @@ pub(crate) fn difference_column(
 /// them ([`structural_companions_across`](super::identifiability::structural_companions_across)):
 /// the ties the data can see, which are more than those of a configuration anywhere (the
 /// spanning symbols, [`super::identifiability::spanning_symbols`], are chosen there too).
-/// Scales: a fitted symbol's bound width; a held one's bounds, else
-/// its value.
+/// Scales: a fitted symbol's bound width; a held one's bounds, else its value.
 ///
 /// # Errors
 /// The plant's barycentric parameters cannot be formed.
@@ -2545,13 +2544,13 @@ impl FitResult {
     }
 }
 
-/// The stopping rules of a fit's `stage` under `options` ([`Problem::run_stage`]):
-/// segment and short-horizon stages relative step 1e-4 (or the user's xtol if looser)
-/// and the user's relative cost decrease, at least [`WARM_UP_FTOL`]; a predictor stage
-/// followed by a lower bandwidth the user's step and a relative cost decrease of at
-/// least [`PREDICTOR_FTOL`]; the last predictor stage and the whole files the user's
-/// rules; the equation-error stage, whose evaluations cost no simulation, only a
-/// standstill (1e-10, at most 500 iterations).
+/// The stopping rules of a fit's `stage` under `options` ([`Problem::run_stage`]).
+/// Segment and short-horizon stages stop on looser rules: relative step 1e-4 (or the
+/// user's xtol if looser) and the user's relative cost decrease (at least
+/// [`WARM_UP_FTOL`]); a predictor stage followed by a lower bandwidth on the user's step
+/// and a relative cost decrease of at least [`PREDICTOR_FTOL`]; the last predictor stage
+/// and the whole files on the user's rules; the equation-error stage, whose evaluations
+/// cost no simulation, only on a standstill (1e-10, at most 500 iterations).
 fn stage_rules(options: &OutputErrorOptions, stage: Stage) -> MPConfig {
     let warm_up = !stage.is_final();
     let (xtol, ftol, gtol, max_iter, max_fev) = match stage {
