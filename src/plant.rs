@@ -80,10 +80,13 @@ pub struct PlantFile {
     /// ([`crate::identify::sequence::run`]), also when it is run alone with `--config`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub undetermined: Vec<String>,
-    /// Standard errors (SI) of undetermined symbols, from the step that last fitted them at
-    /// the noise floor (its Jacobian: what that step's data say about them, though not
-    /// enough to call them identifiable). The next step that fits them again takes them as
-    /// a prior with `--carried-prior on` ([`crate::identify::output_error::OutputErrorOptions::carried_prior`]).
+    /// Standard errors (SI) of fitted values, from the step that last fitted them at the
+    /// noise floor (its Jacobian, the uncertainty of what it held included: what that
+    /// step's data say about them, also where that is not enough to call them
+    /// identifiable). A later step that holds them adds their uncertainty to its own
+    /// standard errors ([`crate::identify::output_error::Statistics::held`]); one that fits
+    /// an undetermined symbol again takes it as a prior with `--carried-prior on`
+    /// ([`crate::identify::output_error::OutputErrorOptions::carried_prior`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub standard_errors: BTreeMap<String, f64>,
 }
@@ -132,7 +135,7 @@ pub struct Plant {
     /// Rigid-body symbols fitted by a sequence step but not determined there
     /// ([`PlantFile::undetermined`]).
     pub undetermined: Vec<String>,
-    /// Standard errors of undetermined symbols from the step that last fitted them
+    /// Standard errors of fitted values from the step that last fitted them
     /// ([`PlantFile::standard_errors`]).
     pub standard_errors: BTreeMap<String, f64>,
 }
@@ -320,10 +323,10 @@ impl Plant {
             }
         }
         for (k, &se) in &spec.standard_errors {
-            if !spec.undetermined.contains(k) {
+            if !spec.parameters.contains_key(k) {
                 bail!(
-                    "[standard_errors] '{k}': not listed in 'undetermined' (standard errors are \
-                     kept only for the symbols a later step fits again)"
+                    "[standard_errors] '{k}': not a parameter of this plant (standard errors \
+                     are kept for values in [parameters] that a step fitted)"
                 );
             }
             if !(se.is_finite() && se > 0.0) {

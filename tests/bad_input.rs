@@ -182,16 +182,16 @@ fn plant_file_errors_name_file_and_item() {
         e.contains("p5.toml") && e.contains("'undetermined': 'Fc_0' is not a rigid-body symbol"),
         "{e}"
     );
-    // Standard errors are kept only for undetermined symbols, and must be positive.
+    // Standard errors are kept only for the plant's parameters, and must be positive.
     for (file, text, needle) in [
         (
             "p6.toml",
-            "model = \"emps\"\n[standard_errors]\nM = 0.1\n",
-            "[standard_errors] 'M': not listed in 'undetermined'",
+            "model = \"emps\"\n[parameters]\nM = 95.0\n[standard_errors]\nMM = 0.1\n",
+            "[standard_errors] 'MM': not a parameter of this plant",
         ),
         (
             "p7.toml",
-            "model = \"emps\"\nundetermined = [\"M\"]\n[standard_errors]\nM = -0.1\n",
+            "model = \"emps\"\n[parameters]\nM = 95.0\n[standard_errors]\nM = -0.1\n",
             "[standard_errors] 'M': expected a positive finite standard error, found -0.1",
         ),
     ] {

@@ -275,19 +275,16 @@ fn rebuilt(p: &Problem, plant: &Plant, interest: &[usize], options: OutputErrorO
 }
 
 /// The standard errors a step's plant should record ([`Plant::standard_errors`]): those of
-/// the report's fit (`fit`, at the noise floor) for the `undetermined` symbols it fitted,
-/// finite and off their bounds.
-fn recorded_standard_errors(
-    fit: &serde_json::Value,
-    undetermined: &[String],
-) -> std::collections::BTreeMap<String, f64> {
+/// the report's fit (`fit`, at the noise floor) for the values it fitted, finite and off
+/// their bounds.
+fn recorded_standard_errors(fit: &serde_json::Value) -> std::collections::BTreeMap<String, f64> {
     let names: Vec<String> = column(fit, &["names"]);
     let std_err: Vec<Option<f64>> = column(fit, &["statistics", "std_err"]);
     let at_bound: Vec<bool> = column(fit, &["statistics", "at_bound"]);
     names
         .iter()
         .enumerate()
-        .filter(|&(i, n)| undetermined.contains(n) && !at_bound[i])
+        .filter(|&(i, _)| !at_bound[i])
         .filter_map(|(i, n)| Some((n.clone(), std_err[i].filter(|s| s.is_finite())?)))
         .collect()
 }
@@ -381,11 +378,27 @@ fn isolated_step_c1_reaches_the_noise_floor_and_recovers_everything_it_calls_ide
         )
         .collect();
     assert_eq!(fitted_plant.undetermined, undetermined);
-    // At the noise floor it also records the standard errors of those it fitted (for
-    // `--carried-prior`): here none, c1's are tied exactly (infinite standard errors).
-    let recorded = recorded_standard_errors(&report["steps"][0]["fit"], &undetermined);
-    assert!(recorded.is_empty(), "{recorded:?}");
+    // At the noise floor it also records the standard errors of the values it fitted (for
+    // the held values' share in later steps, and `--carried-prior`): finite for the two
+    // outside the gain family, none for the tied symbols (infinite standard errors).
+    let recorded = recorded_standard_errors(&report["steps"][0]["fit"]);
+    for n in ["vs_4", "qeq_4"] {
+        assert!(recorded.contains_key(n), "{recorded:?}");
+    }
+    for n in &undetermined {
+        assert!(!recorded.contains_key(n), "{n}: {recorded:?}");
+    }
     assert_eq!(fitted_plant.standard_errors, recorded);
+    // The Appendix D plant records no standard errors: c1 takes every value it holds
+    // (link 7's other symbols, the other joints' effects do not enter) as exact.
+    let held_uncertain: Vec<(String, f64)> = column(&fit, &["statistics", "held"]);
+    let held_exact: Vec<String> = column(&fit, &["statistics", "held_exact"]);
+    assert!(held_uncertain.is_empty(), "{held_uncertain:?}");
+    assert!(held_exact.contains(&held[0]), "{held_exact:?}");
+    assert!(
+        held_exact.iter().all(|n| !n.ends_with("_0")),
+        "{held_exact:?}"
+    );
     assert!(std::fs::read_to_string(out_dir.join("report.md"))
         .unwrap()
         .contains("| parameter | initial | fitted | std error"));
@@ -1391,6 +1404,89 @@ fn the_carried_prior_weighs_a_carried_symbol_by_its_earlier_standard_error() {
     let ee = |p: &Problem| p.equation_error_stage(Cutoff::Fixed(0.5)).unwrap().frozen();
     assert_eq!(ee(&with), [name]);
     assert!(ee(&without).is_empty() && with.frozen().is_empty());
+}
+
+/// A held value's recorded standard error enters the fitted values' standard errors by
+/// the model's own exact symmetry: on c1 at the truth with the Coulomb level Fc_4 held with
+/// σ = 1 % of its value, a relative change ε of Fc_4 is absorbed exactly by scaling the
+/// plant gain and every other force and inertia of joint 4 by 1 + ε (positions
+/// unchanged), so the held share √(σ_p² − σ_p,given held²) of each determined member p of
+/// that family is 1 % of |p|; the members outside it (vs_4, qeq_4) get none. With Fc_4
+/// held the family is no longer an exact symmetry, so its members are determined given
+/// Fc_4.
+#[test]
+fn a_held_values_standard_error_is_propagated_along_the_plant_gain_scale() {
+    let d = tempfile::tempdir().unwrap();
+    let (p, at_truth, _) = problem_at_truth(d.path(), "J4", 0);
+    let mut plant = p.plant_at(&at_truth);
+    let fc = plant.parameters["Fc_4"];
+    let relative = 0.01;
+    plant.standard_errors.insert("Fc_4".into(), relative * fc);
+    let names: Vec<String> = p.names.iter().filter(|n| *n != "Fc_4").cloned().collect();
+    let values: Vec<f64> = names.iter().map(|n| plant.parameters[n]).collect();
+    let held = Problem::new(
+        &plant,
+        p.configuration(),
+        names.clone(),
+        p.records.clone(),
+        &[4],
+        p.options().clone(),
+    )
+    .unwrap();
+    let stats = held.statistics(&values).unwrap();
+    assert_eq!(stats.held, [("Fc_4".to_string(), relative * fc)]);
+    let share = |i: usize| {
+        let (se, given) = (stats.std_err[i], stats.std_err_given_held[i]);
+        (se * se - given * given).max(0.0).sqrt()
+    };
+    let mut checked = Vec::new();
+    for n in ["Kp_4", "sigma0_4", "sigma2_4", "Fs_4", "Ks_4"] {
+        let i = names.iter().position(|x| x == n).unwrap();
+        assert!(
+            stats.std_err_given_held[i].is_finite(),
+            "{n} undetermined given Fc_4"
+        );
+        let expected = relative * values[i].abs();
+        println!(
+            "{n}: σ given held {:.3e}, held share {:.4e}, expected {expected:.4e}",
+            stats.std_err_given_held[i],
+            share(i)
+        );
+        assert!(
+            (share(i) / expected - 1.0).abs() < 0.01,
+            "{n}: held share {:.4e} vs {expected:.4e}",
+            share(i)
+        );
+        checked.push(n);
+    }
+    for n in ["vs_4", "qeq_4"] {
+        let i = names.iter().position(|x| x == n).unwrap();
+        println!(
+            "{n}: σ {:.4e}, given held {:.4e}",
+            stats.std_err[i], stats.std_err_given_held[i]
+        );
+        assert!(
+            share(i) < 0.05 * stats.std_err_given_held[i],
+            "{n}: held share {:.3e}, σ given held {:.3e}",
+            share(i),
+            stats.std_err_given_held[i]
+        );
+    }
+    // Without the record, Fc_4 is held as exact and the standard errors are those given it.
+    plant.standard_errors.clear();
+    let exact = Problem::new(
+        &plant,
+        p.configuration(),
+        names.clone(),
+        p.records.clone(),
+        &[4],
+        p.options().clone(),
+    )
+    .unwrap()
+    .statistics(&values)
+    .unwrap();
+    assert!(exact.held.is_empty() && exact.held_exact.contains(&"Fc_4".to_string()));
+    assert_eq!(exact.std_err, exact.std_err_given_held);
 }
 
 /// Isolated step c5 (joint 1 alone, the other joints locked) sees 42 rigid-body symbols

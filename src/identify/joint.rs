@@ -19,10 +19,10 @@
 
 use super::identifiability::Occurrence;
 use super::output_error::{
-    covariance_statistics, difference_column, feasible_bounds, fitted_companions, minimise,
-    physical_to_scaled, scaled_to_physical, FitResult, LeastSquares, OutputErrorOptions, Problem,
-    Progress, Record, Stage, StageContext, StartSummary, Statistics, TrialFailure, WarmUp,
-    INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
+    covariance_statistics, difference_column, enters, feasible_bounds, fitted_companions, held_in,
+    minimise, physical_to_scaled, scaled_to_physical, FitResult, HeldColumns, LeastSquares,
+    OutputErrorOptions, Problem, Progress, Record, Stage, StageContext, StartSummary, Statistics,
+    TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
 use crate::simulation::Trajectory;
@@ -73,22 +73,6 @@ pub struct JointProblem {
     /// ones (counted by the structural check, as [`Problem::with_held_ties`]).
     held_ties: Vec<String>,
     options: OutputErrorOptions,
-}
-
-/// Whether parameter `name` of `plant` enters configuration `conf`'s simulation: a
-/// rigid-body symbol that the occurrence table `occ` lists there, a parameter of an effect
-/// that acts with its free joints ([`crate::effects::Effect::acts_with`]), or anything else
-/// the plant holds (a barycentric parameter: kept, to be safe).
-fn enters(plant: &Plant, occ: &Occurrence, conf: &Configuration, name: &str) -> bool {
-    if plant.model.inertial_symbols.contains(&name) {
-        return occ.appears_in(name, conf.name);
-    }
-    let mut owners = plant
-        .effects
-        .iter()
-        .filter(|e| e.parameter_names().iter().any(|n| n == name))
-        .peekable();
-    owners.peek().is_none() || owners.any(|e| e.acts_with(conf.free))
 }
 
 impl JointProblem {
@@ -459,15 +443,52 @@ impl JointProblem {
         let dof = self.m as f64 / (self.m - n) as f64;
         let sigma: Vec<f64> = variances.iter().map(|v| v * dof).collect();
         let only_with = self.structural_companions(p)?;
+        let held = self.held_columns(p, &r);
         covariance_statistics(
             &self.names,
             p,
             (&self.lower, &self.upper),
             cols,
             &sigma,
+            held,
             only_with,
             joints,
         )
+    }
+
+    /// The held values entering any configuration (those with a recorded standard error,
+    /// with their stacked columns ∂r/∂h, zero where a configuration does not contain
+    /// them; the others listed as exact) at physical parameters `p`; `r` the stacked
+    /// residuals there.
+    fn held_columns(&self, p: &[f64], r: &[f64]) -> HeldColumns {
+        let occ = super::identifiability::occurrence(self.plant.model);
+        let confs: Vec<&Configuration> = self
+            .parts
+            .iter()
+            .map(|part| part.problem.configuration())
+            .collect();
+        let (uncertain, exact) = held_in(&self.plant, &self.names, &occ, &confs);
+        let mut cols = vec![vec![0.0; self.m]; uncertain.len()];
+        for part in &self.parts {
+            let conf = part.problem.configuration();
+            let here: Vec<usize> = (0..uncertain.len())
+                .filter(|&k| enters(&self.plant, &occ, conf, &uncertain[k].0))
+                .collect();
+            let these: Vec<(String, f64)> = here.iter().map(|&k| uncertain[k].clone()).collect();
+            let range = part.offset..part.offset + part.len();
+            let blocks = part
+                .problem
+                .held_columns(&part.take(p), &these, &r[range.clone()]);
+            for (&k, block) in here.iter().zip(blocks) {
+                cols[k][range.clone()].copy_from_slice(&block);
+            }
+        }
+        HeldColumns {
+            names: uncertain.iter().map(|(n, _)| n.clone()).collect(),
+            std_err: uncertain.iter().map(|&(_, se)| se).collect(),
+            cols,
+            exact,
+        }
     }
 
     /// For every fitted parameter, the other rigid-body symbols (fitted, or held along

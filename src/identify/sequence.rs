@@ -778,12 +778,12 @@ fn joint_fit(
     })
 }
 
-/// Keep in `plant` ([`Plant::standard_errors`]) the standard errors of the undetermined
-/// symbols among `names` (a fit's parameters, with its `stats`), when the fit reached the
-/// noise floor (elsewhere the residuals are not noise and the standard errors say
+/// Keep in `plant` ([`Plant::standard_errors`]) the standard errors of `names` (a fit's
+/// parameters, with its `stats`; the held values' share included), when the fit reached
+/// the noise floor (elsewhere the residuals are not noise and the standard errors say
 /// nothing), have a finite one and are not at a bound (there the Jacobian's one-sided
-/// information is no Gaussian); drop those of symbols no longer undetermined and of symbols
-/// this fit did not qualify.
+/// information is no Gaussian); drop the records of those this fit did not qualify and of
+/// names the plant no longer has.
 fn record_standard_errors(plant: &mut Plant, names: &[String], stats: &Statistics) {
     let at_floor = stats.above_floor.is_empty();
     for (i, n) in names.iter().enumerate() {
@@ -794,10 +794,8 @@ fn record_standard_errors(plant: &mut Plant, names: &[String], stats: &Statistic
             plant.standard_errors.remove(n);
         }
     }
-    let undetermined = plant.undetermined.clone();
-    plant
-        .standard_errors
-        .retain(|n, _| undetermined.contains(n));
+    let known = plant.parameters.clone();
+    plant.standard_errors.retain(|n, _| known.contains_key(n));
 }
 
 fn fmt_g(x: f64) -> String {
@@ -1025,9 +1023,29 @@ fn step_markdown(
             super::output_error::FLOOR_FACTOR
         );
     }
+    if !stats.held.is_empty() {
+        let each: Vec<String> = stats
+            .held
+            .iter()
+            .map(|(n, se)| format!("{n} ± {}", fmt_g(*se)))
+            .collect();
+        let _ = writeln!(
+            s,
+            "Standard errors include the uncertainty of {} held value(s), as recorded by the step that fitted each (taken as independent): {}. The column \"given held\" takes them as exact.\n",
+            each.len(),
+            each.join(", ")
+        );
+    }
+    if !stats.held_exact.is_empty() {
+        let _ = writeln!(
+            s,
+            "Held as exact (no standard error recorded: not fitted, or not determined where fitted): {}.\n",
+            stats.held_exact.join(", ")
+        );
+    }
     let _ = writeln!(
         s,
-        "| parameter | initial | fitted | std error | rel. % | bounds | identifiable |\n|---|---|---|---|---|---|---|"
+        "| parameter | initial | fitted | std error | given held | rel. % | bounds | identifiable |\n|---|---|---|---|---|---|---|---|"
     );
     for i in 0..f.names.len() {
         let mut why = Vec::new();
@@ -1043,10 +1061,17 @@ fn step_markdown(
                     .to_string(),
             );
         } else if stats.relative_std_err[i] > super::output_error::RELATIVE_STD_LIMIT {
-            why.push(format!(
-                "σ/|p| > {} %",
-                100.0 * super::output_error::RELATIVE_STD_LIMIT
-            ));
+            let given =
+                stats.std_err_given_held.get(i).copied().unwrap_or(f64::NAN) / f.fitted[i].abs();
+            let limit = 100.0 * super::output_error::RELATIVE_STD_LIMIT;
+            why.push(if given <= super::output_error::RELATIVE_STD_LIMIT {
+                format!(
+                    "σ/|p| > {limit} % from the held values' uncertainty ({:.2} % with them exact)",
+                    100.0 * given
+                )
+            } else {
+                format!("σ/|p| > {limit} %")
+            });
         }
         if !stats.only_with[i].is_empty() {
             why.push(format!(
@@ -1062,11 +1087,15 @@ fn step_markdown(
         }
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {:.2} | [{}, {}] | {} |",
+            "| {} | {} | {} | {} | {} | {:.2} | [{}, {}] | {} |",
             f.names[i],
             fmt_g(f.initial[i]),
             fmt_g(f.fitted[i]),
             fmt_g(stats.std_err[i]),
+            stats
+                .std_err_given_held
+                .get(i)
+                .map_or_else(|| "—".to_string(), |&x| fmt_g(x)),
             100.0 * stats.relative_std_err[i],
             fmt_g(f.lower[i]),
             fmt_g(f.upper[i]),
@@ -1102,13 +1131,15 @@ fn step_markdown(
 mod tests {
     use super::*;
 
-    /// Only undetermined symbols of a fit at the noise floor, with a finite standard error
-    /// off their bounds, are recorded; an earlier record of a symbol this fit does not
-    /// qualify, or of one no longer undetermined, is dropped.
+    /// The values of a fit at the noise floor with a finite standard error off their
+    /// bounds are recorded; an earlier record of a value this fit does not qualify, or of a
+    /// name the plant does not have, is dropped.
     #[test]
-    fn standard_errors_are_recorded_for_undetermined_symbols_at_the_floor() {
+    fn standard_errors_are_recorded_for_the_values_of_a_fit_at_the_floor() {
         let mut plant = Plant::new("planar2r", vec![]).unwrap();
-        plant.undetermined = ["m1", "m2", "I2", "I1"].map(String::from).to_vec();
+        for n in ["m1", "m2", "I2", "I1", "Kp_0"] {
+            plant.parameters.insert(n.into(), 1.0);
+        }
         plant.standard_errors.insert("I1".into(), 9.0);
         plant.standard_errors.insert("gone".into(), 1.0);
         let names: Vec<String> = ["m1", "m2", "I2", "I1", "Kp_0"].map(String::from).to_vec();
@@ -1123,7 +1154,7 @@ mod tests {
             .iter()
             .map(|(n, &v)| (n.as_str(), v))
             .collect();
-        assert_eq!(recorded, [("I2", 0.3), ("m1", 0.1)]);
+        assert_eq!(recorded, [("I2", 0.3), ("Kp_0", 0.5), ("m1", 0.1)]);
         stats.above_floor = vec!["q0 RMS 3.1 σ̂".into()];
         record_standard_errors(&mut plant, &names, &stats);
         assert!(plant.standard_errors.is_empty());
