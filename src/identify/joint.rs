@@ -448,9 +448,8 @@ impl JointProblem {
             &self.names,
             p,
             (&self.lower, &self.upper),
-            cols,
+            (cols, held),
             &sigma,
-            held,
             only_with,
             joints,
         )

@@ -1853,9 +1853,8 @@ impl Problem {
             &self.names,
             p,
             (&self.lower, &self.upper),
-            cols,
+            (cols, held),
             &sigma,
-            held,
             only_with,
             joints,
         )
@@ -2179,7 +2178,7 @@ pub(crate) fn enters(
 
 /// Standard errors, correlations and identifiability of parameters `names` at physical
 /// values `p` within `(lower, upper)`, from the Jacobian `cols` (∂r/∂p, one column per
-/// parameter) and the variance `sigma` of every residual (degrees of freedom included):
+/// parameter) with the `held` values' columns, and the variance `sigma` of every residual (degrees of freedom included):
 /// cov = (JᵀJ)⁻¹ Jᵀ Σ J (JᵀJ)⁻¹ on unit-norm columns, plus the `held` values' share
 /// G Σ_h Gᵀ, G = −(JᵀJ)⁻¹ Jᵀ J_h ([`HeldColumns`]). `only_with` (the structural ties)
 /// and `joints` (the fit per joint, for the noise floor) go into the verdict and the
@@ -2191,9 +2190,8 @@ pub(crate) fn covariance_statistics(
     names: &[String],
     p: &[f64],
     (lower, upper): (&[f64], &[f64]),
-    cols: Vec<Vec<f64>>,
+    (cols, held): (Vec<Vec<f64>>, HeldColumns),
     sigma: &[f64],
-    held: HeldColumns,
     only_with: Vec<Vec<String>>,
     joints: Vec<JointFit>,
 ) -> Result<Statistics> {
@@ -3168,9 +3166,8 @@ mod tests {
             &names,
             &theta,
             (&[-10.0, -10.0], &[10.0, 10.0]),
-            cols,
+            (cols, held),
             &vec![s * s; m],
-            held,
             vec![Vec::new(); 2],
             Vec::new(),
         )
