@@ -2304,7 +2304,7 @@ pub(crate) fn covariance_statistics(
     let mut correlated = Vec::new();
     for i in 0..n {
         for j in 0..n {
-            let d = (cov_scaled[(i, i)] * cov_scaled[(j, j)]).sqrt();
+            let d = (given_held[(i, i)] * given_held[(j, j)]).sqrt();
             // An undetermined parameter's covariance is rounding amplified by the
             // pseudo-inverse (k1 of the Freedom 6S: Fs_5 with vs_5 → 0 showed
             // "correlation −1" with the well-determined qeq_5 one way and none the
@@ -2314,7 +2314,7 @@ pub(crate) fn covariance_statistics(
             } else if undetermined[i] || undetermined[j] {
                 0.0
             } else if d > 0.0 && d.is_finite() {
-                (cov_scaled[(i, j)] / d).clamp(-1.0, 1.0)
+                (given_held[(i, j)] / d).clamp(-1.0, 1.0)
             } else {
                 0.0
             };
@@ -2500,8 +2500,10 @@ pub struct Statistics {
     pub held_exact: Vec<String>,
     /// σ/|p|.
     pub relative_std_err: Vec<f64>,
-    /// Correlation matrix (n × n); 0 off the diagonal for a parameter the data do not
-    /// determine (infinite standard error: its covariance is amplified rounding).
+    /// Correlation matrix (n × n) of this fit's data (the held values exact: whether the
+    /// data separate two parameters; the held values' share, common to both, would mask
+    /// it); 0 off the diagonal for a parameter the data do not determine (infinite
+    /// standard error: its covariance is amplified rounding).
     pub correlation: Vec<Vec<f64>>,
     /// Pairs with |correlation| > [`CORRELATION_LIMIT`].
     pub correlated: Vec<(String, String, f64)>,
