@@ -1424,16 +1424,20 @@ fn a_held_values_standard_error_is_propagated_along_the_plant_gain_scale() {
     plant.standard_errors.insert("Fc_4".into(), relative * fc);
     let names: Vec<String> = p.names.iter().filter(|n| *n != "Fc_4").cloned().collect();
     let values: Vec<f64> = names.iter().map(|n| plant.parameters[n]).collect();
-    let held = Problem::new(
-        &plant,
-        p.configuration(),
-        names.clone(),
-        p.records.clone(),
-        &[4],
-        p.options().clone(),
-    )
-    .unwrap();
-    let stats = held.statistics(&values).unwrap();
+    let statistics_on = |plant: &Plant| {
+        Problem::new(
+            plant,
+            p.configuration(),
+            names.clone(),
+            p.records.clone(),
+            &[4],
+            p.options().clone(),
+        )
+        .unwrap()
+        .statistics(&values)
+        .unwrap()
+    };
+    let stats = statistics_on(&plant);
     assert_eq!(stats.held, [("Fc_4".to_string(), relative * fc)]);
     let share = |i: usize| {
         let (se, given) = (stats.std_err[i], stats.std_err_given_held[i]);
@@ -1474,17 +1478,7 @@ fn a_held_values_standard_error_is_propagated_along_the_plant_gain_scale() {
     }
     // Without the record, Fc_4 is held as exact and the standard errors are those given it.
     plant.standard_errors.clear();
-    let exact = Problem::new(
-        &plant,
-        p.configuration(),
-        names.clone(),
-        p.records.clone(),
-        &[4],
-        p.options().clone(),
-    )
-    .unwrap()
-    .statistics(&values)
-    .unwrap();
+    let exact = statistics_on(&plant);
     assert!(exact.held.is_empty() && exact.held_exact.contains(&"Fc_4".to_string()));
     assert_eq!(exact.std_err, exact.std_err_given_held);
 }
