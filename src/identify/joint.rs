@@ -72,6 +72,8 @@ pub struct JointProblem {
     /// Rigid-body symbols held at the plant's values although they tie exactly with fitted
     /// ones (counted by the structural check, as [`Problem::with_held_ties`]).
     held_ties: Vec<String>,
+    /// The model's occurrence table: which configurations a parameter enters.
+    occ: Occurrence,
     options: OutputErrorOptions,
 }
 
@@ -138,6 +140,7 @@ impl JointProblem {
             parts,
             m,
             held_ties,
+            occ: occ.clone(),
             options,
         })
     }
@@ -460,34 +463,31 @@ impl JointProblem {
     /// them; the others listed as exact) at physical parameters `p`; `r` the stacked
     /// residuals there.
     fn held_columns(&self, p: &[f64], r: &[f64]) -> HeldColumns {
-        let occ = super::identifiability::occurrence(self.plant.model);
         let confs: Vec<&Configuration> = self
             .parts
             .iter()
             .map(|part| part.problem.configuration())
             .collect();
-        let (uncertain, exact) = held_in(&self.plant, &self.names, &occ, &confs);
-        let mut cols = vec![vec![0.0; self.m]; uncertain.len()];
+        let mut held = held_in(&self.plant, &self.names, &self.occ, &confs);
+        held.cols = vec![vec![0.0; self.m]; held.names.len()];
         for part in &self.parts {
             let conf = part.problem.configuration();
-            let here: Vec<usize> = (0..uncertain.len())
-                .filter(|&k| enters(&self.plant, &occ, conf, &uncertain[k].0))
-                .collect();
-            let these: Vec<(String, f64)> = here.iter().map(|&k| uncertain[k].clone()).collect();
+            let (here, these): (Vec<usize>, Vec<String>) = held
+                .names
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| enters(&self.plant, &self.occ, conf, n))
+                .map(|(k, n)| (k, n.clone()))
+                .unzip();
             let range = part.offset..part.offset + part.len();
             let blocks = part
                 .problem
                 .held_columns(&part.take(p), &these, &r[range.clone()]);
             for (&k, block) in here.iter().zip(blocks) {
-                cols[k][range.clone()].copy_from_slice(&block);
+                held.cols[k][range.clone()].copy_from_slice(&block);
             }
         }
-        HeldColumns {
-            names: uncertain.iter().map(|(n, _)| n.clone()).collect(),
-            std_err: uncertain.iter().map(|&(_, se)| se).collect(),
-            cols,
-            exact,
-        }
+        held
     }
 
     /// For every fitted parameter, the other rigid-body symbols (fitted, or held along

@@ -1842,13 +1842,8 @@ impl Problem {
         let only_with = self.structural_companions(p)?;
         let joints = self.joint_fits(&trajectories);
         let occ = super::identifiability::occurrence(self.plant.model);
-        let (uncertain, exact) = held_in(&self.plant, &self.names, &occ, &[self.conf]);
-        let held = HeldColumns {
-            cols: self.held_columns(p, &uncertain, &r),
-            names: uncertain.iter().map(|(n, _)| n.clone()).collect(),
-            std_err: uncertain.iter().map(|&(_, se)| se).collect(),
-            exact,
-        };
+        let mut held = held_in(&self.plant, &self.names, &occ, &[self.conf]);
+        held.cols = self.held_columns(p, &held.names, &r);
         covariance_statistics(
             &self.names,
             p,
@@ -1860,18 +1855,13 @@ impl Problem {
         )
     }
 
-    /// ∂r/∂h at fitted values `p` for every held value of `held` (name, σ): central
+    /// ∂r/∂h at fitted values `p` for every held value named in `held`: central
     /// differences of the plant's value ([`held_step`]), held values in parallel; `r0` the
     /// residuals at `p` (for a one-sided difference where a side fails, [`difference_column`]).
-    pub(crate) fn held_columns(
-        &self,
-        p: &[f64],
-        held: &[(String, f64)],
-        r0: &[f64],
-    ) -> Vec<Vec<f64>> {
+    pub(crate) fn held_columns(&self, p: &[f64], held: &[String], r0: &[f64]) -> Vec<Vec<f64>> {
         let plant = self.plant_at(p);
         held.par_iter()
-            .map(|(name, _)| {
+            .map(|name| {
                 let h = plant.parameters[name];
                 let at = |s: f64| {
                     let mut moved = plant.clone();
@@ -2132,27 +2122,29 @@ pub(crate) fn held_step(plant: &Plant, name: &str, fd_step: f64) -> f64 {
     fd_step * width
 }
 
-/// The parameters of `plant` that a fit of `names` holds although they enter configuration
-/// `conf` ([`enters`]): with their recorded standard errors (name, σ) and, separately,
-/// those without one.
+/// The parameters of `plant` that a fit of `names` holds although they enter one of the
+/// configurations `confs` ([`enters`]): those with a recorded standard error with it, the
+/// others as exact; the columns are left for the fit to simulate (empty).
 pub(crate) fn held_in(
     plant: &Plant,
     names: &[String],
     occ: &super::identifiability::Occurrence,
     confs: &[&Configuration],
-) -> (Vec<(String, f64)>, Vec<String>) {
-    let mut uncertain = Vec::new();
-    let mut exact = Vec::new();
+) -> HeldColumns {
+    let mut held = HeldColumns::default();
     for n in plant.parameters.keys() {
         if names.contains(n) || !confs.iter().any(|c| enters(plant, occ, c, n)) {
             continue;
         }
         match plant.standard_errors.get(n) {
-            Some(&se) => uncertain.push((n.clone(), se)),
-            None => exact.push(n.clone()),
+            Some(&se) => {
+                held.names.push(n.clone());
+                held.std_err.push(se);
+            }
+            None => held.exact.push(n.clone()),
         }
     }
-    (uncertain, exact)
+    held
 }
 
 /// Whether parameter `name` of `plant` enters configuration `conf`'s simulation: a
@@ -2178,8 +2170,9 @@ pub(crate) fn enters(
 
 /// Standard errors, correlations and identifiability of parameters `names` at physical
 /// values `p` within `(lower, upper)`, from the Jacobian `cols` (∂r/∂p, one column per
-/// parameter) with the `held` values' columns, and the variance `sigma` of every residual (degrees of freedom included):
-/// cov = (JᵀJ)⁻¹ Jᵀ Σ J (JᵀJ)⁻¹ on unit-norm columns, plus the `held` values' share
+/// parameter) with the `held` values' columns, and the variance `sigma` of every residual
+/// (degrees of freedom included): cov = (JᵀJ)⁻¹ Jᵀ Σ J (JᵀJ)⁻¹ on unit-norm columns, plus
+/// the `held` values' share
 /// G Σ_h Gᵀ, G = −(JᵀJ)⁻¹ Jᵀ J_h ([`HeldColumns`]). `only_with` (the structural ties)
 /// and `joints` (the fit per joint, for the noise floor) go into the verdict and the
 /// result as they are.

@@ -798,6 +798,15 @@ fn record_standard_errors(plant: &mut Plant, names: &[String], stats: &Statistic
     plant.standard_errors.retain(|n, _| known.contains_key(n));
 }
 
+/// "name ± σ" for every (name, σ) of `values`, comma-separated.
+fn plus_minus(values: &[(String, f64)]) -> String {
+    values
+        .iter()
+        .map(|(n, se)| format!("{n} ± {}", fmt_g(*se)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn fmt_g(x: f64) -> String {
     if x == 0.0 {
         "0".into()
@@ -953,15 +962,10 @@ fn step_markdown(
         );
     }
     if !st.carried_prior.is_empty() {
-        let each: Vec<String> = st
-            .carried_prior
-            .iter()
-            .map(|(n, se)| format!("{n} ± {}", fmt_g(*se)))
-            .collect();
         let _ = writeln!(
             s,
             "Carried prior (`--carried-prior on`): Gaussian about the values the earlier steps left, standard deviation their standard errors there: {}; the prior's term at the result {} (the fit minimised cost + prior term).\n",
-            each.join(", "),
+            plus_minus(&st.carried_prior),
             fmt_g(f.prior_penalty)
         );
     }
@@ -1024,16 +1028,11 @@ fn step_markdown(
         );
     }
     if !stats.held.is_empty() {
-        let each: Vec<String> = stats
-            .held
-            .iter()
-            .map(|(n, se)| format!("{n} ± {}", fmt_g(*se)))
-            .collect();
         let _ = writeln!(
             s,
             "Standard errors include the uncertainty of {} held value(s), as recorded by the step that fitted each (taken as independent): {}. The column \"given held\" takes them as exact.\n",
-            each.len(),
-            each.join(", ")
+            stats.held.len(),
+            plus_minus(&stats.held)
         );
     }
     if !stats.held_exact.is_empty() {
@@ -1061,8 +1060,7 @@ fn step_markdown(
                     .to_string(),
             );
         } else if stats.relative_std_err[i] > super::output_error::RELATIVE_STD_LIMIT {
-            let given =
-                stats.std_err_given_held.get(i).copied().unwrap_or(f64::NAN) / f.fitted[i].abs();
+            let given = stats.std_err_given_held[i] / f.fitted[i].abs();
             let limit = 100.0 * super::output_error::RELATIVE_STD_LIMIT;
             why.push(if given <= super::output_error::RELATIVE_STD_LIMIT {
                 format!(
@@ -1092,10 +1090,7 @@ fn step_markdown(
             fmt_g(f.initial[i]),
             fmt_g(f.fitted[i]),
             fmt_g(stats.std_err[i]),
-            stats
-                .std_err_given_held
-                .get(i)
-                .map_or_else(|| "—".to_string(), |&x| fmt_g(x)),
+            fmt_g(stats.std_err_given_held[i]),
             100.0 * stats.relative_std_err[i],
             fmt_g(f.lower[i]),
             fmt_g(f.upper[i]),
