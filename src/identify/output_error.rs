@@ -2168,6 +2168,55 @@ pub(crate) fn enters(
     owners.peek().is_none() || owners.any(|e| e.acts_with(conf.free))
 }
 
+/// Singular value of the scaled JᵀJ, relative to the largest, below which a direction is
+/// taken as not seen by the data (an exact symmetry, resolved by a finite-difference
+/// Jacobian only to its own accuracy).
+const EXACT_SYMMETRY: f64 = 1e-9;
+
+/// Which parameters the directions not seen by the data move: `v_t` the right singular
+/// vectors of the scaled JᵀJ (rows, unit norm in the columns' unit-norm coordinates),
+/// `singular` its singular values, `cutoff` the largest singular value taken as not seen;
+/// `scale(i)` the column's norm times the parameter's size (`None` for a column that is
+/// zero: such a parameter is undetermined on its own, and moves nothing else), so that
+/// `v[i] / scale(i)` is the relative change of parameter `i` along the direction. A
+/// parameter is moved when its component is above rounding (1e-12) and its relative
+/// change is at least 1e-3 of the largest along that direction: the plant gain's scale
+/// family moves all its members by the same fraction, however different their columns'
+/// norms. Conservative: on k1 of the Freedom 6S the family's direction also moves z7 by
+/// 1.2 % of that (a real part: with the tie I7_13 held, z7 compensates its scale) and
+/// vs_4 by 0.7 % (the Jacobian's own error, one may think, but magnitude alone does not
+/// tell them apart), and both are called undetermined. A direction that lives in zero
+/// columns (k1: Fs_5 with vs_5 → 0) leaves the others at rounding (≤ 2.4e-15), which
+/// must not count: divided by a tiny parameter's scale, rounding had looked like the
+/// largest change and made seven parameters "undetermined".
+fn moved_by_null_directions(
+    v_t: &DMatrix<f64>,
+    singular: &nalgebra::DVector<f64>,
+    cutoff: f64,
+    scale: impl Fn(usize) -> Option<f64>,
+) -> Vec<bool> {
+    let n = v_t.ncols();
+    let mut moved = vec![false; n];
+    for (k, &sv) in singular.iter().enumerate() {
+        if sv > cutoff {
+            continue;
+        }
+        let relative_change: Vec<f64> = (0..n)
+            .map(|i| match scale(i) {
+                Some(s) if v_t[(k, i)].abs() > 1e-12 => (v_t[(k, i)] / s).abs(),
+                _ => 0.0,
+            })
+            .collect();
+        let largest = relative_change.iter().cloned().fold(0.0, f64::max);
+        for (i, &r) in relative_change.iter().enumerate() {
+            if largest > 0.0 && r >= 1e-3 * largest {
+                moved[i] = true;
+            }
+        }
+    }
+    moved
+}
+
 /// Standard errors, correlations and identifiability of parameters `names` at physical
 /// values `p` within `(lower, upper)`, from the Jacobian `cols` (∂r/∂p, one column per
 /// parameter) with the `held` values' columns, and the variance `sigma` of every residual
@@ -2229,42 +2278,25 @@ pub(crate) fn covariance_statistics(
     let svd = a.clone().svd(true, true);
     let smax = svd.singular_values.max();
     let condition = smax / svd.singular_values.min().max(1e-300);
-    // Directions at rounding level (below 1e-15 of the largest singular value) are not
-    // determined by the data: truncated, and the parameters along them reported with
-    // infinite error. Anything above is inverted, so a near-symmetry (such as the plant
-    // gain against everything it multiplies) shows as large errors and correlations.
-    let cutoff = smax * 1e-15;
+    // Directions the data do not see (below EXACT_SYMMETRY of the largest singular value)
+    // are not determined: truncated, and the parameters along them reported with infinite
+    // error. An exact symmetry of the model shows there at the finite-difference Jacobian's
+    // accuracy, not at rounding (k1 of the Freedom 6S: the plant-gain scale family at
+    // 3.5e-11, the next direction the data see at 2.3e-6). Anything above is inverted, so
+    // a near-symmetry shows as large errors and correlations.
+    let cutoff = smax * EXACT_SYMMETRY;
     let ainv = svd
         .clone()
         .pseudo_inverse(cutoff)
         .unwrap_or_else(|_| DMatrix::from_element(n, n, f64::NAN));
-    // A parameter is undetermined when moving along such a direction changes it by a
-    // relative amount of at least 1e-3 of the largest relative change of any parameter
-    // (the plant gain's exact scale family moves all its members by the same fraction,
-    // however different their columns' norms; the rest move by rounding only).
-    let mut undetermined = vec![false; n];
-    if let Some(v_t) = &svd.v_t {
-        for (k, &sv) in svd.singular_values.iter().enumerate() {
-            if sv <= cutoff {
-                let relative_change: Vec<f64> = (0..n)
-                    .map(|i| {
-                        let scale = p[i].abs().max(1e-3 * (upper[i] - lower[i]));
-                        if norms[i] > 0.0 {
-                            (v_t[(k, i)] / (norms[i] * scale)).abs()
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect();
-                let largest = relative_change.iter().cloned().fold(0.0, f64::max);
-                for i in 0..n {
-                    if relative_change[i] >= 1e-3 * largest && largest > 0.0 {
-                        undetermined[i] = true;
-                    }
-                }
-            }
-        }
-    }
+    let undetermined = match &svd.v_t {
+        Some(v_t) => moved_by_null_directions(v_t, &svd.singular_values, cutoff, |i| {
+            (norms[i] > 0.0).then(|| norms[i] * p[i].abs().max(1e-3 * (upper[i] - lower[i])))
+        }),
+        None => vec![false; n],
+    };
+    // A zero column is undetermined on its own (its covariance is rounding).
+    let undetermined: Vec<bool> = (0..n).map(|i| undetermined[i] || norms[i] <= 0.0).collect();
     // Symmetric to rounding: the pseudo-inverse's 1/sv near the cut-off makes the two
     // halves differ.
     let given_held = &ainv * b * &ainv;
@@ -3188,6 +3220,74 @@ mod tests {
         );
         assert_eq!(stats.held, [("h".to_string(), sigma_h)]);
         assert_eq!(stats.held_exact, ["c"]);
+    }
+
+    /// A model seen only through the ratios θ₁/θ₀ and θ₂/θ₀ (the plant-gain scale family in
+    /// miniature: θ₀, θ₁, θ₂ × α change nothing), one more parameter θ₃, and a column that
+    /// is zero (θ₄: a Stribeck velocity → 0). The family's direction, resolved only to a
+    /// finite-difference Jacobian's accuracy (θ₁'s column 1e-6 off), is not seen: θ₀..θ₂
+    /// get infinite standard errors (a rounding-level cut-off had inverted it: errors 1e5
+    /// of the values, finite); θ₄ too, and its rounding-level covariance correlates with
+    /// nothing; θ₃ is determined, its standard error that of the problem with the
+    /// symmetry removed by holding θ₀ (a quantity the family does not move has the same
+    /// error in every gauge).
+    #[test]
+    fn an_exact_symmetry_at_the_jacobians_accuracy_and_a_zero_column_leave_the_rest_determined() {
+        let m = 300;
+        let s = 1e-3;
+        let theta = [2.0, 0.5, 3e-6, 0.8, 0.02];
+        let t: Vec<f64> = (0..m).map(|k| k as f64 / m as f64).collect();
+        let u: Vec<f64> = t.iter().map(|&x| (7.0 * x).sin()).collect();
+        let w: Vec<f64> = t.iter().map(|&x| (3.0 * x).cos() * 1e5).collect();
+        let z: Vec<f64> = t.iter().map(|&x| (7.0 * x).sin() + x * x).collect();
+        // y = (θ₁/θ₀) u + (θ₂/θ₀) w + θ₃ z.
+        let c0: Vec<f64> = (0..m)
+            .map(|k| -(theta[1] * u[k] + theta[2] * w[k]) / (theta[0] * theta[0]))
+            .collect();
+        let c1: Vec<f64> = u.iter().map(|x| x / theta[0]).collect();
+        let c2: Vec<f64> = w.iter().map(|x| x / theta[0]).collect();
+        // A finite-difference error: 1e-6 of the column, of another shape.
+        let c1_fd: Vec<f64> = c1
+            .iter()
+            .zip(&t)
+            .map(|(x, tk)| x + 1e-6 * (13.0 * tk).sin())
+            .collect();
+        let cols = vec![c0.clone(), c1_fd, c2.clone(), z.clone(), vec![0.0; m]];
+        let names: Vec<String> = (0..5).map(|i| format!("theta{i}")).collect();
+        let lower = [0.1, 0.01, 1e-7, -10.0, 1e-4];
+        let upper = [10.0, 5.0, 2e-4, 10.0, 1.0];
+        let stats = covariance_statistics(
+            &names,
+            &theta,
+            (&lower, &upper),
+            (cols, HeldColumns::default()),
+            &vec![s * s; m],
+            vec![Vec::new(); 5],
+            Vec::new(),
+        )
+        .unwrap();
+        for i in [0, 1, 2, 4] {
+            assert!(stats.std_err[i].is_infinite(), "θ{i}: {}", stats.std_err[i]);
+        }
+        assert!(stats.correlation[3]
+            .iter()
+            .enumerate()
+            .all(|(j, c)| j == 3 || c.abs() < 0.95));
+        // θ₀ held: least squares on (c1, c2, z), the variance s² (CᵀC)⁻¹ at θ₃.
+        let reduced = [&c1, &c2, &z];
+        let ctc = nalgebra::Matrix3::from_fn(|i, j| {
+            reduced[i]
+                .iter()
+                .zip(reduced[j])
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+        });
+        let expected = s * ctc.try_inverse().unwrap()[(2, 2)].sqrt();
+        assert!(
+            (stats.std_err[3] / expected - 1.0).abs() < 1e-3,
+            "θ₃: {} vs {expected}",
+            stats.std_err[3]
+        );
     }
 
     /// Broyden's update meets the secant condition J⁺ Δu = Δr, changes J only along Δu
