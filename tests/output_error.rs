@@ -696,6 +696,72 @@ fn symbols_that_enter_only_through_base_parameters_are_not_called_identifiable()
     assert!(stats.identifiable[at("vs_4")] && stats.identifiable[at("qeq_4")]);
 }
 
+/// Physical consistency is a constraint of every stage: a trial point that leaves a link
+/// with a fitted symbol impossible (here m7 < 0 in c1) fails, naming the link, as a
+/// diverged simulation does, so the optimiser rejects the step (the equation error's
+/// torque balance and a strongly pulled predictor can be evaluated there; k4 of the
+/// Freedom 6S had gone there and no later stage could simulate). A link already
+/// impossible at the plant's values is not guarded: the fit may move it back.
+#[test]
+fn a_trial_point_that_makes_a_consistent_link_impossible_is_rejected() {
+    let d = tempfile::tempdir().unwrap();
+    let (p, x, _) = problem_at_truth(d.path(), "J4", 0);
+    let at = |n: &str| p.names.iter().position(|x| x == n).unwrap();
+    assert_eq!(p.guarded_links(), ["L7"]);
+    assert!(p.residuals(&x).is_ok());
+    let mut y = x.clone();
+    y[at("m7")] = -0.01;
+    let err = p.residuals(&y).unwrap_err().0;
+    assert!(
+        err.contains("physically impossible") && err.contains("'L7'"),
+        "{err}"
+    );
+    // The same fit from a plant where L7 is impossible already (its mass negative): not
+    // guarded, so the point is evaluated (whatever the simulation then says).
+    let truth = Plant::load(&truth(d.path())).unwrap();
+    let s = plan(&truth, "isolated").unwrap().swap_remove(0);
+    let conf = truth.model.configuration(&s.config).unwrap();
+    let impossible = p.plant_at(&y);
+    let q = Problem::new(
+        &impossible,
+        conf,
+        s.fitted.clone(),
+        vec![q_record(d.path(), &s.config, &truth)],
+        &s.interest,
+        OutputErrorOptions::default(),
+    );
+    // Its bounds refuse m7 < 0 (named) before anything is guarded; widen them.
+    let err = q.err().map(|e| format!("{e:#}")).unwrap_or_default();
+    assert!(err.contains("m7"), "{err}");
+    let mut wide = impossible.clone();
+    wide.bounds.insert("m7".into(), (-1.0, 1.0));
+    let q = Problem::new(
+        &wide,
+        conf,
+        s.fitted.clone(),
+        vec![q_record(d.path(), &s.config, &truth)],
+        &s.interest,
+        OutputErrorOptions::default(),
+    )
+    .unwrap();
+    assert!(q.guarded_links().is_empty(), "{:?}", q.guarded_links());
+    if let Err(e) = q.residuals(&y) {
+        assert!(!e.0.contains("physically impossible"), "{}", e.0);
+    }
+}
+
+/// The measurement file of `config` that [`problem_of_step`] wrote under `d`.
+fn q_record(d: &Path, config: &str, truth: &Plant) -> lockstep::identify::output_error::Record {
+    let conf = truth.model.configuration(config).unwrap();
+    read_record(
+        &d.join(format!("data/{config}_run.csv")),
+        truth.model,
+        conf,
+        0.01,
+    )
+    .unwrap()
+}
+
 /// Far from the floor the residuals are not noise and the standard errors mean nothing: at
 /// the ±25 % start of c1 no parameter is called identifiable, and the report says which
 /// joint is how far above its noise.

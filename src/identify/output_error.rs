@@ -421,12 +421,33 @@ pub struct Problem {
     /// counts them, so a fitted symbol determined only given a held one is not called
     /// identifiable.
     held_ties: Vec<String>,
+    /// Links with a fitted symbol that are physically consistent at the plant's values
+    /// (mass > 0, inertia about the centroid positive definite): a trial point that makes
+    /// one of them impossible is rejected as a diverged simulation is
+    /// ([`Problem::residuals`]). A link already impossible at the plant's values (the
+    /// Appendix D guess's L1) is free to move.
+    guarded_links: Vec<String>,
     options: OutputErrorOptions,
 }
 
 /// A failed simulation at a trial point.
 #[derive(Debug, Clone)]
 pub struct TrialFailure(pub String);
+
+/// The findings no body can have ([`crate::plant::Finding::is_blocking`]: mass ≤ 0,
+/// inertia about the centroid not positive definite) of every link of `plant`; none
+/// when its barycentric parameters cannot be formed (a missing value: the simulation
+/// reports that).
+fn blocking_findings(plant: &Plant) -> Vec<crate::plant::Finding> {
+    match plant.barycentric(None) {
+        Ok(b) => plant
+            .consistency(&b, None)
+            .into_iter()
+            .filter(|f| f.is_blocking())
+            .collect(),
+        Err(_) => Vec::new(),
+    }
+}
 
 impl Problem {
     /// Set up the fit of `names` of `plant` in configuration `conf` on `records`, with
@@ -513,7 +534,25 @@ impl Problem {
             equation_error: None,
             predictor: None,
             held_ties: Vec::new(),
+            guarded_links: Vec::new(),
             options,
+        };
+        problem.guarded_links = {
+            let impossible = blocking_findings(plant);
+            let model = plant.model;
+            model
+                .links
+                .iter()
+                .enumerate()
+                .filter(|(l, name)| {
+                    plant
+                        .link_symbols(*l)
+                        .iter()
+                        .any(|sym| problem.names.iter().any(|n| n == sym))
+                        && !impossible.iter().any(|f| f.link == **name)
+                })
+                .map(|(_, name)| name.to_string())
+                .collect()
         };
         if let Some(tau) = problem.options.prior {
             if !(tau > 0.0 && tau.is_finite()) {
@@ -654,6 +693,7 @@ impl Problem {
             equation_error: None,
             predictor: self.predictor,
             held_ties: self.held_ties.clone(),
+            guarded_links: self.guarded_links.clone(),
             options: self.options.clone(),
         }
     }
@@ -1059,12 +1099,33 @@ impl Problem {
         r
     }
 
+    /// The links this fit keeps physically consistent ([`Problem::residuals`]): those with
+    /// a fitted symbol that are consistent at the plant's values, by name.
+    pub fn guarded_links(&self) -> &[String] {
+        &self.guarded_links
+    }
+
     /// Residual vector (length [`Problem::residual_count`]) at physical parameters `p`,
     /// files simulated in parallel.
     ///
     /// # Errors
     /// The first failing file's simulation.
+    ///
+    /// A trial point that leaves a [guarded](Problem::guarded_links) link physically
+    /// impossible fails too (named): the torque balance of the equation error and a
+    /// strongly pulled predictor can be evaluated there, but no later stage can simulate
+    /// it (k4 of the Freedom 6S from k3's plant: the equation error and ω = 30 rad/s
+    /// took links 2–5 to an indefinite inertia, and every later stage diverged).
     pub fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
+        if !self.guarded_links.is_empty() {
+            let plant = self.plant_at(p);
+            if let Some(f) = blocking_findings(&plant)
+                .into_iter()
+                .find(|f| self.guarded_links.contains(&f.link))
+            {
+                return Err(TrialFailure(format!("physically impossible: {f}")));
+            }
+        }
         if let Some(ee) = &self.equation_error {
             return ee
                 .residuals(&self.plant_at(p))
