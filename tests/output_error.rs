@@ -722,28 +722,25 @@ fn a_trial_point_that_makes_a_consistent_link_impossible_is_rejected() {
     let s = plan(&truth, "isolated").unwrap().swap_remove(0);
     let conf = truth.model.configuration(&s.config).unwrap();
     let impossible = p.plant_at(&y);
-    let q = Problem::new(
-        &impossible,
-        conf,
-        s.fitted.clone(),
-        vec![q_record(d.path(), &s.config, &truth)],
-        &s.interest,
-        OutputErrorOptions::default(),
-    );
+    let problem_of = |plant: &Plant| {
+        Problem::new(
+            plant,
+            conf,
+            s.fitted.clone(),
+            vec![q_record(d.path(), &s.config, &truth)],
+            &s.interest,
+            OutputErrorOptions::default(),
+        )
+    };
     // Its bounds refuse m7 < 0 (named) before anything is guarded; widen them.
-    let err = q.err().map(|e| format!("{e:#}")).unwrap_or_default();
+    let err = problem_of(&impossible)
+        .err()
+        .map(|e| format!("{e:#}"))
+        .unwrap_or_default();
     assert!(err.contains("m7"), "{err}");
     let mut wide = impossible.clone();
     wide.bounds.insert("m7".into(), (-1.0, 1.0));
-    let q = Problem::new(
-        &wide,
-        conf,
-        s.fitted.clone(),
-        vec![q_record(d.path(), &s.config, &truth)],
-        &s.interest,
-        OutputErrorOptions::default(),
-    )
-    .unwrap();
+    let q = problem_of(&wide).unwrap();
     assert!(q.guarded_links().is_empty(), "{:?}", q.guarded_links());
     if let Err(e) = q.residuals(&y) {
         assert!(!e.0.contains("physically impossible"), "{}", e.0);
