@@ -2627,7 +2627,8 @@ pub struct StartSummary {
     /// How each stage ended (warm-ups, then the whole files), e.g. "horizon 100 %:
     /// convergence in parameter value after 12 iteration(s)".
     pub status: String,
-    /// Trial points whose simulation diverged (rejected by the optimiser).
+    /// Trial points rejected by the optimiser: their simulation diverged, or they left a
+    /// guarded link physically impossible ([`Problem::guarded_links`]).
     pub diverged: usize,
     /// How the start was warmed up.
     pub warm_up: WarmUp,

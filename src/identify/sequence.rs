@@ -927,6 +927,13 @@ fn step_markdown(
         f.best_start,
         f.starts.get(f.best_start).map(|x| x.status.as_str()).unwrap_or("")
     );
+    let rejected: usize = f.starts.iter().map(|x| x.diverged).sum();
+    if rejected > 0 {
+        let _ = writeln!(
+            s,
+            "{rejected} trial point(s) rejected by the optimiser: the simulation diverged, or a link with a fitted symbol, consistent at the start, became physically impossible.\n"
+        );
+    }
     if !st.step.carried.is_empty() {
         let _ = writeln!(
             s,
