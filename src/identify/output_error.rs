@@ -302,6 +302,28 @@ pub struct Record {
     pub qd0: Option<Vec<f64>>,
 }
 
+/// Where the final stage starts: the scaled parameters `u` the warm-ups ended at, when the
+/// whole files can be simulated from them (their cost `cost_u` is finite); otherwise the
+/// lowest-cost entry of `simulable` (name, whole files' cost, scaled parameters; never
+/// empty: the start is first), into `u`. A predictor's output injection holds a simulation
+/// on the data that runs away without it: k4 of the Freedom 6S from k3's plant ended its
+/// predictor stages where only ω = 1 rad/s could simulate the files, and the final stage
+/// had no start. Returns the report's note when it fell back.
+fn fall_back_to_simulable(
+    u: &mut [f64],
+    simulable: &[(String, f64, Vec<f64>)],
+    cost_u: f64,
+) -> Option<String> {
+    if cost_u.is_finite() {
+        return None;
+    }
+    let (name, cost, best) = simulable.iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    u.copy_from_slice(best);
+    Some(format!(
+        "the warm-ups ended where the whole files cannot be simulated: the final stage starts from the lowest-cost result they could be simulated from, {name}'s (cost {cost:.5e})"
+    ))
+}
+
 /// A stage of a fit: multiple-shooting segments, or a growing horizon of the files.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub enum Stage {
@@ -1566,7 +1588,16 @@ impl Problem {
         // The records with estimated initial positions, once the whole files' stage ran on
         // them.
         let mut estimated: Option<Problem> = None;
+        // The warm-ups' results the whole files can be simulated from, with their cost
+        // (4.2)/(4.3): the start first.
+        let mut simulable = vec![("the start".to_string(), start_cost, u.clone())];
         for &stage in stages {
+            if stage.is_final() {
+                let cost_u = self.cost_at(&u);
+                if let Some(note) = fall_back_to_simulable(&mut u, &simulable, cost_u) {
+                    ended.push(note);
+                }
+            }
             if stage.is_final() && self.options.estimate_initial_positions {
                 let (outcome, problem) =
                     self.run_final_estimating_initial_positions(&mut u, context);
@@ -1631,8 +1662,21 @@ impl Problem {
             }
             diverged += outcome.failures;
             iterations += outcome.iterations;
+            // What the warm-up's result is worth on the whole files, which the final stage
+            // fits.
+            let whole = if stage.is_final() {
+                String::new()
+            } else {
+                let cost = self.cost_at(&u);
+                if cost.is_finite() {
+                    simulable.push((stage.to_string(), cost, u.clone()));
+                    format!(", whole files' cost {cost:.5e}")
+                } else {
+                    ", the whole files cannot be simulated from its result".to_string()
+                }
+            };
             ended.push(format!(
-                "{stage}{step_note}: {}{}",
+                "{stage}{step_note}: {}{}{whole}",
                 outcome.status,
                 problem.equation_error_note()
             ));
@@ -1657,6 +1701,12 @@ impl Problem {
             },
             records: estimated.map(|p| p.records),
         }
+    }
+
+    /// The cost (4.2)/(4.3) of the whole files at scaled parameters `u`; infinite where
+    /// they cannot be simulated.
+    fn cost_at(&self, u: &[f64]) -> f64 {
+        self.cost(&self.to_physical(u))
     }
 
     /// The whole files' stage with the free joints' initial positions estimated
@@ -3171,7 +3221,31 @@ impl MPFitter for Fitter<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::{covariance_statistics, savitzky_golay_velocity, HeldColumns, LastJacobian};
+    use super::{
+        covariance_statistics, fall_back_to_simulable, savitzky_golay_velocity, HeldColumns,
+        LastJacobian,
+    };
+
+    /// The final stage keeps the warm-ups' end where the whole files can be simulated from
+    /// it, even at a cost above an earlier result's; where they cannot, it starts from the
+    /// lowest-cost earlier result, not the latest nor the start.
+    #[test]
+    fn the_final_stage_falls_back_to_the_lowest_cost_simulable_warm_up() {
+        let simulable = vec![
+            ("the start".to_string(), 5.0e4, vec![0.5, 0.5]),
+            ("predictor ω = 30 rad/s".to_string(), 0.26, vec![0.2, 0.7]),
+            ("predictor ω = 10 rad/s".to_string(), 3.1, vec![0.1, 0.9]),
+        ];
+        let mut u = vec![0.0, 1.0];
+        assert_eq!(fall_back_to_simulable(&mut u, &simulable, 7.0), None);
+        assert_eq!(u, [0.0, 1.0]);
+        let note = fall_back_to_simulable(&mut u, &simulable, f64::INFINITY).unwrap();
+        assert_eq!(u, [0.2, 0.7]);
+        assert!(
+            note.contains("predictor ω = 30 rad/s's (cost 2.60000e-1)"),
+            "{note}"
+        );
+    }
 
     /// The two-stage standard errors against a Monte Carlo of the two-stage estimator
     /// itself: y = A θ + b h + e (m = 200, e ~ N(0, s²)), h estimated before with error
