@@ -812,6 +812,19 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
     assert_eq!(starts.len(), 2);
     assert_eq!(starts[0]["warm_up"], "horizons");
     assert_eq!(starts[1]["warm_up"], "segments");
+    // The report names the start it kept and shows how the other one ended.
+    let kept = fit["best_start"].as_u64().unwrap();
+    let other = &starts[1 - kept as usize];
+    let md = std::fs::read_to_string(d.path().join("out").join("report.md")).unwrap();
+    let line = format!("Start {} (not kept): cost ", 1 - kept);
+    let shown = md
+        .lines()
+        .find(|l| l.starts_with(&line))
+        .unwrap_or_else(|| panic!("{md}"));
+    assert!(
+        shown.ends_with(&format!("{}.", other["status"].as_str().unwrap())),
+        "{shown}"
+    );
     let cost = |s: &serde_json::Value| s["cost"].as_f64().unwrap();
     let best = fit["cost_after"].as_f64().unwrap();
     // The winner's cost is where the least change starts; it may then rise by at most

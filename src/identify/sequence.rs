@@ -927,6 +927,16 @@ fn step_markdown(
         f.best_start,
         f.starts.get(f.best_start).map(|x| x.status.as_str()).unwrap_or("")
     );
+    for other in f.starts.iter().filter(|x| x.start != f.best_start) {
+        let _ = writeln!(
+            s,
+            "Start {} (not kept): cost {} → {}: {}.\n",
+            other.start,
+            fmt_g(other.start_cost),
+            fmt_g(other.cost),
+            other.status
+        );
+    }
     let rejected: usize = f.starts.iter().map(|x| x.diverged).sum();
     if rejected > 0 {
         let _ = writeln!(
