@@ -306,9 +306,10 @@ pub struct Record {
 /// whole files can be simulated from them (their cost `cost_u` is finite); otherwise the
 /// lowest-cost entry of `simulable` (name, whole files' cost, scaled parameters; never
 /// empty: the start is first), into `u`. A predictor's output injection holds a simulation
-/// on the data that runs away without it: k4 of the Freedom 6S from k3's plant ended its
-/// predictor stages where only ω = 1 rad/s could simulate the files, and the final stage
-/// had no start. Returns the report's note when it fell back.
+/// on the data that runs away without it: k4 of the Freedom 6S from the seed-7 k3 plant
+/// (RK4 warm-ups at 1/12000 s) ended its predictor stages where the whole files could not
+/// be simulated, and the final stage had no start. Returns the report's note when it fell
+/// back.
 fn fall_back_to_simulable(
     u: &mut [f64],
     simulable: &[(String, f64, Vec<f64>)],
@@ -446,8 +447,9 @@ pub struct Problem {
     /// Links with a fitted symbol that are physically consistent at the plant's values
     /// (mass > 0, inertia about the centroid positive definite): a trial point that makes
     /// one of them impossible is rejected as a diverged simulation is
-    /// ([`Problem::residuals`]). A link already impossible at the plant's values (the
-    /// Appendix D guess's L1) is free to move.
+    /// ([`Problem::residuals`]). A link already impossible at the plant's values is free
+    /// to move (the Appendix D initial guess of the Freedom 6S has L1–L5 indefinite, so
+    /// its coupled steps k1..k4 guard only L6 and L7).
     guarded_links: Vec<String>,
     options: OutputErrorOptions,
 }
@@ -1135,9 +1137,8 @@ impl Problem {
     ///
     /// A trial point that leaves a [guarded](Problem::guarded_links) link physically
     /// impossible fails too (named): the torque balance of the equation error and a
-    /// strongly pulled predictor can be evaluated there, but no later stage can simulate
-    /// it (k4 of the Freedom 6S from k3's plant: the equation error and ω = 30 rad/s
-    /// took links 2–5 to an indefinite inertia, and every later stage diverged).
+    /// strongly pulled predictor can be evaluated at a point no body has, and a fit that
+    /// starts consistent must not end there (a constraint, as the bounds are).
     pub fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
         if !self.guarded_links.is_empty() {
             let plant = self.plant_at(p);
