@@ -500,13 +500,7 @@ impl JointProblem {
         let locked_at: Vec<Vec<Vec<f64>>> = self
             .parts
             .iter()
-            .map(|part| {
-                part.problem
-                    .records
-                    .iter()
-                    .map(|r| r.q_all.clone())
-                    .collect()
-            })
+            .map(|part| part.problem.locked_at())
             .collect();
         let places: Vec<(&Configuration, &[Vec<f64>])> = self
             .parts

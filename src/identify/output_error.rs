@@ -960,6 +960,13 @@ impl Problem {
         self.conf
     }
 
+    /// Every joint's position (rad, `n_joints` each) at the start of each file, in file
+    /// order: where the files hold the locked joints, for the structural checks that
+    /// evaluate the model there.
+    pub fn locked_at(&self) -> Vec<Vec<f64>> {
+        self.records.iter().map(|r| r.q_all.clone()).collect()
+    }
+
     /// Physical parameters from scaled ones (u ∈ [0, 1]ⁿ).
     pub fn to_physical(&self, u: &[f64]) -> Vec<f64> {
         scaled_to_physical(&self.lower, &self.upper, &self.pairs, u)
@@ -2033,7 +2040,7 @@ impl Problem {
     /// # Errors
     /// The plant's barycentric parameters cannot be formed.
     fn structural_companions(&self, p: &[f64]) -> Result<Vec<Vec<String>>> {
-        let locked_at: Vec<Vec<f64>> = self.records.iter().map(|r| r.q_all.clone()).collect();
+        let locked_at = self.locked_at();
         fitted_companions(
             &self.plant_at(p),
             &self.names,
@@ -2221,17 +2228,22 @@ pub(crate) struct HeldColumns {
     pub exact: Vec<String>,
 }
 
-/// A held value's central-difference step: [`OutputErrorOptions::fd_step`] of its bound
-/// width, else of its magnitude (of 1 for a zero value).
-pub(crate) fn held_step(plant: &Plant, name: &str, fd_step: f64) -> f64 {
-    let width = match plant.bounds.get(name) {
+/// The scale of a value a fit holds (its units): its bound width, else its magnitude, else
+/// 1 (a zero or unknown value without bounds).
+fn held_scale(plant: &Plant, name: &str) -> f64 {
+    match plant.bounds.get(name) {
         Some(&(lo, hi)) if hi > lo => hi - lo,
         _ => plant
             .parameters
             .get(name)
             .map_or(1.0, |v| if *v == 0.0 { 1.0 } else { v.abs() }),
-    };
-    fd_step * width
+    }
+}
+
+/// A held value's central-difference step: [`OutputErrorOptions::fd_step`] of its scale
+/// (bound width, else magnitude, else 1).
+pub(crate) fn held_step(plant: &Plant, name: &str, fd_step: f64) -> f64 {
+    fd_step * held_scale(plant, name)
 }
 
 /// The parameters of `plant` that a fit of `names` holds although they enter one of the
@@ -2533,7 +2545,7 @@ pub(crate) fn difference_column(
 /// them ([`structural_companions_across`](super::identifiability::structural_companions_across)):
 /// the ties the data can see, which are more than those of a configuration anywhere (the
 /// spanning symbols, [`super::identifiability::spanning_symbols`], are chosen there too).
-/// Scales: a fitted symbol's bound width; a held one's bounds, else its value.
+/// Scales: a fitted symbol's bound width; a held one's bound width, else its magnitude, else 1.
 ///
 /// # Errors
 /// The plant's barycentric parameters cannot be formed.
@@ -2550,13 +2562,7 @@ pub(crate) fn fitted_companions(
         if i < n {
             return upper[i] - lower[i];
         }
-        match plant.bounds.get(&all[i]) {
-            Some(&(lo, hi)) if hi > lo => hi - lo,
-            _ => plant
-                .parameters
-                .get(&all[i])
-                .map_or(1.0, |v| v.abs().max(1e-12)),
-        }
+        held_scale(plant, &all[i])
     };
     let mut out =
         super::identifiability::structural_companions_across(plant, places, &all, &width)?;

@@ -573,7 +573,7 @@ pub fn run(
         s.fitted.extend(more.iter().cloned());
         s.carried.extend(more);
         if opts.rigid_body == RigidBodyFit::Spanning {
-            let locked_at: Vec<Vec<f64>> = first.records.iter().map(|r| r.q_all.clone()).collect();
+            let locked_at = first.locked_at();
             let keep = spanning_symbols(
                 &current,
                 first.configuration(),
