@@ -265,3 +265,43 @@ fn spanning_symbols_move_every_torque_combination_the_locked_data_can_see() {
         assert_eq!(r_all, r_chosen, "{cname}");
     }
 }
+
+/// The widened start (`freedom6s_appendix_d_initial_widened.toml`) is the Appendix D guess
+/// with the thesis rule's bounds, widened exactly where the coupled method's result
+/// (I4_33 made positive, issue 5's synthetic truth) lies outside them, to that value ± 30 %
+/// of its magnitude; and those are the ten values Appendix D's coupled column puts outside
+/// its own initial guess's bounds (m2 0.37559 kg against at most 0.2958 kg).
+#[test]
+fn the_widened_start_holds_the_coupled_result_and_differs_only_where_it_must() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants");
+    let initial = Plant::load(&dir.join("freedom6s_appendix_d_initial.toml")).unwrap();
+    let widened = Plant::load(&dir.join("freedom6s_appendix_d_initial_widened.toml")).unwrap();
+    let mut truth = coupled_plant();
+    let i4_33 = truth.parameters.get_mut("I4_33").unwrap();
+    *i4_33 = i4_33.abs();
+    assert_eq!(widened.parameters, initial.parameters);
+    assert_eq!(
+        widened.bounds.keys().collect::<Vec<_>>(),
+        initial.bounds.keys().collect::<Vec<_>>()
+    );
+    let mut outside = Vec::new();
+    for (n, &(lo, hi)) in &initial.bounds {
+        let v = truth.parameters[n];
+        let expected = if v < lo || v > hi {
+            outside.push(n.as_str());
+            (lo.min(v - 0.3 * v.abs()), hi.max(v + 0.3 * v.abs()))
+        } else {
+            (lo, hi)
+        };
+        assert_eq!(widened.bounds[n], expected, "{n}");
+        let (wlo, whi) = widened.bounds[n];
+        assert!(wlo <= v && v <= whi, "{n} = {v} outside [{wlo}, {whi}]");
+    }
+    outside.sort_unstable();
+    assert_eq!(
+        outside,
+        ["I1_33", "I2_33", "I3_11", "I3_12", "I3_23", "I4_13", "I4_33", "I5_33", "m2", "x1"]
+    );
+    // The thesis rule for a mass: ±50 % of the guess (0.1972 kg).
+    assert!((initial.bounds["m2"].1 - 1.5 * 0.1972).abs() < 1e-12);
+}
