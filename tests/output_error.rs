@@ -1983,3 +1983,54 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("## Joint fit of every step's files: free q3, q4, q5"));
 }
+
+/// A fit whose bounds exclude the truth ends away from the noise floor with the value at
+/// its bound, and the report says which values ended at a bound and what that may mean
+/// (joint 4's cable-drag spring Ks_4 bounded to 10–20 % of its true value; c1, 12 s).
+#[test]
+fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
+    let d = tempfile::tempdir().unwrap();
+    let truth_file = truth(d.path());
+    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "12");
+    let truth = Plant::load(&truth_file).unwrap();
+    let names = plan(&truth, "isolated").unwrap()[0].fitted.clone();
+    let start = d.path().join("start.toml");
+    perturbed_start(&truth_file, &names, &start);
+    let mut plant = Plant::load(&start).unwrap();
+    let ks = truth.parameters["Ks_4"];
+    plant.bounds.insert("Ks_4".into(), (0.1 * ks, 0.2 * ks));
+    plant.parameters.insert("Ks_4".into(), 0.15 * ks);
+    plant.save(&start).unwrap();
+    let report = identify_isolated(
+        d.path(),
+        &start,
+        "c1",
+        &["--step", "1/12000", "--horizons", "1", "--max-iter", "15"],
+    );
+    let fit = &report["steps"][0]["fit"];
+    let names: Vec<String> = column(fit, &["names"]);
+    let fitted: Vec<f64> = column(fit, &["fitted"]);
+    let at_bound: Vec<bool> = column(fit, &["statistics", "at_bound"]);
+    let k = names.iter().position(|n| n == "Ks_4").unwrap();
+    assert!(at_bound[k], "Ks_4 = {} not at its bound", fitted[k]);
+    assert!((fitted[k] - 0.2 * ks).abs() <= 1e-9 * ks, "{}", fitted[k]);
+    assert!(!fit["statistics"]["above_floor"]
+        .as_array()
+        .unwrap()
+        .is_empty());
+    let md = std::fs::read_to_string(d.path().join("out").join("report.md")).unwrap();
+    let line = md
+        .lines()
+        .find(|l| l.contains("ended at a bound:"))
+        .expect("no line on the values at their bounds");
+    println!("{line}");
+    assert!(line.contains("Ks_4"), "{line}");
+    assert!(line.contains("widen them"), "{line}");
+    let listed = line
+        .split_once("ended at a bound: ")
+        .and_then(|(_, rest)| rest.split_once(". "))
+        .unwrap()
+        .0;
+    let count = at_bound.iter().filter(|&&b| b).count();
+    assert_eq!(listed.split(',').count(), count, "{line}");
+}

@@ -1043,6 +1043,22 @@ fn step_markdown(
             stats.above_floor.join(", "),
             super::output_error::FLOOR_FACTOR
         );
+        let at_bound: Vec<&str> = f
+            .names
+            .iter()
+            .zip(&stats.at_bound)
+            .filter(|(_, &b)| b)
+            .map(|(n, _)| n.as_str())
+            .collect();
+        if !at_bound.is_empty() {
+            let _ = writeln!(
+                s,
+                "{} of {} fitted value(s) ended at a bound: {}. A fit away from the floor with values at their bounds may have its minimum outside them, or be making up for a value held wrong: check that the bounds hold the values expected (widen them and fit again) before reading the misfit as a missing effect.\n",
+                at_bound.len(),
+                f.names.len(),
+                at_bound.join(", ")
+            );
+        }
     }
     if !stats.held.is_empty() {
         let _ = writeln!(
