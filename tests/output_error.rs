@@ -178,6 +178,18 @@ fn fit_c1(d: &Path) -> (serde_json::Value, Plant, PathBuf) {
     )
 }
 
+/// 12 s of Table 4.3's `test` chirp on isolated step `step` (0 = c1) of the truth, and the
+/// ±25 % start of [`perturbed_start`] for that step's parameters: the truth and the start.
+fn short_isolated_start(d: &Path, test: &str, step: usize) -> (Plant, PathBuf) {
+    let truth_file = truth(d);
+    let truth = Plant::load(&truth_file).unwrap();
+    let config = plan(&truth, "isolated").unwrap()[step].clone();
+    make_data(d, &truth_file, "4.3", Some(test), &config.config, "12");
+    let start = d.join("start.toml");
+    perturbed_start(&truth_file, &config.fitted, &start);
+    (truth, start)
+}
+
 /// The fit problem of isolated step `step` (0 = c1) on 40 s of Table 4.3's `test` chirp:
 /// the problem with the plant at the truth, the fitted parameters' true values, and their
 /// values in the ±25 % start of [`perturbed_start`].
@@ -786,12 +798,7 @@ fn nothing_is_called_identifiable_away_from_the_noise_floor() {
 #[test]
 fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    make_data(d.path(), &truth_file, "4.3", Some("J3"), "c3", "12");
-    let truth = Plant::load(&truth_file).unwrap();
-    let names = plan(&truth, "isolated").unwrap()[2].fitted.clone();
-    let start = d.path().join("start.toml");
-    perturbed_start(&truth_file, &names, &start);
+    let (_, start) = short_isolated_start(d.path(), "J3", 2);
     let report = identify_isolated(
         d.path(),
         &start,
@@ -1990,12 +1997,7 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
 #[test]
 fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "12");
-    let truth = Plant::load(&truth_file).unwrap();
-    let names = plan(&truth, "isolated").unwrap()[0].fitted.clone();
-    let start = d.path().join("start.toml");
-    perturbed_start(&truth_file, &names, &start);
+    let (truth, start) = short_isolated_start(d.path(), "J4", 0);
     let mut plant = Plant::load(&start).unwrap();
     let ks = truth.parameters["Ks_4"];
     plant.bounds.insert("Ks_4".into(), (0.1 * ks, 0.2 * ks));
