@@ -208,6 +208,10 @@ pub enum Command {
         /// Plant file.
         #[arg(long)]
         plant: PathBuf,
+        /// A plant file of values a fit from `--plant` should be able to reach (a published
+        /// result, the truth of synthetic data): lists those outside `--plant`'s bounds.
+        #[arg(long)]
+        against: Option<PathBuf>,
     },
     /// Closed-loop PD verification (thesis 4.5): PD per joint with the filtered error
     /// derivative (4.7), position commands of Table 4.9, small and big gains of Table 4.8;
@@ -1066,9 +1070,25 @@ pub fn run(cli: Cli) -> Result<()> {
                 out.with_extension("toml").display()
             );
         }
-        Command::Check { plant } => {
+        Command::Check { plant, against } => {
             let p = Plant::load(&plant)?;
             let m = p.model;
+            let reference = match &against {
+                Some(other) => {
+                    let o = Plant::load(other)?;
+                    if o.model.name != m.name {
+                        bail!(
+                            "{}: model '{}', but {} is of model '{}'",
+                            other.display(),
+                            o.model.name,
+                            plant.display(),
+                            m.name
+                        );
+                    }
+                    Some((other, o))
+                }
+                None => None,
+            };
             println!(
                 "plant {} (model {}): {}",
                 plant.display(),
@@ -1105,6 +1125,21 @@ pub fn run(cli: Cli) -> Result<()> {
                         );
                     }
                     Err(e) => println!("  configuration {:<6} cannot simulate: {e:#}", c.name),
+                }
+            }
+            if let Some((other, o)) = reference {
+                let outside = p.outside_bounds(&o.parameters);
+                if outside.is_empty() {
+                    println!("every value of {} lies within the bounds", other.display());
+                } else {
+                    println!(
+                        "{} value(s) of {} outside the bounds (a fit from this plant cannot reach them):",
+                        outside.len(),
+                        other.display()
+                    );
+                }
+                for (n, v, (lo, hi)) in &outside {
+                    println!("  {n} = {v:.5e} outside [{lo:.5e}, {hi:.5e}]");
                 }
             }
         }

@@ -758,6 +758,20 @@ impl Plant {
         }
     }
 
+    /// The values of `values` that lie outside this plant's bounds, by name (those without
+    /// bounds here are not checked): `(name, value, (lower, upper))`, in name order. A
+    /// fit started from this plant cannot reach them (a reference result, the truth of
+    /// synthetic data: Appendix D's coupled m2 lies outside the thesis bounds, README).
+    pub fn outside_bounds(&self, values: &BTreeMap<String, f64>) -> Vec<(String, f64, (f64, f64))> {
+        self.bounds
+            .iter()
+            .filter_map(|(n, &(lo, hi))| {
+                let v = *values.get(n)?;
+                (v < lo || v > hi).then(|| (n.clone(), v, (lo, hi)))
+            })
+            .collect()
+    }
+
     /// The plant as a file.
     pub fn to_file(&self) -> PlantFile {
         let mut effects: Vec<EffectSpec> = Vec::new();

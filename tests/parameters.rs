@@ -302,6 +302,13 @@ fn the_widened_start_holds_the_coupled_result_and_differs_only_where_it_must() {
         outside,
         ["I1_33", "I2_33", "I3_11", "I3_12", "I3_23", "I4_13", "I4_33", "I5_33", "m2", "x1"]
     );
+    let listed: Vec<String> = initial
+        .outside_bounds(&truth.parameters)
+        .into_iter()
+        .map(|(n, _, _)| n)
+        .collect();
+    assert_eq!(listed, outside);
+    assert!(widened.outside_bounds(&truth.parameters).is_empty());
     // The thesis rule for a mass: ±50 % of the guess (0.1972 kg).
     assert!((initial.bounds["m2"].1 - 1.5 * 0.1972).abs() < 1e-12);
 }

@@ -163,3 +163,38 @@ fn excite_and_simulate_errors_name_the_item() {
         .to_string_lossy()
         .starts_with('.')));
 }
+
+/// `lockstep check --against`: the values of a reference plant a fit from `--plant` cannot
+/// reach (Appendix D's coupled m2 outside the thesis bounds), none from the widened start;
+/// a reference of another model is refused in one line before anything is printed.
+#[test]
+fn check_against_lists_the_reference_values_outside_the_bounds() {
+    let plants = Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants");
+    let coupled = coupled_plant();
+    let run = |start: &str, against: &Path| {
+        lockstep(&[
+            "check",
+            "--plant",
+            plants.join(start).to_str().unwrap(),
+            "--against",
+            against.to_str().unwrap(),
+        ])
+    };
+    let o = run("freedom6s_appendix_d_initial.toml", &coupled);
+    assert!(o.status.success());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("9 value(s) of "), "{out}");
+    assert!(
+        out.contains("  m2 = 3.75590e-1 outside [9.86000e-2, 2.95800e-1]"),
+        "{out}"
+    );
+    let o = run("freedom6s_appendix_d_initial_widened.toml", &coupled);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("lies within the bounds"));
+    let o = run(
+        "freedom6s_appendix_d_initial.toml",
+        &plants.join("emps_viscous.toml"),
+    );
+    fails(&o, &["emps_viscous.toml", "model 'emps'", "'freedom6s'"]);
+    assert!(o.stdout.is_empty());
+}
