@@ -1599,10 +1599,13 @@ impl Problem {
         // The warm-ups' results the whole files can be simulated from, with their cost
         // (4.2)/(4.3): the start first.
         let mut simulable = vec![("the start".to_string(), start_cost, u.clone())];
+        // The whole files' cost at `u`, where known (after the start and each warm-up; not
+        // after a final stage, which moves `u` with the records it estimates).
+        let mut cost_u = Some(start_cost);
         for &stage in stages {
             if stage.is_final() {
-                let cost_u = self.cost_at(&u);
-                if let Some(note) = fall_back_to_simulable(&mut u, &simulable, cost_u) {
+                let at_u = cost_u.take().unwrap_or_else(|| self.cost_at(&u));
+                if let Some(note) = fall_back_to_simulable(&mut u, &simulable, at_u) {
                     ended.push(note);
                 }
             }
@@ -1676,6 +1679,7 @@ impl Problem {
                 String::new()
             } else {
                 let cost = self.cost_at(&u);
+                cost_u = Some(cost);
                 if cost.is_finite() {
                     simulable.push((stage.to_string(), cost, u.clone()));
                     format!(", whole files' cost {cost:.5e}")
