@@ -1,0 +1,644 @@
+//! Fitting one configuration: the starts (the plant's values, random points, the
+//! Stribeck re-seed), each through its warm-up stages to the whole files, and the final
+//! stage's fallback (thesis 4.4; the stages of [`super::Stage`]).
+
+use super::*;
+
+/// Where the final stage starts: the scaled parameters `u` the warm-ups ended at, when the
+/// whole files can be simulated from them (their cost `cost_u` is finite); otherwise the
+/// lowest-cost entry of `simulable` (name, whole files' cost, scaled parameters; never
+/// empty: the start is first), into `u`. A predictor's output injection holds a simulation
+/// on the data that runs away without it: k4 of the Freedom 6S from the seed-7 k3 plant
+/// (RK4 warm-ups at 1/12000 s) ended its predictor stages where the whole files could not
+/// be simulated, and the final stage had no start. Returns the report's note when it fell
+/// back.
+pub(super) fn fall_back_to_simulable(
+    u: &mut [f64],
+    simulable: &[(String, f64, Vec<f64>)],
+    cost_u: f64,
+) -> Option<String> {
+    if cost_u.is_finite() {
+        return None;
+    }
+    let (name, cost, best) = simulable.iter().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    u.copy_from_slice(best);
+    Some(format!(
+        "the warm-ups ended where the whole files cannot be simulated: the final stage starts from the lowest-cost result they could be simulated from, {name}'s (cost {cost:.5e})"
+    ))
+}
+
+/// One start of a multi-start fit.
+#[derive(Debug, Clone, Serialize)]
+pub struct StartSummary {
+    /// Index (0 = the plant's values).
+    pub start: usize,
+    /// Cost at the start.
+    pub start_cost: f64,
+    /// Cost at its end.
+    pub cost: f64,
+    /// Levenberg–Marquardt iterations.
+    pub iterations: usize,
+    /// How each stage ended (warm-ups, then the whole files), e.g. "horizon 100 %:
+    /// convergence in parameter value after 12 iteration(s)".
+    pub status: String,
+    /// Trial points rejected by the optimiser: their simulation diverged, or they left a
+    /// guarded link physically impossible ([`Problem::guarded_links`]).
+    pub diverged: usize,
+    /// How the start was warmed up.
+    pub warm_up: WarmUp,
+}
+
+/// One start as run: where it ended (scaled parameters) and its summary.
+#[derive(Debug, Clone)]
+struct StartRun {
+    u: Vec<f64>,
+    summary: StartSummary,
+    /// The records with the initial positions this start estimated
+    /// ([`OutputErrorOptions::estimate_initial_positions`]); `None`: the problem's own.
+    records: Option<Vec<Record>>,
+}
+
+impl Problem {
+    /// Fit from the plant's values and `options.starts − 1` random starts (in parallel),
+    /// keeping the lowest cost. `progress` is called after every cost evaluation.
+    ///
+    /// # Errors
+    /// No start to fit (no horizons and no warm-up), or every start fails (the start's
+    /// simulation diverges, or the optimiser reports an input error); the message names
+    /// the first failure.
+    pub fn fit(&self, progress: &(dyn Fn(Progress) + Sync)) -> Result<FitResult> {
+        let started = Instant::now();
+        let n = self.names.len();
+        let p0 = self.initial_values();
+        let mut rng = generated::inertia::Xorshift(self.options.seed.max(1));
+        // (start point, warm-up): the plant's values through the horizons, the plant's
+        // values through the segments and through the equation error when asked for,
+        // then random points through the horizons.
+        if !self.options.fits_the_plant_values() {
+            bail!(
+                "configuration '{}': no start to fit: without horizons one of the segments, \
+                 the equation error or the predictor must warm up the plant's values",
+                self.conf.name
+            );
+        }
+        let mut starts: Vec<(Vec<f64>, WarmUp)> = Vec::new();
+        if !self.options.horizons.is_empty() {
+            starts.push((self.to_scaled(&p0), WarmUp::Horizons));
+        }
+        if !self.options.segments.is_empty() {
+            starts.push((self.to_scaled(&p0), WarmUp::Segments));
+        }
+        let equation_error = match self.options.equation_error {
+            Some(cutoff) => {
+                starts.push((self.to_scaled(&p0), WarmUp::EquationError));
+                Some(self.equation_error_stage(cutoff))
+            }
+            None => None,
+        };
+        if equation_error.is_none() && !self.options.predictor.is_empty() {
+            starts.push((self.to_scaled(&p0), WarmUp::Predictor));
+        }
+        for _ in 1..self.options.starts.max(1) {
+            starts.push((
+                (0..n).map(|_| rng.uniform(0.0, 1.0)).collect(),
+                WarmUp::Horizons,
+            ));
+        }
+        let cost_before = self.cost(&p0);
+        let evaluations = AtomicUsize::new(0);
+        let jacobians = AtomicUsize::new(0);
+        let nstarts = starts.len();
+        let runs: Vec<StartRun> = starts
+            .into_par_iter()
+            .enumerate()
+            .map(|(s, (u0, warm_up))| {
+                let context = StageContext {
+                    start: s,
+                    starts: nstarts,
+                    evaluations: &evaluations,
+                    jacobians: &jacobians,
+                    started,
+                    progress,
+                };
+                let stages = self.stages(warm_up);
+                self.run_start(&context, u0, warm_up, &stages, equation_error.as_ref())
+            })
+            .collect();
+        let mut runs = runs;
+        let lowest = runs
+            .iter()
+            .filter(|r| r.summary.cost.is_finite())
+            .min_by(|a, b| a.summary.cost.total_cmp(&b.summary.cost));
+        if let Some((u, note, count)) = lowest.and_then(|r| self.stribeck_reseed(&r.u)) {
+            evaluations.fetch_add(count, Ordering::Relaxed);
+            let context = StageContext {
+                start: nstarts,
+                starts: nstarts + 1,
+                evaluations: &evaluations,
+                jacobians: &jacobians,
+                started,
+                progress,
+            };
+            let stages = self.stages(WarmUp::StribeckBranch);
+            let mut run = self.run_start(&context, u, WarmUp::StribeckBranch, &stages, None);
+            run.summary.status = format!("{note}; {}", run.summary.status);
+            runs.push(run);
+        }
+        let best = runs
+            .iter()
+            .filter(|r| r.summary.cost.is_finite())
+            .min_by(|a, b| {
+                (a.summary.cost + self.prior_penalty(&a.u))
+                    .total_cmp(&(b.summary.cost + self.prior_penalty(&b.u)))
+            })
+            .cloned();
+        let Some(best) = best else {
+            bail!(
+                "configuration '{}': no start could be fitted: {}",
+                self.conf.name,
+                runs[0].summary.status
+            );
+        };
+        let mut p = self.to_physical(&best.u);
+        let mut cost_after = best.summary.cost;
+        // The files as the winning start fitted them: with its estimated initial positions
+        // (OutputErrorOptions::estimate_initial_positions), else as measured.
+        let fitted_on = match &best.records {
+            Some(records) => {
+                std::borrow::Cow::Owned(self.with_records(records.clone(), self.sqrt_w.clone()))
+            }
+            None => std::borrow::Cow::Borrowed(self),
+        };
+        let initial_positions = best.records.as_ref().map(|records| {
+            records
+                .iter()
+                .zip(&self.records)
+                .map(|(e, r)| {
+                    self.conf
+                        .free
+                        .iter()
+                        .map(|&j| e.q_all[j] - r.q_all[j])
+                        .collect()
+                })
+                .collect()
+        });
+        let least_change = if self.options.least_change {
+            // The cost at the minimum is the winning start's (no second simulation); the
+            // only failure left, the barycentric parameters, would stop the statistics too.
+            Some(fitted_on.least_change(&p, best.summary.cost)?).inspect(|lc| {
+                p.clone_from(&lc.fitted);
+                cost_after = lc.cost;
+            })
+        } else {
+            None
+        };
+        // The statistics with the held ties the least change scaled.
+        let held = least_change.as_ref().map_or(&[][..], |lc| &lc.held[..]);
+        let at = fitted_on.with_plant_values(held);
+        let stats = at.statistics(&p)?;
+        let prior_penalty = self.prior_penalty(&self.to_scaled(&p));
+        Ok(FitResult {
+            configuration: self.conf.name.to_string(),
+            names: self.names.clone(),
+            initial: p0,
+            fitted: p,
+            lower: self.lower.clone(),
+            upper: self.upper.clone(),
+            cost_before,
+            cost_after,
+            prior_penalty,
+            least_change,
+            statistics: stats,
+            starts: runs.iter().map(|r| r.summary.clone()).collect(),
+            best_start: best.summary.start,
+            evaluations: evaluations.load(Ordering::Relaxed),
+            jacobians: jacobians.load(Ordering::Relaxed),
+            wall_s: started.elapsed().as_secs_f64(),
+            residuals: self.m,
+            files: self.records.iter().map(|r| r.file.clone()).collect(),
+            initial_positions,
+        })
+    }
+
+    /// The stages a start warmed up by `warm_up` runs, ending with the whole files.
+    fn stages(&self, warm_up: WarmUp) -> Vec<Stage> {
+        let horizons = self.options.horizons.iter().map(|&h| Stage::Horizon(h));
+        let predictor = self.options.predictor.iter().map(|&w| Stage::Predictor(w));
+        match warm_up {
+            WarmUp::Segments => self
+                .options
+                .segments
+                .iter()
+                .map(|&s| Stage::Segments(s))
+                .chain([Stage::Horizon(1.0)])
+                .collect(),
+            WarmUp::Horizons if self.options.horizons.is_empty() => vec![Stage::Horizon(1.0)],
+            WarmUp::Horizons => horizons.collect(),
+            WarmUp::EquationError => [Stage::EquationError]
+                .into_iter()
+                .chain(predictor)
+                .chain([Stage::Horizon(1.0)])
+                .collect(),
+            WarmUp::Predictor | WarmUp::Sequence => {
+                predictor.chain([Stage::Horizon(1.0)]).collect()
+            }
+            WarmUp::StribeckBranch => predictor
+                .filter(|s| matches!(s, Stage::Predictor(w) if *w <= STRIBECK_BRANCH_OMEGA))
+                .chain([Stage::Horizon(1.0)])
+                .collect(),
+        }
+    }
+
+    /// One start: `stages` in turn from scaled parameters `u0` (the equation-error stage
+    /// on `equation_error`), each warm-starting the next; a stage whose start cannot be
+    /// simulated, or whose optimiser fails, ends the start.
+    fn run_start(
+        &self,
+        context: &StageContext,
+        u0: Vec<f64>,
+        warm_up: WarmUp,
+        stages: &[Stage],
+        equation_error: Option<&Result<Problem>>,
+    ) -> StartRun {
+        let start = context.start;
+        let start_cost = match self.residuals(&self.to_physical(&u0)) {
+            Ok(r) => r.iter().map(|x| x * x).sum(),
+            Err(why) => {
+                return StartRun {
+                    u: u0,
+                    summary: StartSummary {
+                        start,
+                        start_cost: f64::INFINITY,
+                        cost: f64::INFINITY,
+                        iterations: 0,
+                        status: format!("the start cannot be simulated: {}", why.0),
+                        diverged: 0,
+                        warm_up,
+                    },
+                    records: None,
+                };
+            }
+        };
+        let mut u = u0;
+        let mut iterations = 0;
+        let mut diverged = 0;
+        // How each stage ended, for the report.
+        let mut ended: Vec<String> = Vec::new();
+        // The records with estimated initial positions, once the whole files' stage ran on
+        // them.
+        let mut estimated: Option<Problem> = None;
+        // The warm-ups' results the whole files can be simulated from, with their cost
+        // (4.2)/(4.3): the start first.
+        let mut simulable = vec![("the start".to_string(), start_cost, u.clone())];
+        // The whole files' cost at `u`, where known (after the start and each warm-up; not
+        // after a final stage, which moves `u` with the records it estimates).
+        let mut cost_u = Some(start_cost);
+        for &stage in stages {
+            if stage.is_final() {
+                let at_u = cost_u.take().unwrap_or_else(|| self.cost_at(&u));
+                if let Some(note) = fall_back_to_simulable(&mut u, &simulable, at_u) {
+                    ended.push(note);
+                }
+            }
+            if stage.is_final() && self.options.estimate_initial_positions {
+                let (outcome, problem) =
+                    self.run_final_estimating_initial_positions(&mut u, context);
+                diverged += outcome.failures;
+                iterations += outcome.iterations;
+                ended.push(format!("{stage}: {}", outcome.status));
+                estimated = Some(problem);
+                if outcome.stop {
+                    break;
+                }
+                continue;
+            }
+            let staged;
+            let mut step_note = String::new();
+            let problem = match stage {
+                Stage::Segments(seconds) => {
+                    staged = self.segmented(seconds);
+                    &staged
+                }
+                Stage::Horizon(frac) if frac < 1.0 => {
+                    staged = self.truncated(frac);
+                    &staged
+                }
+                Stage::Horizon(_) | Stage::Joint => self,
+                Stage::Predictor(omega) => {
+                    let note;
+                    (staged, note) = self.checked_predictor(omega, &u);
+                    step_note = note;
+                    &staged
+                }
+                Stage::EquationError => match equation_error {
+                    Some(Ok(p)) => p,
+                    Some(Err(e)) => {
+                        ended.push(format!("{stage}: {e:#}"));
+                        continue;
+                    }
+                    None => continue,
+                },
+            };
+            let before = u.clone();
+            let mut outcome = problem.run_stage(stage, &mut u, context);
+            // A coarse predictor stage (ETDRK4 takes the friction's stiffness exactly) can
+            // end where RK4 on the user's step diverges, and then no later stage starts
+            // (k3 of the Freedom 6S after ω = 100 rad/s: q2 at 270 rad/s by t = 3.4 s): rerun
+            // such a stage on the user's step from where it began.
+            if let Stage::Predictor(omega) = stage {
+                let coarse = problem.options.predictor_step.is_some() && omega > 0.0;
+                let user = coarse.then(|| self.predictor_on_user_step(omega));
+                if let Some(user) = user {
+                    if let Err(why) = user.residuals(&self.to_physical(&u)) {
+                        u.copy_from_slice(&before);
+                        diverged += outcome.failures;
+                        iterations += outcome.iterations;
+                        let rerun = user.run_stage(stage, &mut u, context);
+                        step_note = format!(
+                            "{step_note} (its result could not be simulated on the user's step, {}: rerun there)",
+                            why.0
+                        );
+                        outcome = rerun;
+                    }
+                }
+            }
+            diverged += outcome.failures;
+            iterations += outcome.iterations;
+            // What the warm-up's result is worth on the whole files, which the final stage
+            // fits.
+            let whole = if stage.is_final() {
+                String::new()
+            } else {
+                let cost = self.cost_at(&u);
+                cost_u = Some(cost);
+                if cost.is_finite() {
+                    simulable.push((stage.to_string(), cost, u.clone()));
+                    format!(", whole files' cost {cost:.5e}")
+                } else {
+                    ", the whole files cannot be simulated from its result".to_string()
+                }
+            };
+            ended.push(format!(
+                "{stage}{step_note}: {}{}{whole}",
+                outcome.status,
+                problem.equation_error_note()
+            ));
+            if outcome.stop {
+                break;
+            }
+        }
+        let cost = estimated
+            .as_ref()
+            .unwrap_or(self)
+            .cost(&self.to_physical(&u));
+        StartRun {
+            u,
+            summary: StartSummary {
+                start,
+                start_cost,
+                cost,
+                iterations,
+                status: ended.join("; "),
+                diverged,
+                warm_up,
+            },
+            records: estimated.map(|p| p.records),
+        }
+    }
+
+    /// The cost (4.2)/(4.3) of the whole files at scaled parameters `u`; infinite where
+    /// they cannot be simulated.
+    fn cost_at(&self, u: &[f64]) -> f64 {
+        self.cost(&self.to_physical(u))
+    }
+
+    /// The whole files' stage with the free joints' initial positions estimated
+    /// ([`OutputErrorOptions::estimate_initial_positions`]): first the stage from the
+    /// measured first samples (estimated where the parameters are still off, the starts
+    /// absorb the model's error: k1 of the Freedom 6S estimated from the predictor's end
+    /// moved q5(0) by 3.2 σ̂ and stalled at 4.19, where the first samples reach 0.607);
+    /// then per round a Gauss–Newton step of every file's q(0) at `u`
+    /// ([`Problem::estimate_initial_positions`], from the last round's estimate, taken only
+    /// where it lowers the cost) and the stage again from `u`, which it updates. The rounds
+    /// end once an estimate moves no initial position by more than
+    /// [`INITIAL_POSITION_SETTLED`] × its joint's σ̂, after [`INITIAL_POSITION_ROUNDS`]
+    /// stages, or when a stage cannot go on. Returns the summed outcome (its status names every round and the
+    /// largest move) and the problem on the final initial positions.
+    fn run_final_estimating_initial_positions(
+        &self,
+        u: &mut [f64],
+        context: &StageContext,
+    ) -> (StageOutcome, Problem) {
+        let stage = Stage::Horizon(1.0);
+        let mut outcome = StageOutcome {
+            status: String::new(),
+            iterations: 0,
+            failures: 0,
+            stop: false,
+        };
+        let mut notes = Vec::new();
+        let mut current = self.with_records(self.records.clone(), self.sqrt_w.clone());
+        for round in 1..=INITIAL_POSITION_ROUNDS + 1 {
+            let mut moved = 0.0;
+            if round > 1 {
+                let p = self.to_physical(u);
+                let records = match current.estimate_initial_positions(&self.plant_at(&p)) {
+                    Ok(records) => records,
+                    Err(why) => {
+                        notes.push(format!("initial positions not estimated: {}", why.0));
+                        break;
+                    }
+                };
+                // A Gauss–Newton step that does not lower the cost is not taken (an
+                // initial position the weighted samples barely see).
+                let next = self.with_records(records, self.sqrt_w.clone());
+                if next.cost(&p) < current.cost(&p) {
+                    moved = self.initial_position_move(&current.records, &next.records);
+                    current = next;
+                }
+                if round > INITIAL_POSITION_ROUNDS || moved <= INITIAL_POSITION_SETTLED {
+                    notes.push(format!(
+                        "initial positions {} (last move {moved:.2} σ̂)",
+                        if moved <= INITIAL_POSITION_SETTLED {
+                            "settled"
+                        } else {
+                            "not settled"
+                        }
+                    ));
+                    break;
+                }
+            }
+            let o = current.run_stage(stage, u, context);
+            outcome.iterations += o.iterations;
+            outcome.failures += o.failures;
+            notes.push(if round == 1 {
+                format!("from the first samples: {}", o.status)
+            } else {
+                format!(
+                    "round {round}, initial positions moved up to {moved:.2} σ̂: {}",
+                    o.status
+                )
+            });
+            if o.stop {
+                outcome.stop = true;
+                break;
+            }
+        }
+        outcome.status = notes.join(", ");
+        (outcome, current)
+    }
+
+    /// The largest change of a free joint's initial position from `before` to `after`
+    /// (records of this problem's files, in order), in units of that joint's noise σ̂.
+    pub(crate) fn initial_position_move(&self, before: &[Record], after: &[Record]) -> f64 {
+        before
+            .iter()
+            .zip(after)
+            .flat_map(|(b, a)| {
+                self.conf
+                    .free
+                    .iter()
+                    .zip(&self.noise)
+                    .map(move |(&j, &s)| (a.q_all[j] - b.q_all[j]).abs() / s.max(f64::MIN_POSITIVE))
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// One bounded Levenberg–Marquardt run of `stage` on this problem from the scaled
+    /// parameters `u`, which it updates in place, on the stage's stopping rules
+    /// ([`stage_rules`]).
+    fn run_stage(&self, stage: Stage, u: &mut [f64], context: &StageContext) -> StageOutcome {
+        let warm_up = !stage.is_final();
+        let start_cost = self.cost(&self.to_physical(u));
+        if !start_cost.is_finite() {
+            return StageOutcome {
+                status: "the stage's start cannot be simulated".into(),
+                iterations: 0,
+                failures: 0,
+                // A warm-up stage only prepares the next one: go on from here.
+                stop: !warm_up,
+            };
+        }
+        let frozen: Vec<bool> = self.names.iter().map(|n| self.is_frozen(n)).collect();
+        let config = stage_rules(&self.options, stage);
+        minimise(self, stage, &frozen, config, u, context, start_cost)
+    }
+
+    /// Stribeck re-seed of scaled parameters `u` (a fitted minimum) for
+    /// [`WarmUp::StribeckBranch`]. Where a joint's fitted Stribeck dip has collapsed
+    /// (Fs ≤ (1 + [`STRIBECK_COLLAPSED`]) Fc) or its Stribeck velocity vs sits on a bound, the cost does not depend
+    /// on vs (at Fs = Fc) or barely (vs past the files' velocities), and the gradient
+    /// cannot bring the dip back: k3 of the Freedom 6S from the Appendix D guess ended with
+    /// vs_2 on its upper bound, Fs_2 = Fc_2 and q4 at 1.66 σ̂ (truth: vs_2 = 0.019 rad/s,
+    /// Fs_2 = 1.61 Fc_2). Per such joint, the whole files' cost on a grid of
+    /// [`STRIBECK_VS_GRID`] Stribeck velocities log-spaced over vs's bounds times levels
+    /// Fs = Fc (1 + r), r in [`STRIBECK_RATIOS`], the other parameters kept; the grid's
+    /// best point seeds the branch even where it is above the minimum's cost (the other
+    /// parameters have adapted to the missing dip: on k3 every grid point was). Returns
+    /// the seed, a note for the report and the cost evaluations, or `None` when no joint
+    /// collapsed.
+    fn stribeck_reseed(&self, u: &[f64]) -> Option<(Vec<f64>, String, usize)> {
+        let mut notes = Vec::new();
+        let mut evaluations = 0;
+        let mut p = self.to_physical(u);
+        for &(ic, is) in &self.pairs {
+            let joint = &self.names[is]["Fs_".len()..];
+            let Some(iv) = self.names.iter().position(|n| n == &format!("vs_{joint}")) else {
+                continue;
+            };
+            let collapsed = p[is] <= (1.0 + STRIBECK_COLLAPSED) * p[ic];
+            let uv = (p[iv] - self.lower[iv]) / (self.upper[iv] - self.lower[iv]);
+            let on_bound = !(1e-3..=1.0 - 1e-3).contains(&uv);
+            if !(collapsed || on_bound) || self.lower[iv] <= 0.0 {
+                continue;
+            }
+            let (lo, hi) = (self.lower[iv], self.upper[iv]);
+            let intervals = (STRIBECK_VS_GRID - 1) as f64;
+            let candidates: Vec<Vec<f64>> = (0..STRIBECK_VS_GRID)
+                .flat_map(|g| {
+                    let vs = lo * (hi / lo).powf(g as f64 / intervals);
+                    STRIBECK_RATIOS.iter().map(move |&r| (vs, r))
+                })
+                .map(|(vs, r)| {
+                    let mut q = p.clone();
+                    q[iv] = vs;
+                    q[is] = (p[ic] * (1.0 + r)).clamp(self.lower[is], self.upper[is]);
+                    q
+                })
+                .collect();
+            evaluations += candidates.len();
+            let best = candidates
+                .into_par_iter()
+                .map(|q| (self.cost(&q), q))
+                .filter(|(c, _)| c.is_finite())
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((cost, q)) = best {
+                notes.push(format!(
+                    "joint {joint}: vs {:.4} → {:.4} rad/s, Fs {:.4} → {:.4} (cost {cost:.4e})",
+                    p[iv], q[iv], p[is], q[is]
+                ));
+                p = q;
+            }
+        }
+        (!notes.is_empty()).then(|| {
+            (
+                self.to_scaled(&p),
+                format!("Stribeck re-seed of {}", notes.join(", ")),
+                evaluations,
+            )
+        })
+    }
+
+    /// The equation-error estimate alone: from the plant's values, the minimum of the
+    /// equation error of the whole files ([`Problem::equation_error_stage`], cut-off
+    /// `cutoff` of the Nyquist frequency) within the bounds and Fs ≥ Fc, as the warm start
+    /// of [`OutputErrorOptions::equation_error`] finds it. Returns the physical parameters
+    /// and how the optimiser ended.
+    ///
+    /// # Errors
+    /// A file too short for the filter, a cut-off outside (0, 1), or the plant cannot be
+    /// configured at the start.
+    pub fn fit_equation_error(&self, cutoff: Cutoff) -> Result<(Vec<f64>, String)> {
+        let ee = self.equation_error_stage(cutoff)?;
+        let mut u = self.to_scaled(&self.initial_values());
+        ee.residuals(&self.to_physical(&u))
+            .map_err(|e| anyhow::anyhow!("{}", e.0))?;
+        let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
+        let context = StageContext {
+            start: 0,
+            starts: 1,
+            evaluations: &evaluations,
+            jacobians: &jacobians,
+            started: Instant::now(),
+            progress: &|_| {},
+        };
+        let outcome = ee.run_stage(Stage::EquationError, &mut u, &context);
+        Ok((self.to_physical(&u), outcome.status))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The final stage keeps the warm-ups' end where the whole files can be simulated from
+    /// it, even at a cost above an earlier result's; where they cannot, it starts from the
+    /// lowest-cost earlier result, not the latest nor the start.
+    #[test]
+    fn the_final_stage_falls_back_to_the_lowest_cost_simulable_warm_up() {
+        let simulable = vec![
+            ("the start".to_string(), 5.0e4, vec![0.5, 0.5]),
+            ("predictor ω = 30 rad/s".to_string(), 0.26, vec![0.2, 0.7]),
+            ("predictor ω = 10 rad/s".to_string(), 3.1, vec![0.1, 0.9]),
+        ];
+        let mut u = vec![0.0, 1.0];
+        assert_eq!(fall_back_to_simulable(&mut u, &simulable, 7.0), None);
+        assert_eq!(u, [0.0, 1.0]);
+        let note = fall_back_to_simulable(&mut u, &simulable, f64::INFINITY).unwrap();
+        assert_eq!(u, [0.2, 0.7]);
+        assert!(
+            note.contains("predictor ω = 30 rad/s's (cost 2.60000e-1)"),
+            "{note}"
+        );
+    }
+}

@@ -1,0 +1,457 @@
+//! The optimiser behind every stage: bounded Levenberg–Marquardt (MINPACK/CMPFIT, crate
+//! `rmpfit`) on the scaled coordinates, finite-difference Jacobian columns in parallel,
+//! Broyden's rank-one update between refreshes, and each stage's stopping rules.
+
+use super::*;
+
+/// The stopping rules of a fit's `stage` under `options` ([`Problem::run_stage`]).
+/// Segment and short-horizon stages stop on looser rules: relative step 1e-4 (or the
+/// user's xtol if looser) and the user's relative cost decrease (at least
+/// [`WARM_UP_FTOL`]); a predictor stage followed by a lower bandwidth on the user's step
+/// and a relative cost decrease of at least [`PREDICTOR_FTOL`]; the last predictor stage
+/// and the whole files on the user's rules; the equation-error stage, whose evaluations
+/// cost no simulation, only on a standstill (1e-10, at most 500 iterations).
+pub(super) fn stage_rules(options: &OutputErrorOptions, stage: Stage) -> MPConfig {
+    let warm_up = !stage.is_final();
+    let (xtol, ftol, gtol, max_iter, max_fev) = match stage {
+        // Cheap residuals (no simulation) on a problem with nearly flat directions (the
+        // base parameters' ties): stop only on a standstill.
+        Stage::EquationError => (1e-10, 1e-10, 1e-12, 500, 5000),
+        // The predictor's stages move the parameters most of the way: the last (lowest
+        // ω) runs on the whole files' rules (as measured on c4: 45 iterations at
+        // ω = 3 rad/s); those before it stop once the cost only creeps.
+        Stage::Predictor(omega) if options.predictor.iter().any(|&w| w < omega) => (
+            options.xtol,
+            options.ftol.max(PREDICTOR_FTOL),
+            1e-10,
+            options.max_iter,
+            20 * options.max_iter.max(1),
+        ),
+        _ if warm_up && !matches!(stage, Stage::Predictor(_)) => (
+            options.xtol.max(1e-4),
+            options.ftol.max(WARM_UP_FTOL),
+            1e-10,
+            options.max_iter,
+            20 * options.max_iter.max(1),
+        ),
+        _ => (
+            options.xtol,
+            options.ftol,
+            1e-10,
+            options.max_iter,
+            20 * options.max_iter.max(1),
+        ),
+    };
+    MPConfig {
+        xtol,
+        ftol,
+        gtol,
+        max_iter,
+        max_fev: MPMaxFev::Limited(max_fev),
+        ..MPConfig::new()
+    }
+}
+
+/// Bounded Levenberg–Marquardt (rmpfit) of `problem` from scaled parameters `u` ∈ [0, 1]ⁿ,
+/// updated in place (a value within [`BOUND_SNAP`] of a bound put on it first), on the
+/// stopping rules of `config`; parameters where `frozen` is true
+/// stay. A run that stopped on a Broyden-updated Jacobian goes on from a finite-difference
+/// one (at most 3 times), so it ends on rules that hold for the true Jacobian. `stage` and
+/// `context` feed the progress display; `start_cost` (the cost at `u`) scales the residuals
+/// a failed simulation returns.
+pub(crate) fn minimise(
+    problem: &dyn LeastSquares,
+    stage: Stage,
+    frozen: &[bool],
+    config: MPConfig,
+    u: &mut [f64],
+    context: &StageContext,
+    start_cost: f64,
+) -> StageOutcome {
+    // A parameter within rounding of a bound (a value read back from a plant file, or
+    // the Fs of a collapsed Stribeck pair, u ≈ 1e-16) must sit exactly on it: rmpfit
+    // freezes a parameter only when it equals its limit, and otherwise shortens the
+    // whole step to reach the limit, a step of ~1e-16 that it then reports as
+    // convergence after one iteration (k3 of the Freedom 6S from the fitted plant,
+    // I6_13 = −2.1999999999999996e-7 against a bound of −2.2e-7: no stage moved).
+    for x in u.iter_mut() {
+        if *x < BOUND_SNAP {
+            *x = 0.0;
+        } else if *x > 1.0 - BOUND_SNAP {
+            *x = 1.0;
+        }
+    }
+    let mut fitter = Fitter {
+        problem,
+        context,
+        best: f64::INFINITY,
+        stage,
+        cache: None,
+        failures: 0,
+        jacobian: None,
+        config,
+        pars: frozen
+            .iter()
+            .map(|&fixed| MPPar {
+                fixed,
+                limited_low: true,
+                limited_up: true,
+                limit_low: 0.0,
+                limit_up: 1.0,
+                side: MPSide::User,
+                ..MPPar::new()
+            })
+            .collect(),
+        start_cost,
+    };
+    let mut result = fitter.mpfit(u);
+    let mut iterations = result.as_ref().map_or(0, |st| st.n_iter);
+    // A stage that stopped on a Broyden-updated Jacobian goes on from a
+    // finite-difference one (its stopping rules then hold for the true Jacobian).
+    let mut reruns = 0;
+    while result.is_ok() && fitter.jacobian.as_ref().is_some_and(|j| j.updates > 0) && reruns < 3 {
+        fitter.jacobian = None;
+        result = fitter.mpfit(u);
+        iterations += result.as_ref().map_or(0, |st| st.n_iter);
+        reruns += 1;
+    }
+    let failures = fitter.failures;
+    match result {
+        Ok(st) => StageOutcome {
+            status: format!("{:?} after {iterations} iteration(s)", st.success),
+            iterations,
+            failures,
+            stop: false,
+        },
+        Err(MPError::Eval) => StageOutcome {
+            status: "stopped, a simulation failed".into(),
+            iterations: 0,
+            failures,
+            stop: true,
+        },
+        Err(e) => StageOutcome {
+            status: format!("optimiser error {e:?}"),
+            iterations: 0,
+            failures,
+            stop: true,
+        },
+    }
+}
+
+/// What every stage of one start shares: its place among the starts, the fit's counters
+/// and clock, and the progress display.
+pub(crate) struct StageContext<'a> {
+    pub(crate) start: usize,
+    pub(crate) starts: usize,
+    pub(crate) evaluations: &'a AtomicUsize,
+    pub(crate) jacobians: &'a AtomicUsize,
+    pub(crate) started: Instant,
+    pub(crate) progress: &'a (dyn Fn(Progress) + Sync),
+}
+
+/// How a stage ended.
+pub(crate) struct StageOutcome {
+    /// For the report, e.g. "Convergence in parameter value after 6 iteration(s)".
+    pub(crate) status: String,
+    pub(crate) iterations: usize,
+    /// Trial points that could not be simulated.
+    pub(crate) failures: usize,
+    /// The start cannot go on to the next stage.
+    pub(crate) stop: bool,
+}
+
+/// What the Levenberg–Marquardt adapter ([`Fitter`]) needs of a fit: residuals at physical
+/// parameters, the scaled coordinates, finite-difference Jacobian columns and the prior's
+/// rows. A configuration's [`Problem`], or the joint fit of several
+/// ([`crate::identify::joint::JointProblem`]).
+pub(crate) trait LeastSquares: Sync {
+    /// Number of residuals (the simulated ones, without the prior's rows).
+    fn residual_count(&self) -> usize;
+    /// The residuals at physical parameters `p`.
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure>;
+    /// Physical parameters from scaled ones.
+    fn to_physical(&self, u: &[f64]) -> Vec<f64>;
+    /// ∂r/∂x per parameter, as [`Problem::jacobian_columns`].
+    fn jacobian_columns(
+        &self,
+        x: &[f64],
+        r0: &[f64],
+        steps: &[f64],
+        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+        central: bool,
+    ) -> Vec<Vec<f64>>;
+    /// The fit's settings.
+    fn options(&self) -> &OutputErrorOptions;
+    /// The prior's weight per parameter (its rows' diagonal), if the fit has a prior.
+    fn prior_weight(&self) -> Option<&[f64]> {
+        None
+    }
+    /// The prior's residuals at scaled parameters `u` (empty without a prior).
+    fn prior_residuals(&self, _u: &[f64]) -> Vec<f64> {
+        Vec::new()
+    }
+}
+
+impl LeastSquares for Problem {
+    fn residual_count(&self) -> usize {
+        self.m
+    }
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
+        Problem::residuals(self, p)
+    }
+    fn to_physical(&self, u: &[f64]) -> Vec<f64> {
+        Problem::to_physical(self, u)
+    }
+    fn jacobian_columns(
+        &self,
+        x: &[f64],
+        r0: &[f64],
+        steps: &[f64],
+        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+        central: bool,
+    ) -> Vec<Vec<f64>> {
+        Problem::jacobian_columns(self, x, r0, steps, p_of, central)
+    }
+    fn options(&self) -> &OutputErrorOptions {
+        &self.options
+    }
+    fn prior_weight(&self) -> Option<&[f64]> {
+        self.prior.as_ref().map(|(_, w)| w.as_slice())
+    }
+    fn prior_residuals(&self, u: &[f64]) -> Vec<f64> {
+        Problem::prior_residuals(self, u)
+    }
+}
+
+/// The rmpfit adapter: scaled parameters, cached residuals, user (parallel) Jacobian.
+struct Fitter<'a> {
+    problem: &'a dyn LeastSquares,
+    context: &'a StageContext<'a>,
+    best: f64,
+    stage: Stage,
+    cache: Option<(Vec<f64>, Vec<f64>)>,
+    failures: usize,
+    /// The last Jacobian handed to the optimiser ([`OutputErrorOptions::jacobian_refresh`]).
+    jacobian: Option<LastJacobian>,
+
+    config: MPConfig,
+    pars: Vec<MPPar>,
+    start_cost: f64,
+}
+
+/// A Jacobian of the simulated residuals and where it was taken.
+pub(super) struct LastJacobian {
+    /// Scaled parameters.
+    u: Vec<f64>,
+    /// Residuals there (the simulated ones, without the prior's rows).
+    r: Vec<f64>,
+    /// ∂r/∂u_i per parameter.
+    columns: Vec<Vec<f64>>,
+    /// Broyden updates since the last finite-difference Jacobian (0: it is one).
+    updates: usize,
+}
+
+impl LastJacobian {
+    /// Broyden's rank-one update to the point `u` with residuals `r`:
+    /// J ← J + (Δr − J Δu) Δuᵀ / (Δuᵀ Δu), the least change of J that maps the step taken
+    /// to the residual change seen. False (J unchanged) for a zero step.
+    fn broyden(&mut self, u: &[f64], r: &[f64]) -> bool {
+        let du: Vec<f64> = u.iter().zip(&self.u).map(|(a, b)| a - b).collect();
+        let du2: f64 = du.iter().map(|d| d * d).sum();
+        if du2.is_nan() || du2 <= 0.0 {
+            return false;
+        }
+        let mut defect: Vec<f64> = r.iter().zip(&self.r).map(|(a, b)| a - b).collect();
+        for (col, d) in self.columns.iter().zip(&du) {
+            for (e, c) in defect.iter_mut().zip(col) {
+                *e -= c * d;
+            }
+        }
+        for (col, d) in self.columns.iter_mut().zip(&du) {
+            let f = d / du2;
+            for (c, e) in col.iter_mut().zip(&defect) {
+                *c += e * f;
+            }
+        }
+        self.u = u.to_vec();
+        self.r = r.to_vec();
+        self.updates += 1;
+        true
+    }
+}
+
+impl Fitter<'_> {
+    fn evaluate(&mut self, u: &[f64]) -> Vec<f64> {
+        if let Some((cu, cr)) = &self.cache {
+            if cu.as_slice() == u {
+                return cr.clone();
+            }
+        }
+        self.context.evaluations.fetch_add(1, Ordering::Relaxed);
+        let m = self.problem.residual_count();
+        let mut r = match self.problem.residuals(&self.problem.to_physical(u)) {
+            Ok(r) => r,
+            Err(_) => {
+                // A trial point where the plant diverges: a cost far above the start's so
+                // that the step is rejected and the trust region shrinks.
+                self.failures += 1;
+                let level = (self.start_cost.max(1e-12) / m as f64).sqrt() * 1e3;
+                vec![level; m]
+            }
+        };
+        r.extend(self.problem.prior_residuals(u));
+        let c: f64 = r.iter().map(|x| x * x).sum();
+        self.best = self.best.min(c);
+        let best = self.best;
+        (self.context.progress)(Progress {
+            start: self.context.start,
+            starts: self.context.starts,
+            stage: self.stage,
+            iteration: self.context.jacobians.load(Ordering::Relaxed),
+            evaluations: self.context.evaluations.load(Ordering::Relaxed),
+            cost: best,
+            elapsed: self.context.started.elapsed().as_secs_f64(),
+        });
+        self.cache = Some((u.to_vec(), r.clone()));
+        r
+    }
+}
+
+impl MPFitter for Fitter<'_> {
+    fn eval(&mut self, params: &[f64], deviates: &mut [f64]) -> MPResult<()> {
+        let r = self.evaluate(params);
+        deviates.copy_from_slice(&r);
+        Ok(())
+    }
+
+    fn number_of_points(&self) -> usize {
+        self.problem.residual_count() + self.problem.prior_weight().map_or(0, <[f64]>::len)
+    }
+
+    fn config(&self) -> &MPConfig {
+        &self.config
+    }
+
+    fn parameters(&self) -> &[MPPar] {
+        &self.pars
+    }
+
+    fn jacobian(
+        &mut self,
+        params: &[f64],
+        deviates: &mut [f64],
+        derivs: &mut [Option<Vec<f64>>],
+    ) -> MPResult<()> {
+        let r0 = self.evaluate(params);
+        deviates.copy_from_slice(&r0);
+        self.context.jacobians.fetch_add(1, Ordering::Relaxed);
+        let p = self.problem;
+        let m = p.residual_count();
+        let sum_sq = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
+        // Broyden's update where the last step lowered the simulated cost and the refresh
+        // interval allows it; otherwise finite differences.
+        let updated = self
+            .jacobian
+            .take()
+            .filter(|last| {
+                last.updates + 1 < p.options().jacobian_refresh
+                    && sum_sq(&r0[..m]) < sum_sq(&last.r)
+            })
+            .and_then(|mut last| last.broyden(params, &r0[..m]).then_some(last));
+        let last = match updated {
+            Some(last) => last,
+            None => {
+                let h = p.options().fd_step;
+                let steps: Vec<f64> = params
+                    .iter()
+                    .map(|&u| if u + h > 1.0 { -h } else { h })
+                    .collect();
+                let columns = p.jacobian_columns(
+                    params,
+                    &r0[..m],
+                    &steps,
+                    &|x: &[f64]| p.to_physical(x),
+                    false,
+                );
+                self.context
+                    .evaluations
+                    .fetch_add(params.len(), Ordering::Relaxed);
+                LastJacobian {
+                    u: params.to_vec(),
+                    r: r0[..m].to_vec(),
+                    columns,
+                    updates: 0,
+                }
+            }
+        };
+        let cols = &self.jacobian.insert(last).columns;
+        // rmpfit's deviates are (y − f): the derivative of the residual as defined here;
+        // the prior's rows are the weight on the diagonal.
+        for (i, d) in derivs.iter_mut().enumerate() {
+            if let Some(col) = d {
+                col[..m].copy_from_slice(&cols[i]);
+                if let Some(weight) = p.prior_weight() {
+                    col[m..].fill(0.0);
+                    col[m + i] = weight[i];
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Broyden's update meets the secant condition J⁺ Δu = Δr, changes J only along Δu
+    /// (J⁺ v = J v for v ⟂ Δu), leaves an exact Jacobian of a linear map as it is, and
+    /// refuses a zero step.
+    #[test]
+    fn broyden_update_meets_the_secant_condition_and_nothing_more() {
+        // r(u) = A u + b + 0.3 u0² e0: nonlinear in u0 only.
+        let a = [[1.0, 2.0], [-0.5, 3.0], [4.0, 0.25]];
+        let r = |u: &[f64]| -> Vec<f64> {
+            (0..3)
+                .map(|i| {
+                    a[i][0] * u[0] + a[i][1] * u[1] + if i == 0 { 0.3 * u[0] * u[0] } else { 0.0 }
+                })
+                .collect()
+        };
+        let columns = |u0: f64| vec![vec![1.0 + 0.6 * u0, -0.5, 4.0], vec![2.0, 3.0, 0.25]];
+        let u0 = [0.2, -0.1];
+        let mut j = LastJacobian {
+            u: u0.to_vec(),
+            r: r(&u0),
+            columns: columns(u0[0]),
+            updates: 0,
+        };
+        let u1 = [0.5, 0.3];
+        let before = j.columns.clone();
+        assert!(j.broyden(&u1, &r(&u1)));
+        assert_eq!(j.updates, 1);
+        let du = [u1[0] - u0[0], u1[1] - u0[1]];
+        let dr: Vec<f64> = r(&u1).iter().zip(r(&u0)).map(|(x, y)| x - y).collect();
+        let apply = |c: &[Vec<f64>], v: [f64; 2]| -> Vec<f64> {
+            (0..3).map(|i| c[0][i] * v[0] + c[1][i] * v[1]).collect()
+        };
+        for (x, y) in apply(&j.columns, du).iter().zip(&dr) {
+            assert!((x - y).abs() < 1e-14, "secant: {x} vs {y}");
+        }
+        let perp = [-du[1], du[0]];
+        for (x, y) in apply(&j.columns, perp).iter().zip(apply(&before, perp)) {
+            assert!(
+                (x - y).abs() < 1e-14,
+                "orthogonal direction moved: {x} vs {y}"
+            );
+        }
+        // Only row 0 is nonlinear: the others were exact and stay so.
+        for c in 0..2 {
+            for i in 1..3 {
+                assert!((j.columns[c][i] - before[c][i]).abs() < 1e-14);
+            }
+        }
+        assert!(!j.broyden(&u1, &r(&u1)), "a zero step is no update");
+        assert_eq!(j.updates, 1);
+    }
+}
