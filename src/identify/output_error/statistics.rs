@@ -108,7 +108,14 @@ impl Problem {
         // Central differences here (O(h²)): in a sensitive trajectory a one-sided
         // difference blurs exact symmetries of the model into seemingly determined
         // directions.
-        let cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
+        let mut cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
+        let occ = crate::identify::identifiability::occurrence(self.plant.model);
+        let mut held = held_in(&self.plant, &self.names, &occ, &[self.conf]);
+        if let Some(members) = self.gain_scale_family(p, &held) {
+            if std::env::var_os("NOPROJ").is_none() {
+                project_out_the_gain_scale(&mut cols, p, &members);
+            }
+        }
         let m = r.len();
         let dof = m as f64 / (m - n) as f64;
         let sigma: Vec<f64> = self
@@ -118,8 +125,6 @@ impl Problem {
             .collect();
         let only_with = self.structural_companions(p)?;
         let joints = self.joint_fits(&trajectories);
-        let occ = crate::identify::identifiability::occurrence(self.plant.model);
-        let mut held = held_in(&self.plant, &self.names, &occ, &[self.conf]);
         held.cols = self.held_columns(p, &held.names, &r);
         covariance_statistics(
             &self.names,
@@ -129,6 +134,37 @@ impl Problem {
             &sigma,
             only_with,
             joints,
+        )
+    }
+
+    /// The fitted parameters of the plant-gain scale family ([`scales_with_the_gain`],
+    /// nonzero at `p`) when the family is an exact symmetry of this fit: every free joint's
+    /// plant gain `Kp_j` is fitted, and every held value that enters the configuration
+    /// (`held`, from [`held_in`]) and scales with the gain is a held tie
+    /// ([`Problem::with_held_ties`], scaled along with the family by
+    /// [`Problem::least_change`]). `None` otherwise: a held gain or force (an earlier
+    /// step's) then fixes the scale, and the standard errors are conditional on it.
+    pub(crate) fn gain_scale_family(&self, p: &[f64], held: &HeldColumns) -> Option<Vec<usize>> {
+        let model = self.plant.model;
+        let gains_fitted = self.conf.free.iter().all(|&j| {
+            let gain = format!("Kp_{j}");
+            self.names
+                .iter()
+                .zip(p)
+                .any(|(n, v)| *n == gain && *v != 0.0)
+        });
+        let scale_held_elsewhere = held.names.iter().chain(&held.exact).any(|n| {
+            scales_with_the_gain(model, n)
+                && !self.held_ties.contains(n)
+                && self.plant.parameters.get(n).is_some_and(|v| *v != 0.0)
+        });
+        if !gains_fitted || scale_held_elsewhere {
+            return None;
+        }
+        Some(
+            (0..p.len())
+                .filter(|&i| scales_with_the_gain(model, &self.names[i]) && p[i] != 0.0)
+                .collect(),
         )
     }
 
@@ -265,6 +301,36 @@ fn held_scale(plant: &Plant, name: &str) -> f64 {
             .parameters
             .get(name)
             .map_or(1.0, |v| if *v == 0.0 { 1.0 } else { v.abs() }),
+    }
+}
+
+/// Removes the plant-gain scale from Jacobian columns `cols` (∂r/∂p_i at `p`, physical
+/// units): the family `members` times a common factor is an exact symmetry of position
+/// data, but a finite-difference Jacobian sees it only to its own accuracy, and a member
+/// the data barely see (k1 of the Freedom 6S: Fs_5 at its bound with vs_5 → 0, a column
+/// of difference noise) can lift the family's direction above the cut-off of
+/// [`covariance_statistics`], which then calls the plant gains determined to a few ppm by
+/// data that cannot see their scale. In relative coordinates (columns p_i ∂r/∂p_i) the
+/// family's direction is the sum of its members' columns, s; each member's relative
+/// column loses s / k (k members), so the members' columns times p sum to zero exactly:
+/// the family is then a null direction of the statistics (its members undetermined), and
+/// every other parameter's standard error is that of the problem with the scale fixed.
+fn project_out_the_gain_scale(cols: &mut [Vec<f64>], p: &[f64], members: &[usize]) {
+    if members.is_empty() {
+        return;
+    }
+    let m = cols[members[0]].len();
+    let mut s = vec![0.0; m];
+    for &i in members {
+        for (sk, c) in s.iter_mut().zip(&cols[i]) {
+            *sk += p[i] * c;
+        }
+    }
+    let k = members.len() as f64;
+    for &i in members {
+        for (c, sk) in cols[i].iter_mut().zip(&s) {
+            *c -= sk / (k * p[i]);
+        }
     }
 }
 
