@@ -19,10 +19,11 @@
 
 use super::identifiability::Occurrence;
 use super::output_error::{
-    covariance_statistics, difference_column, enters, feasible_bounds, fitted_companions, held_in,
-    minimise, physical_to_scaled, scaled_to_physical, FitResult, HeldColumns, LeastSquares,
-    OutputErrorOptions, Problem, Progress, Record, Stage, StageContext, StartSummary, Statistics,
-    TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
+    covariance_statistics, difference_column, enters, feasible_bounds, fitted_companions,
+    gain_scale_family, held_in, minimise, physical_to_scaled, project_out_the_gain_scale,
+    scaled_to_physical, FitResult, HeldColumns, LeastSquares, OutputErrorOptions, Problem,
+    Progress, Record, Stage, StageContext, StartSummary, Statistics, TrialFailure, WarmUp,
+    INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
 use crate::simulation::Trajectory;
@@ -442,11 +443,24 @@ impl JointProblem {
                 j
             }));
         }
-        let cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
+        let mut cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
         let dof = self.m as f64 / (self.m - n) as f64;
         let sigma: Vec<f64> = variances.iter().map(|v| v * dof).collect();
         let only_with = self.structural_companions(p)?;
         let held = self.held_columns(p, &r);
+        // The plant-gain scale across every configuration's free joints (an exact symmetry
+        // of all the files where every gain is fitted and nothing else of the family held).
+        let mut free: Vec<usize> = self
+            .parts
+            .iter()
+            .flat_map(|part| part.problem.configuration().free.iter().copied())
+            .collect();
+        free.sort_unstable();
+        free.dedup();
+        let family = gain_scale_family(&self.plant, &self.names, p, &free, &held, &self.held_ties);
+        if let Some(members) = family {
+            project_out_the_gain_scale(&mut cols, p, &members);
+        }
         covariance_statistics(
             &self.names,
             p,

@@ -111,7 +111,10 @@ impl Problem {
         let mut cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
         let occ = crate::identify::identifiability::occurrence(self.plant.model);
         let mut held = held_in(&self.plant, &self.names, &occ, &[self.conf]);
-        if let Some(members) = self.gain_scale_family(p, &held) {
+        let free = self.conf.free;
+        if let Some(members) =
+            gain_scale_family(&self.plant, &self.names, p, free, &held, &self.held_ties)
+        {
             if std::env::var_os("NOPROJ").is_none() {
                 project_out_the_gain_scale(&mut cols, p, &members);
             }
@@ -134,37 +137,6 @@ impl Problem {
             &sigma,
             only_with,
             joints,
-        )
-    }
-
-    /// The fitted parameters of the plant-gain scale family ([`scales_with_the_gain`],
-    /// nonzero at `p`) when the family is an exact symmetry of this fit: every free joint's
-    /// plant gain `Kp_j` is fitted, and every held value that enters the configuration
-    /// (`held`, from [`held_in`]) and scales with the gain is a held tie
-    /// ([`Problem::with_held_ties`], scaled along with the family by
-    /// [`Problem::least_change`]). `None` otherwise: a held gain or force (an earlier
-    /// step's) then fixes the scale, and the standard errors are conditional on it.
-    pub(crate) fn gain_scale_family(&self, p: &[f64], held: &HeldColumns) -> Option<Vec<usize>> {
-        let model = self.plant.model;
-        let gains_fitted = self.conf.free.iter().all(|&j| {
-            let gain = format!("Kp_{j}");
-            self.names
-                .iter()
-                .zip(p)
-                .any(|(n, v)| *n == gain && *v != 0.0)
-        });
-        let scale_held_elsewhere = held.names.iter().chain(&held.exact).any(|n| {
-            scales_with_the_gain(model, n)
-                && !self.held_ties.contains(n)
-                && self.plant.parameters.get(n).is_some_and(|v| *v != 0.0)
-        });
-        if !gains_fitted || scale_held_elsewhere {
-            return None;
-        }
-        Some(
-            (0..p.len())
-                .filter(|&i| scales_with_the_gain(model, &self.names[i]) && p[i] != 0.0)
-                .collect(),
         )
     }
 
@@ -304,6 +276,41 @@ fn held_scale(plant: &Plant, name: &str) -> f64 {
     }
 }
 
+/// The fitted parameters `names` (values `p`) of the plant-gain scale family
+/// ([`scales_with_the_gain`], nonzero) when the family is an exact symmetry of the fit:
+/// every joint of `free` has its plant gain `Kp_j` fitted, and every value that `plant`
+/// holds although it enters the fit (`held`, from [`held_in`]) and scales with the gain is
+/// one of `held_ties` ([`Problem::with_held_ties`], scaled along with the family by
+/// [`Problem::least_change`]). `None` otherwise: a held gain or force (an earlier step's)
+/// then fixes the scale, and the standard errors are conditional on it.
+pub(crate) fn gain_scale_family(
+    plant: &Plant,
+    names: &[String],
+    p: &[f64],
+    free: &[usize],
+    held: &HeldColumns,
+    held_ties: &[String],
+) -> Option<Vec<usize>> {
+    let model = plant.model;
+    let gains_fitted = free.iter().all(|&j| {
+        let gain = format!("Kp_{j}");
+        names.iter().zip(p).any(|(n, v)| *n == gain && *v != 0.0)
+    });
+    let scale_held_elsewhere = held.names.iter().chain(&held.exact).any(|n| {
+        scales_with_the_gain(model, n)
+            && !held_ties.contains(n)
+            && plant.parameters.get(n).is_some_and(|v| *v != 0.0)
+    });
+    if free.is_empty() || !gains_fitted || scale_held_elsewhere {
+        return None;
+    }
+    Some(
+        (0..p.len())
+            .filter(|&i| scales_with_the_gain(model, &names[i]) && p[i] != 0.0)
+            .collect(),
+    )
+}
+
 /// Removes the plant-gain scale from Jacobian columns `cols` (∂r/∂p_i at `p`, physical
 /// units): the family `members` times a common factor is an exact symmetry of position
 /// data, but a finite-difference Jacobian sees it only to its own accuracy, and a member
@@ -315,7 +322,7 @@ fn held_scale(plant: &Plant, name: &str) -> f64 {
 /// column loses s / k (k members), so the members' columns times p sum to zero exactly:
 /// the family is then a null direction of the statistics (its members undetermined), and
 /// every other parameter's standard error is that of the problem with the scale fixed.
-fn project_out_the_gain_scale(cols: &mut [Vec<f64>], p: &[f64], members: &[usize]) {
+pub(crate) fn project_out_the_gain_scale(cols: &mut [Vec<f64>], p: &[f64], members: &[usize]) {
     if members.is_empty() {
         return;
     }
