@@ -20,9 +20,9 @@
 use super::identifiability::Occurrence;
 use super::output_error::{
     covariance_statistics, difference_column, enters, feasible_bounds, fitted_companions,
-    gain_scale_family, held_in, minimise, physical_to_scaled, project_out_the_gain_scale,
-    scaled_to_physical, FitResult, HeldColumns, LeastSquares, OutputErrorOptions, Problem,
-    Progress, Record, Stage, StageContext, StartSummary, Statistics, TrialFailure, WarmUp,
+    gain_scale_direction, gain_scale_family, held_in, minimise, physical_to_scaled, project_out,
+    scaled_ties, scaled_to_physical, FitResult, HeldColumns, LeastSquares, OutputErrorOptions,
+    Problem, Progress, Record, Stage, StageContext, StartSummary, Statistics, TrialFailure, WarmUp,
     INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
@@ -459,7 +459,13 @@ impl JointProblem {
         free.dedup();
         let family = gain_scale_family(&self.plant, &self.names, p, &free, &held, &self.held_ties);
         if let Some(members) = family {
-            project_out_the_gain_scale(&mut cols, p, &members);
+            let widths: Vec<f64> = (0..n).map(|i| self.upper[i] - self.lower[i]).collect();
+            let ties = scaled_ties(&self.plant, &self.held_ties);
+            let names: Vec<String> = ties.iter().map(|(t, _)| t.clone()).collect();
+            let tie_cols = self.stacked_columns(p, &names, &r);
+            let ties: Vec<(f64, Vec<f64>)> = ties.into_iter().map(|t| t.1).zip(tie_cols).collect();
+            let v = gain_scale_direction(&cols, p, &widths, &members, &ties);
+            project_out(&mut cols, &v, &widths);
         }
         covariance_statistics(
             &self.names,
@@ -483,11 +489,18 @@ impl JointProblem {
             .map(|part| part.problem.configuration())
             .collect();
         let mut held = held_in(&self.plant, &self.names, &self.occ, &confs);
-        held.cols = vec![vec![0.0; self.m]; held.names.len()];
+        held.cols = self.stacked_columns(p, &held.names, r);
+        held
+    }
+
+    /// ∂r/∂h of the stacked residuals `r` (at physical parameters `p`) for every held value
+    /// named in `names`, each configuration's block by [`Problem::held_columns`], zero where
+    /// the value does not enter the configuration.
+    fn stacked_columns(&self, p: &[f64], names: &[String], r: &[f64]) -> Vec<Vec<f64>> {
+        let mut cols = vec![vec![0.0; self.m]; names.len()];
         for part in &self.parts {
             let conf = part.problem.configuration();
-            let (here, these): (Vec<usize>, Vec<String>) = held
-                .names
+            let (here, these): (Vec<usize>, Vec<String>) = names
                 .iter()
                 .enumerate()
                 .filter(|(_, n)| enters(&self.plant, &self.occ, conf, n))
@@ -498,10 +511,10 @@ impl JointProblem {
                 .problem
                 .held_columns(&part.take(p), &these, &r[range.clone()]);
             for (&k, block) in here.iter().zip(blocks) {
-                held.cols[k][range.clone()].copy_from_slice(&block);
+                cols[k][range.clone()].copy_from_slice(&block);
             }
         }
-        held
+        cols
     }
 
     /// For every fitted parameter, the other rigid-body symbols (fitted, or held along

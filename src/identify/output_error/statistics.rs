@@ -115,9 +115,13 @@ impl Problem {
         if let Some(members) =
             gain_scale_family(&self.plant, &self.names, p, free, &held, &self.held_ties)
         {
-            if std::env::var_os("NOPROJ").is_none() {
-                project_out_the_gain_scale(&mut cols, p, &members);
-            }
+            let widths: Vec<f64> = (0..n).map(|i| self.upper[i] - self.lower[i]).collect();
+            let ties = scaled_ties(&self.plant, &self.held_ties);
+            let names: Vec<String> = ties.iter().map(|(t, _)| t.clone()).collect();
+            let tie_cols = self.held_columns(p, &names, &r);
+            let ties: Vec<(f64, Vec<f64>)> = ties.into_iter().map(|t| t.1).zip(tie_cols).collect();
+            let v = gain_scale_direction(&cols, p, &widths, &members, &ties);
+            project_out(&mut cols, &v, &widths);
         }
         let m = r.len();
         let dof = m as f64 / (m - n) as f64;
@@ -311,32 +315,97 @@ pub(crate) fn gain_scale_family(
     )
 }
 
-/// Removes the plant-gain scale from Jacobian columns `cols` (∂r/∂p_i at `p`, physical
-/// units): the family `members` times a common factor is an exact symmetry of position
-/// data, but a finite-difference Jacobian sees it only to its own accuracy, and a member
-/// the data barely see (k1 of the Freedom 6S: Fs_5 at its bound with vs_5 → 0, a column
-/// of difference noise) can lift the family's direction above the cut-off of
-/// [`covariance_statistics`], which then calls the plant gains determined to a few ppm by
-/// data that cannot see their scale. In relative coordinates (columns p_i ∂r/∂p_i) the
-/// family's direction is the sum of its members' columns, s; each member's relative
-/// column loses s / k (k members), so the members' columns times p sum to zero exactly:
-/// the family is then a null direction of the statistics (its members undetermined), and
-/// every other parameter's standard error is that of the problem with the scale fixed.
-pub(crate) fn project_out_the_gain_scale(cols: &mut [Vec<f64>], p: &[f64], members: &[usize]) {
-    if members.is_empty() {
-        return;
-    }
-    let m = cols[members[0]].len();
-    let mut s = vec![0.0; m];
+/// The held ties of the plant-gain scale family: the names among `held_ties` that scale
+/// with the gain ([`scales_with_the_gain`]) and are nonzero in `plant`, with their values.
+/// The family's symmetry scales them too ([`Problem::least_change`]), so its direction in
+/// the fitted parameters includes what compensates their being held
+/// ([`gain_scale_direction`]).
+pub(crate) fn scaled_ties(plant: &Plant, held_ties: &[String]) -> Vec<(String, f64)> {
+    held_ties
+        .iter()
+        .filter(|n| scales_with_the_gain(plant.model, n))
+        .filter_map(|n| {
+            let v = *plant.parameters.get(n)?;
+            (v != 0.0).then(|| (n.clone(), v))
+        })
+        .collect()
+}
+
+/// The plant-gain scale's direction v in the fitted parameters (physical units) at `p`:
+/// the family `members` times their values, plus the fitted change v_c that compensates
+/// the family's held ties, each of value h_t and column ∂r/∂h_t in `ties`: the symmetry
+/// moves them by h_t too, and held they leave J v = −Σ h_t ∂r/∂h_t, which the fitted
+/// symbols they tie with make up exactly (v_c the least-squares solution of
+/// J v_c = Σ h_t ∂r/∂h_t in columns scaled by `widths`, singular values below √1e-9 of the
+/// largest dropped, the family's own direction among them; a column of zeros, which no
+/// data see, left out). k1 of the Freedom 6S holds I7_13: at the truth the direction then
+/// moves I7_12 and I7_23 by 6 % and 3 % more than the other members; isolated c1 holds m7:
+/// x7 and y7 make up for it (m7·x7, m7·y7 scale), and without this part the statistics
+/// gave them finite standard errors, 220 % off the truth.
+pub(crate) fn gain_scale_direction(
+    cols: &[Vec<f64>],
+    p: &[f64],
+    widths: &[f64],
+    members: &[usize],
+    ties: &[(f64, Vec<f64>)],
+) -> Vec<f64> {
+    let n = p.len();
+    let mut v = vec![0.0; n];
     for &i in members {
-        for (sk, c) in s.iter_mut().zip(&cols[i]) {
-            *sk += p[i] * c;
+        v[i] = p[i];
+    }
+    if ties.is_empty() || n == 0 {
+        return v;
+    }
+    let m = cols[0].len();
+    let c = DMatrix::from_fn(m, n, |k, j| cols[j][k] * widths[j]);
+    let b = nalgebra::DVector::from_fn(m, |k, _| ties.iter().map(|(h, col)| h * col[k]).sum());
+    let svd = c.svd(true, true);
+    let eps = EXACT_SYMMETRY.sqrt() * svd.singular_values.max();
+    if let Ok(y) = svd.solve(&b, eps) {
+        for j in 0..n {
+            // A column the data do not see at all (k1: vs_5 → 0) is its own null direction
+            // ([`moved_by_null_directions`]); rounding must not tie it to the family.
+            if y[j].is_finite() && cols[j].iter().any(|c| *c != 0.0) {
+                v[j] += y[j] * widths[j];
+            }
         }
     }
-    let k = members.len() as f64;
-    for &i in members {
-        for (c, sk) in cols[i].iter_mut().zip(&s) {
-            *c -= sk / (k * p[i]);
+    v
+}
+
+/// Removes direction `v` (physical units; [`gain_scale_direction`]) from Jacobian columns
+/// `cols` (∂r/∂p_i), orthogonally in coordinates scaled by `widths`: column i loses
+/// (J v) w_i / (width_i ‖w‖²), w = v / width, so that J v = 0 exactly afterwards and
+/// directions orthogonal to w keep their columns. Why: the plant-gain scale is an exact
+/// symmetry of position data, but a finite-difference Jacobian sees it only to its own
+/// accuracy, and a member the data barely see (k1 of the Freedom 6S: Fs_5 at its bound
+/// with vs_5 → 0, a column of difference noise) can lift the family's direction above the
+/// cut-off of [`covariance_statistics`], which then called the plant gains determined to
+/// a few ppm by data that cannot see their scale. Projected out, the family is a null
+/// direction of the statistics (its members undetermined), and every other parameter's
+/// standard error is that of the problem with the scale fixed.
+pub(crate) fn project_out(cols: &mut [Vec<f64>], v: &[f64], widths: &[f64]) {
+    let w: Vec<f64> = v.iter().zip(widths).map(|(a, b)| a / b).collect();
+    let ww: f64 = w.iter().map(|x| x * x).sum();
+    if ww == 0.0 || !ww.is_finite() || cols.is_empty() {
+        return;
+    }
+    let m = cols[0].len();
+    let mut jv = vec![0.0; m];
+    for (col, vi) in cols.iter().zip(v) {
+        if *vi != 0.0 {
+            for (s, c) in jv.iter_mut().zip(col) {
+                *s += vi * c;
+            }
+        }
+    }
+    for ((col, wi), width) in cols.iter_mut().zip(&w).zip(widths) {
+        if *wi != 0.0 && col.iter().any(|c| *c != 0.0) {
+            let f = wi / (width * ww);
+            for (c, s) in col.iter_mut().zip(&jv) {
+                *c -= s * f;
+            }
         }
     }
 }
