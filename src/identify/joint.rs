@@ -19,11 +19,10 @@
 
 use super::identifiability::Occurrence;
 use super::output_error::{
-    covariance_statistics, difference_column, enters, feasible_bounds, fitted_companions,
-    gain_scale_direction, gain_scale_family, held_in, minimise, physical_to_scaled, project_out,
-    scaled_ties, scaled_to_physical, FitResult, HeldColumns, LeastSquares, OutputErrorOptions,
-    Problem, Progress, Record, Stage, StageContext, StartSummary, Statistics, TrialFailure, WarmUp,
-    INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
+    covariance_statistics, difference_column, enters, feasible_bounds, fitted_companions, held_in,
+    minimise, physical_to_scaled, scaled_to_physical, FitResult, GainScaleContext, HeldColumns,
+    LeastSquares, OutputErrorOptions, Problem, Progress, Record, Stage, StageContext, StartSummary,
+    Statistics, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
 use crate::simulation::Trajectory;
@@ -457,16 +456,16 @@ impl JointProblem {
             .collect();
         free.sort_unstable();
         free.dedup();
-        let family = gain_scale_family(&self.plant, &self.names, p, &free, &held, &self.held_ties);
-        if let Some(members) = family {
-            let widths: Vec<f64> = (0..n).map(|i| self.upper[i] - self.lower[i]).collect();
-            let ties = scaled_ties(&self.plant, &self.held_ties);
-            let names: Vec<String> = ties.iter().map(|(t, _)| t.clone()).collect();
-            let tie_cols = self.stacked_columns(p, &names, &r);
-            let ties: Vec<(f64, Vec<f64>)> = ties.into_iter().map(|t| t.1).zip(tie_cols).collect();
-            let v = gain_scale_direction(&cols, p, &widths, &members, &ties);
-            project_out(&mut cols, &v, &widths);
-        }
+        let scale = GainScaleContext {
+            plant: &self.plant,
+            names: &self.names,
+            bounds: (&self.lower, &self.upper),
+            free: &free,
+            held_ties: &self.held_ties,
+        };
+        scale.project_out_of(&mut cols, p, &held, |ties| {
+            self.stacked_columns(p, ties, &r)
+        });
         covariance_statistics(
             &self.names,
             p,

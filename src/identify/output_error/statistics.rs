@@ -111,18 +111,14 @@ impl Problem {
         let mut cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
         let occ = crate::identify::identifiability::occurrence(self.plant.model);
         let mut held = held_in(&self.plant, &self.names, &occ, &[self.conf]);
-        let free = self.conf.free;
-        if let Some(members) =
-            gain_scale_family(&self.plant, &self.names, p, free, &held, &self.held_ties)
-        {
-            let widths: Vec<f64> = (0..n).map(|i| self.upper[i] - self.lower[i]).collect();
-            let ties = scaled_ties(&self.plant, &self.held_ties);
-            let names: Vec<String> = ties.iter().map(|(t, _)| t.clone()).collect();
-            let tie_cols = self.held_columns(p, &names, &r);
-            let ties: Vec<(f64, Vec<f64>)> = ties.into_iter().map(|t| t.1).zip(tie_cols).collect();
-            let v = gain_scale_direction(&cols, p, &widths, &members, &ties);
-            project_out(&mut cols, &v, &widths);
-        }
+        let scale = GainScaleContext {
+            plant: &self.plant,
+            names: &self.names,
+            bounds: (&self.lower, &self.upper),
+            free: self.conf.free,
+            held_ties: &self.held_ties,
+        };
+        scale.project_out_of(&mut cols, p, &held, |ties| self.held_columns(p, ties, &r));
         let m = r.len();
         let dof = m as f64 / (m - n) as f64;
         let sigma: Vec<f64> = self
@@ -313,6 +309,52 @@ pub(crate) fn gain_scale_family(
             .filter(|&i| scales_with_the_gain(model, &names[i]) && p[i] != 0.0)
             .collect(),
     )
+}
+
+/// What removing the plant-gain scale from a fit's Jacobian needs to know of the fit
+/// ([`GainScaleContext::project_out_of`]): a configuration's step, or the joint fit of
+/// several.
+pub(crate) struct GainScaleContext<'a> {
+    /// The plant (held values, the model).
+    pub plant: &'a Plant,
+    /// The fitted parameters.
+    pub names: &'a [String],
+    /// Their bounds (physical units).
+    pub bounds: (&'a [f64], &'a [f64]),
+    /// Every free joint of the fit's configurations.
+    pub free: &'a [usize],
+    /// Rigid-body symbols held along exact ties ([`Problem::with_held_ties`]).
+    pub held_ties: &'a [String],
+}
+
+impl GainScaleContext<'_> {
+    /// Where the plant-gain scale is an exact symmetry of the fit ([`gain_scale_family`];
+    /// `held` the values held although they enter), removes its direction
+    /// ([`gain_scale_direction`], [`project_out`]) from the Jacobian columns `cols` at
+    /// physical parameters `p`; `tie_columns` gives ∂r/∂h of the named held ties.
+    pub(crate) fn project_out_of(
+        &self,
+        cols: &mut [Vec<f64>],
+        p: &[f64],
+        held: &HeldColumns,
+        tie_columns: impl FnOnce(&[String]) -> Vec<Vec<f64>>,
+    ) {
+        let family = gain_scale_family(self.plant, self.names, p, self.free, held, self.held_ties);
+        let Some(members) = family else {
+            return;
+        };
+        let (lower, upper) = self.bounds;
+        let widths: Vec<f64> = lower.iter().zip(upper).map(|(lo, hi)| hi - lo).collect();
+        let ties = scaled_ties(self.plant, self.held_ties);
+        let names: Vec<String> = ties.iter().map(|(t, _)| t.clone()).collect();
+        let ties: Vec<(f64, Vec<f64>)> = ties
+            .into_iter()
+            .map(|t| t.1)
+            .zip(tie_columns(&names))
+            .collect();
+        let v = gain_scale_direction(cols, p, &widths, &members, &ties);
+        project_out(cols, &v, &widths);
+    }
 }
 
 /// The held ties of the plant-gain scale family: the names among `held_ties` that scale
