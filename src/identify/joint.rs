@@ -446,7 +446,7 @@ impl JointProblem {
         let dof = self.m as f64 / (self.m - n) as f64;
         let sigma: Vec<f64> = variances.iter().map(|v| v * dof).collect();
         let only_with = self.structural_companions(p)?;
-        let held = self.held_columns(p, &r);
+        let mut held = self.held_columns(p, &r);
         // The plant-gain scale across every configuration's free joints (an exact symmetry
         // of all the files where every gain is fitted and nothing else of the family held).
         let mut free: Vec<usize> = self
@@ -463,6 +463,7 @@ impl JointProblem {
             free: &free,
             held_ties: &self.held_ties,
         };
+        scale.make_up_held_ties(&cols, &mut held);
         scale.project_out_of(&mut cols, p, &held, |ties| {
             self.stacked_columns(p, ties, &r)
         });
@@ -487,7 +488,7 @@ impl JointProblem {
             .iter()
             .map(|part| part.problem.configuration())
             .collect();
-        let mut held = held_in(&self.plant, &self.names, &self.occ, &confs);
+        let mut held = held_in(&self.plant, &self.names, &self.held_ties, &self.occ, &confs);
         held.cols = self.stacked_columns(p, &held.names, r);
         held
     }

@@ -1068,6 +1068,14 @@ fn step_markdown(
             plus_minus(&stats.held)
         );
     }
+    if !stats.held_ties.is_empty() {
+        let _ = writeln!(
+            s,
+            "Standard errors include the uncertainty of {} held tie(s), held at the plant's values although the fitted symbols make up for them (not separately identifiable here): each as a value uniform within its bounds, σ = width/√12: {}. A value that makes up for a held tie is determined only given the tie's value.\n",
+            stats.held_ties.len(),
+            plus_minus(&stats.held_ties)
+        );
+    }
     if !stats.held_exact.is_empty() {
         let _ = writeln!(
             s,

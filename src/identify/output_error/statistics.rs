@@ -47,7 +47,15 @@ pub struct Statistics {
     /// Held values whose standard errors (recorded by the step that fitted them) are
     /// propagated into `std_err`: (name, σ).
     pub held: Vec<(String, f64)>,
-    /// Held values that enter the fit without a recorded standard error: taken as exact.
+    /// Held ties ([`Problem::with_held_ties`]) without a recorded standard error, whose
+    /// value is known only to lie within their bounds: propagated into `std_err` as a
+    /// uniform spread over the bounds, σ = (upper − lower)/√12: (name, σ). A fitted value
+    /// that makes up for a held tie (k1 of the Freedom 6S: z7 for I7_13, a tie through
+    /// the parallel-axis term m7·x7·z7) is determined only given the tie's arbitrary
+    /// value, and its standard error says so.
+    pub held_ties: Vec<(String, f64)>,
+    /// Held values that enter the fit without a recorded standard error (and held ties
+    /// without bounds): taken as exact.
     pub held_exact: Vec<String>,
     /// σ/|p|.
     pub relative_std_err: Vec<f64>,
@@ -110,7 +118,13 @@ impl Problem {
         // directions.
         let mut cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
         let occ = crate::identify::identifiability::occurrence(self.plant.model);
-        let mut held = held_in(&self.plant, &self.names, &occ, &[self.conf]);
+        let mut held = held_in(
+            &self.plant,
+            &self.names,
+            &self.held_ties,
+            &occ,
+            &[self.conf],
+        );
         let scale = GainScaleContext {
             plant: &self.plant,
             names: &self.names,
@@ -118,6 +132,8 @@ impl Problem {
             free: self.conf.free,
             held_ties: &self.held_ties,
         };
+        held.cols = self.held_columns(p, &held.names, &r);
+        scale.make_up_held_ties(&cols, &mut held);
         scale.project_out_of(&mut cols, p, &held, |ties| self.held_columns(p, ties, &r));
         let m = r.len();
         let dof = m as f64 / (m - n) as f64;
@@ -128,7 +144,6 @@ impl Problem {
             .collect();
         let only_with = self.structural_companions(p)?;
         let joints = self.joint_fits(&trajectories);
-        held.cols = self.held_columns(p, &held.names, &r);
         covariance_statistics(
             &self.names,
             p,
@@ -255,10 +270,22 @@ pub(crate) struct HeldColumns {
     /// Held parameter names.
     pub names: Vec<String>,
     /// Standard error of each (SI), as recorded by the step that fitted it
-    /// ([`crate::plant::Plant::standard_errors`]); taken as independent.
+    /// ([`crate::plant::Plant::standard_errors`]), or for a held tie without one its
+    /// bounds' uniform spread (upper − lower)/√12; taken as independent.
     pub std_err: Vec<f64>,
+    /// Per held value: a held tie whose `std_err` is its bounds' spread (not recorded).
+    pub tie: Vec<bool>,
     /// ∂r/∂h of the fit's residuals per held value (length m each).
     pub cols: Vec<Vec<f64>>,
+    /// Per held value, for a held tie ([`GainScaleContext::make_up_held_ties`]): the change
+    /// of the fitted values (physical units, per unit of the tie) that makes up for it,
+    /// solved over the fitted rigid-body symbols that span it ([`rigid_body_make_up`]).
+    /// `None` (and for every value where this is empty): the two-stage estimator's
+    /// −(JᵀJ)⁻¹ Jᵀ J_h. Why: JᵀJ is inverted with the plant-gain scale projected out, and
+    /// J_h's share along that direction is the finite-difference Jacobian's error, which
+    /// −(JᵀJ)⁻¹ Jᵀ J_h spreads over every parameter (k1 of the Freedom 6S at the truth:
+    /// qeq_4 ± 0.0155 rad, 6 %, from the held y7 and I7_13, against 4.6e-6 rad given them).
+    pub make_up: Vec<Option<Vec<f64>>>,
     /// Held parameters that enter the fit without a recorded standard error (never fitted,
     /// or not determined where they were): taken as exact.
     pub exact: Vec<String>,
@@ -343,8 +370,7 @@ impl GainScaleContext<'_> {
         let Some(members) = family else {
             return;
         };
-        let (lower, upper) = self.bounds;
-        let widths: Vec<f64> = lower.iter().zip(upper).map(|(lo, hi)| hi - lo).collect();
+        let widths = self.widths();
         let ties = scaled_ties(self.plant, self.held_ties);
         let names: Vec<String> = ties.iter().map(|(t, _)| t.clone()).collect();
         let ties: Vec<(f64, Vec<f64>)> = ties
@@ -352,8 +378,41 @@ impl GainScaleContext<'_> {
             .map(|t| t.1)
             .zip(tie_columns(&names))
             .collect();
-        let v = gain_scale_direction(cols, p, &widths, &members, &ties);
+        let v = gain_scale_direction(cols, p, &widths, &members, (&ties, &self.rigid_body()));
         project_out(cols, &v, &widths);
+    }
+
+    /// For every held tie among `held` without a recorded standard error (`held.tie`,
+    /// columns `held.cols` computed), the change of the fitted values that makes up for
+    /// it ([`rigid_body_make_up`] on the Jacobian columns `cols` before any projection),
+    /// into `held.make_up`.
+    pub(crate) fn make_up_held_ties(&self, cols: &[Vec<f64>], held: &mut HeldColumns) {
+        let (widths, rigid_body) = (self.widths(), self.rigid_body());
+        held.make_up = held
+            .cols
+            .iter()
+            .zip(&held.tie)
+            .map(|(col, &tie)| {
+                tie.then(|| {
+                    let b: Vec<f64> = col.iter().map(|x| -x).collect();
+                    rigid_body_make_up(cols, &widths, &rigid_body, &b)
+                })
+            })
+            .collect();
+    }
+
+    /// The fitted parameters' bound widths (physical units).
+    fn widths(&self) -> Vec<f64> {
+        let (lower, upper) = self.bounds;
+        lower.iter().zip(upper).map(|(lo, hi)| hi - lo).collect()
+    }
+
+    /// Per fitted parameter: a rigid-body symbol of the model.
+    fn rigid_body(&self) -> Vec<bool> {
+        self.names
+            .iter()
+            .map(|n| self.plant.model.inertial_symbols.contains(&n.as_str()))
+            .collect()
     }
 }
 
@@ -378,18 +437,23 @@ pub(crate) fn scaled_ties(plant: &Plant, held_ties: &[String]) -> Vec<(String, f
 /// the family's held ties, each of value h_t and column ∂r/∂h_t in `ties`: the symmetry
 /// moves them by h_t too, and held they leave J v = −Σ h_t ∂r/∂h_t, which the fitted
 /// symbols they tie with make up exactly (v_c the least-squares solution of
-/// J v_c = Σ h_t ∂r/∂h_t in columns scaled by `widths`, singular values below √1e-9 of the
-/// largest dropped, the family's own direction among them; a column of zeros, which no
-/// data see, left out). k1 of the Freedom 6S holds I7_13: at the truth the direction then
-/// moves I7_12 and I7_23 by 6 % and 3 % more than the other members; isolated c1 holds m7:
-/// x7 and y7 make up for it (m7·x7, m7·y7 scale), and without this part the statistics
-/// gave them finite standard errors, 220 % off the truth.
+/// J v_c = Σ h_t ∂r/∂h_t over the fitted rigid-body symbols, `rigid_body[i]` — a held tie
+/// is spanned by them at the locked positions, nothing else makes it up exactly — in
+/// columns scaled by `widths`, singular values below √1e-9 of the largest dropped, the
+/// family's own direction among them; a column of zeros, which no data see, left out).
+/// k1 of the Freedom 6S holds I7_13 and y7: at the truth the direction then moves I7_12
+/// and I7_23 by 6 % and 3 % more than the other members, and z7 (the parallel-axis term
+/// m7·x7·z7 makes up for I7_13); solved over every fitted column, the least squares also
+/// leaked at least 1e-3 of the largest relative change (the threshold of
+/// [`moved_by_null_directions`]) into vs_4, which the statistics then called undetermined. Isolated c1 holds m7: x7 and y7 make up
+/// for it (m7·x7, m7·y7 scale), and without this part the statistics gave them finite
+/// standard errors, 220 % off the truth.
 pub(crate) fn gain_scale_direction(
     cols: &[Vec<f64>],
     p: &[f64],
     widths: &[f64],
     members: &[usize],
-    ties: &[(f64, Vec<f64>)],
+    (ties, rigid_body): (&[(f64, Vec<f64>)], &[bool]),
 ) -> Vec<f64> {
     let n = p.len();
     let mut v = vec![0.0; n];
@@ -400,20 +464,53 @@ pub(crate) fn gain_scale_direction(
         return v;
     }
     let m = cols[0].len();
-    let c = DMatrix::from_fn(m, n, |k, j| cols[j][k] * widths[j]);
-    let b = nalgebra::DVector::from_fn(m, |k, _| ties.iter().map(|(h, col)| h * col[k]).sum());
+    let b: Vec<f64> = (0..m)
+        .map(|k| ties.iter().map(|(h, col)| h * col[k]).sum())
+        .collect();
+    for (vj, dj) in v
+        .iter_mut()
+        .zip(rigid_body_make_up(cols, widths, rigid_body, &b))
+    {
+        *vj += dj;
+    }
+    v
+}
+
+/// The change d of the fitted parameters (physical units) with J d = `b` in the least-squares
+/// sense over the fitted rigid-body symbols (`rigid_body[j]`; zero for the rest): what
+/// makes up for a change of held rigid-body symbols that these span at the locked
+/// positions (a held tie, [`Problem::with_held_ties`]). Columns `cols` (∂r/∂p_j) scaled by
+/// `widths`, singular values below √1e-9 of the largest dropped; a column of zeros, which
+/// no data see, is its own null direction ([`moved_by_null_directions`]) and left out, so
+/// rounding does not tie it to anything (k1: vs_5 → 0).
+pub(crate) fn rigid_body_make_up(
+    cols: &[Vec<f64>],
+    widths: &[f64],
+    rigid_body: &[bool],
+    b: &[f64],
+) -> Vec<f64> {
+    let n = cols.len();
+    let mut d = vec![0.0; n];
+    let partners: Vec<usize> = (0..n)
+        .filter(|&j| rigid_body[j] && cols[j].iter().any(|c| *c != 0.0))
+        .collect();
+    if partners.is_empty() {
+        return d;
+    }
+    let m = b.len();
+    let c = DMatrix::from_fn(m, partners.len(), |k, a| {
+        cols[partners[a]][k] * widths[partners[a]]
+    });
     let svd = c.svd(true, true);
     let eps = EXACT_SYMMETRY.sqrt() * svd.singular_values.max();
-    if let Ok(y) = svd.solve(&b, eps) {
-        for j in 0..n {
-            // A column the data do not see at all (k1: vs_5 → 0) is its own null direction
-            // ([`moved_by_null_directions`]); rounding must not tie it to the family.
-            if y[j].is_finite() && cols[j].iter().any(|c| *c != 0.0) {
-                v[j] += y[j] * widths[j];
+    if let Ok(y) = svd.solve(&nalgebra::DVector::from_column_slice(b), eps) {
+        for (a, &j) in partners.iter().enumerate() {
+            if y[a].is_finite() {
+                d[j] = y[a] * widths[j];
             }
         }
     }
-    v
+    d
 }
 
 /// Removes direction `v` (physical units; [`gain_scale_direction`]) from Jacobian columns
@@ -459,11 +556,15 @@ pub(crate) fn held_step(plant: &Plant, name: &str, fd_step: f64) -> f64 {
 }
 
 /// The parameters of `plant` that a fit of `names` holds although they enter one of the
-/// configurations `confs` ([`enters`]): those with a recorded standard error with it, the
-/// others as exact; the columns are left for the fit to simulate (empty).
+/// configurations `confs` ([`enters`]): those with a recorded standard error with it; the
+/// `held_ties` ([`Problem::with_held_ties`]) without one with the spread of a value
+/// uniform within their bounds, (upper − lower)/√12 — a tie is held at an arbitrary
+/// point of its bounds, not at an estimate; the others as exact. The columns are left for
+/// the fit to simulate (empty).
 pub(crate) fn held_in(
     plant: &Plant,
     names: &[String],
+    held_ties: &[String],
     occ: &crate::identify::identifiability::Occurrence,
     confs: &[&Configuration],
 ) -> HeldColumns {
@@ -472,13 +573,23 @@ pub(crate) fn held_in(
         if names.contains(n) || !confs.iter().any(|c| enters(plant, occ, c, n)) {
             continue;
         }
-        match plant.standard_errors.get(n) {
-            Some(&se) => {
-                held.names.push(n.clone());
-                held.std_err.push(se);
-            }
-            None => held.exact.push(n.clone()),
-        }
+        let tie_spread = || match plant.bounds.get(n) {
+            Some(&(lo, hi)) if held_ties.contains(n) && hi > lo => Some((hi - lo) / 12f64.sqrt()),
+            _ => None,
+        };
+        let (se, tie) = match plant.standard_errors.get(n) {
+            Some(&se) => (se, false),
+            None => match tie_spread() {
+                Some(se) => (se, true),
+                None => {
+                    held.exact.push(n.clone());
+                    continue;
+                }
+            },
+        };
+        held.names.push(n.clone());
+        held.std_err.push(se);
+        held.tie.push(tie);
     }
     held
 }
@@ -504,6 +615,15 @@ pub(crate) fn enters(
     owners.peek().is_none() || owners.any(|e| e.acts_with(conf.free))
 }
 
+/// The (name, σ) of the `held` values whose σ was recorded (`ties` false) or is a held
+/// tie's bounds' spread (`ties` true).
+fn held_share(held: &HeldColumns, ties: bool) -> Vec<(String, f64)> {
+    (0..held.names.len())
+        .filter(|&k| held.tie[k] == ties)
+        .map(|k| (held.names[k].clone(), held.std_err[k]))
+        .collect()
+}
+
 /// Singular value of the scaled JᵀJ, relative to the largest, below which a direction is
 /// taken as not seen by the data (an exact symmetry, resolved by a finite-difference
 /// Jacobian only to its own accuracy).
@@ -518,10 +638,11 @@ const EXACT_SYMMETRY: f64 = 1e-9;
 /// parameter is moved when its component is above rounding (1e-12) and its relative
 /// change is at least 1e-3 of the largest along that direction: the plant gain's scale
 /// family moves all its members by the same fraction, however different their columns'
-/// norms. Conservative: on k1 of the Freedom 6S the family's direction also moves z7 by
-/// 1.2 % of that (a real part: with the tie I7_13 held, z7 compensates its scale) and
-/// vs_4 by 0.7 % (the Jacobian's own error, one may think, but magnitude alone does not
-/// tell them apart), and both are called undetermined. A direction that lives in zero
+/// norms. Conservative: magnitude alone does not tell a real part from the Jacobian's own
+/// error, so the plant-gain direction is built without the latter
+/// ([`gain_scale_direction`]: on k1 of the Freedom 6S it moves z7, which makes up for the
+/// held tie I7_13, and no longer vs_4, which a least squares over every column had moved
+/// by more than 1e-3 of the largest change). A direction that lives in zero
 /// columns (k1: Fs_5 with vs_5 → 0) leaves the others at rounding (≤ 2.4e-15), which
 /// must not count: divided by a tiny parameter's scale, rounding had looked like the
 /// largest change and made seven parameters "undetermined".
@@ -640,13 +761,21 @@ pub(crate) fn covariance_statistics(
     // The held values' share: column k of G (scaled parameters per unit of held value k)
     // is −A⁺ J̃ᵀ J_h,k.
     let mut cov_scaled = given_held.clone();
-    for (col, se) in held.cols.iter().zip(&held.std_err) {
-        let t = nalgebra::DVector::from_iterator(
-            n,
-            cols.iter()
-                .map(|c| c.iter().zip(col).map(|(a, b)| a * b).sum::<f64>()),
-        );
-        let g = -(&ainv * t);
+    for (k, (col, se)) in held.cols.iter().zip(&held.std_err).enumerate() {
+        let g = match held.make_up.get(k).and_then(|d| d.as_ref()) {
+            // Scaled parameter i is p_i times its column's norm.
+            Some(d) => {
+                nalgebra::DVector::from_iterator(n, d.iter().zip(&norms).map(|(d, nrm)| d * nrm))
+            }
+            None => {
+                let t = nalgebra::DVector::from_iterator(
+                    n,
+                    cols.iter()
+                        .map(|c| c.iter().zip(col).map(|(a, b)| a * b).sum::<f64>()),
+                );
+                -(&ainv * t)
+            }
+        };
         cov_scaled += &g * g.transpose() * (se * se);
     }
     if !cov_scaled.iter().all(|x| x.is_finite()) {
@@ -711,7 +840,8 @@ pub(crate) fn covariance_statistics(
     Ok(Statistics {
         std_err,
         std_err_given_held,
-        held: held.names.into_iter().zip(held.std_err).collect(),
+        held: held_share(&held, false),
+        held_ties: held_share(&held, true),
         held_exact: held.exact,
         relative_std_err: relative,
         correlation,
@@ -861,7 +991,9 @@ mod tests {
         let held = HeldColumns {
             names: vec!["h".into()],
             std_err: vec![sigma_h],
+            tie: vec![false],
             cols: vec![b.iter().map(|x| -x).collect()],
+            make_up: Vec::new(),
             exact: vec!["c".into()],
         };
         let names = vec!["theta0".to_string(), "theta1".to_string()];
@@ -896,6 +1028,44 @@ mod tests {
         );
         assert_eq!(stats.held, [("h".to_string(), sigma_h)]);
         assert_eq!(stats.held_exact, ["c"]);
+    }
+
+    /// What a fit of k1 holds, on the Freedom 6S's Appendix D start: a held tie without a
+    /// recorded standard error is propagated with its bounds' uniform spread (I7_13:
+    /// ±120 % of the guess, σ = width/√12) and reported apart; a recorded standard error
+    /// wins over a tie's spread (I7_12) and is reported as recorded (x7); a value neither
+    /// recorded nor a tie is exact (the joint-4 plant gain); a symbol that does not enter
+    /// k1 (m2) is not held at all.
+    #[test]
+    fn a_held_tie_is_propagated_with_its_bounds_spread_and_a_recorded_error_wins() {
+        let mut plant = Plant::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("model/plants/freedom6s_appendix_d_initial_widened.toml"),
+        )
+        .unwrap();
+        plant.standard_errors.insert("x7".into(), 1e-4);
+        plant.standard_errors.insert("I7_12".into(), 2e-7);
+        let conf = plant.model.configuration("k1").unwrap();
+        let occ = crate::identify::identifiability::occurrence(plant.model);
+        let ties = ["I7_13".to_string(), "I7_12".to_string()];
+        let held = held_in(&plant, &["m7".to_string()], &ties, &occ, &[conf]);
+        let (lo, hi) = plant.bounds["I7_13"];
+        let share = |k: usize| (held.names[k].clone(), held.std_err[k]);
+        let at = |n: &str| held.names.iter().position(|x| x == n).unwrap();
+        assert_eq!(
+            share(at("I7_13")),
+            ("I7_13".into(), (hi - lo) / 12f64.sqrt())
+        );
+        assert!(held.tie[at("I7_13")] && !held.tie[at("I7_12")] && !held.tie[at("x7")]);
+        assert_eq!(share(at("I7_12")).1, 2e-7);
+        assert_eq!(
+            held_share(&held, true),
+            [("I7_13".to_string(), (hi - lo) / 12f64.sqrt())]
+        );
+        assert!(held_share(&held, false).contains(&("x7".to_string(), 1e-4)));
+        assert!(held.exact.contains(&"Kp_4".to_string()));
+        assert!(!held.names.contains(&"m7".to_string()) && !held.exact.contains(&"m7".to_string()));
+        assert!(!held.names.contains(&"m2".to_string()) && !held.exact.contains(&"m2".to_string()));
     }
 
     /// A model seen only through the ratios θ₁/θ₀ and θ₂/θ₀ (the plant-gain scale family in
