@@ -1441,7 +1441,8 @@ fn the_coarse_predictor_step_is_checked_against_the_users_step_stage_by_stage() 
 
 /// `--carried-prior`: a carried symbol with a standard error σ recorded in the plant is held
 /// by a Gaussian prior whose term is what that much data would add, s̄² (Δp / σ)² (s̄ the
-/// noise's RMS residual), and no other parameter gets one; without the option, none.
+/// noise's RMS residual), and no other parameter gets one; without the option, none. The
+/// equation-error warm start holds every carried symbol, with the option or without.
 #[test]
 fn the_carried_prior_weighs_a_carried_symbol_by_its_earlier_standard_error() {
     let d = tempfile::tempdir().unwrap();
@@ -1487,10 +1488,14 @@ fn the_carried_prior_weighs_a_carried_symbol_by_its_earlier_standard_error() {
     let span = p.upper[other] - p.lower[other];
     assert_eq!(with.prior_penalty(&moved(other, 0.01 * span)), 0.0);
     // The equation-error warm start (no prior: torque residuals) holds the carried symbol
-    // at its value instead of letting it drift; only there.
+    // at its value instead of letting it drift, with the prior or without; only there.
     let ee = |p: &Problem| p.equation_error_stage(Cutoff::Fixed(0.5)).unwrap().frozen();
-    assert_eq!(ee(&with), [name]);
-    assert!(ee(&without).is_empty() && with.frozen().is_empty());
+    assert_eq!(ee(&with), [name.clone()]);
+    assert_eq!(ee(&without), [name]);
+    assert!(with.frozen().is_empty() && without.frozen().is_empty());
+    // A symbol no earlier step left undetermined moves there.
+    plant.undetermined.clear();
+    assert!(ee(&rebuilt(&p, &plant, &[4], p.options().clone())).is_empty());
 }
 
 /// A held value's recorded standard error enters the fitted values' standard errors by

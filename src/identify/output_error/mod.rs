@@ -726,10 +726,14 @@ impl Problem {
     /// ([`EquationError`], position filter cut-off `cutoff`):
     /// its residuals are torque balances, not position errors, so it has no prior (the
     /// prior's weight is set by the position noise) and serves only as a warm start. The
-    /// symbols the carried prior holds ([`OutputErrorOptions::carried_prior`]) stay at
-    /// their values there: without their prior the torque balance moved them hundreds of
-    /// the earlier step's standard errors (k4 of the Freedom 6S), a start the first
-    /// predictor stage then began 100 times above its end.
+    /// carried symbols — those an earlier step of the plant's sequence left undetermined
+    /// ([`Plant::undetermined`]), with or without the carried prior
+    /// ([`OutputErrorOptions::carried_prior`]) — stay at their values there: the torque
+    /// balance moved them hundreds of the earlier step's standard errors (k4 of the
+    /// Freedom 6S), a start the first predictor stage then began 100 times above its end;
+    /// k3 with link 7's m7 and z7 carried from k2 went from 6.36e5 to 5.55e5 there, its
+    /// predictor stages ended where RK4 diverged, and the step stopped at 2.48e4 with
+    /// link 3 impossible.
     ///
     /// # Errors
     /// A file too short for the filter, or a cut-off outside (0, 1).
@@ -743,7 +747,8 @@ impl Problem {
     }
 
     /// The parameters this stage holds at their start (the optimiser does not vary them):
-    /// in the equation-error stage, the symbols the carried prior holds; none elsewhere.
+    /// in the equation-error stage, the carried symbols ([`Problem::equation_error_stage`]);
+    /// none elsewhere.
     pub fn frozen(&self) -> Vec<String> {
         self.names
             .iter()
@@ -754,7 +759,7 @@ impl Problem {
 
     /// Whether this stage holds parameter `name` at its start ([`Problem::frozen`]).
     fn is_frozen(&self, name: &str) -> bool {
-        self.equation_error.is_some() && self.carried_standard_error(name).is_some()
+        self.equation_error.is_some() && self.plant.undetermined.iter().any(|n| n == name)
     }
 
     /// For the equation-error stage, the position filter's cut-off per free joint
