@@ -1490,7 +1490,7 @@ fn the_carried_prior_weighs_a_carried_symbol_by_its_earlier_standard_error() {
     // The equation-error warm start (no prior: torque residuals) holds the carried symbol
     // at its value instead of letting it drift, with the prior or without; only there.
     let ee = |p: &Problem| p.equation_error_stage(Cutoff::Fixed(0.5)).unwrap().frozen();
-    assert_eq!(ee(&with), [name.clone()]);
+    assert_eq!(ee(&with), std::slice::from_ref(&name));
     assert_eq!(ee(&without), [name]);
     assert!(with.frozen().is_empty() && without.frozen().is_empty());
     // A symbol no earlier step left undetermined moves there.
