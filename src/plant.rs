@@ -608,6 +608,14 @@ impl Plant {
         })
     }
 
+    /// Set parameters `names` to `values` (SI, in the same order; a name without a value
+    /// gets one).
+    pub fn set_values(&mut self, names: &[String], values: &[f64]) {
+        for (n, &v) in names.iter().zip(values) {
+            self.parameters.insert(n.clone(), v);
+        }
+    }
+
     /// The simulator of configuration `conf_name` with locked joints at `q_locked` (NJ; the
     /// free joints' entries are ignored), after the physical-consistency check.
     ///

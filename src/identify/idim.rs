@@ -253,9 +253,7 @@ pub struct Fit {
 impl Fit {
     /// Store the estimates as the plant's parameter values.
     pub fn apply(&self, plant: &mut Plant) {
-        for (n, v) in self.names.iter().zip(&self.theta) {
-            plant.parameters.insert(n.clone(), *v);
-        }
+        plant.set_values(&self.names, &self.theta);
     }
 
     /// Relative standard deviation 100·σ/|θ| (%).

@@ -177,9 +177,7 @@ impl JointProblem {
     /// The plant with the fitted parameters set to `p`.
     pub fn plant_at(&self, p: &[f64]) -> Plant {
         let mut plant = self.plant.clone();
-        for (n, &v) in self.names.iter().zip(p) {
-            plant.parameters.insert(n.clone(), v);
-        }
+        plant.set_values(&self.names, p);
         plant
     }
 

@@ -975,9 +975,7 @@ impl Problem {
     /// The plant with the fitted parameters set to `p`.
     pub fn plant_at(&self, p: &[f64]) -> Plant {
         let mut plant = self.plant.clone();
-        for (n, &v) in self.names.iter().zip(p) {
-            plant.parameters.insert(n.clone(), v);
-        }
+        plant.set_values(&self.names, p);
         plant
     }
 
@@ -1639,9 +1637,7 @@ impl FitResult {
     /// Write the fitted values into `plant`, and the held ties the least change scaled
     /// ([`LeastChange::held`]).
     pub fn apply(&self, plant: &mut Plant) {
-        for (n, &v) in self.names.iter().zip(&self.fitted) {
-            plant.parameters.insert(n.clone(), v);
-        }
+        plant.set_values(&self.names, &self.fitted);
         for (n, v) in self.least_change.iter().flat_map(|lc| &lc.held) {
             plant.parameters.insert(n.clone(), *v);
         }
