@@ -356,9 +356,10 @@ pub(crate) struct GainScaleContext<'a> {
 
 impl GainScaleContext<'_> {
     /// Where the plant-gain scale is an exact symmetry of the fit ([`gain_scale_family`];
-    /// `held` the values held although they enter), removes its direction
-    /// ([`gain_scale_direction`], [`project_out`]) from the Jacobian columns `cols` at
-    /// physical parameters `p`; `tie_columns` gives ∂r/∂h of the named held ties.
+    /// `held` the values held although they enter, their columns computed), removes its
+    /// direction ([`gain_scale_direction`], [`project_out`]) from the Jacobian columns
+    /// `cols` at physical parameters `p`; the held ties' ∂r/∂h are `held`'s, or, where
+    /// `held` lacks one (a tie held as exact), `tie_columns` gives those of the named ties.
     pub(crate) fn project_out_of(
         &self,
         cols: &mut [Vec<f64>],
@@ -373,10 +374,17 @@ impl GainScaleContext<'_> {
         let widths = self.widths();
         let ties = scaled_ties(self.plant, self.held_ties);
         let names: Vec<String> = ties.iter().map(|(t, _)| t.clone()).collect();
+        let known: Option<Vec<Vec<f64>>> = names
+            .iter()
+            .map(|name| {
+                let k = held.names.iter().position(|n| n == name)?;
+                held.cols.get(k).filter(|c| !c.is_empty()).cloned()
+            })
+            .collect();
         let ties: Vec<(f64, Vec<f64>)> = ties
             .into_iter()
             .map(|t| t.1)
-            .zip(tie_columns(&names))
+            .zip(known.unwrap_or_else(|| tie_columns(&names)))
             .collect();
         let v = gain_scale_direction(cols, p, &widths, &members, (&ties, &self.rigid_body()));
         project_out(cols, &v, &widths);
