@@ -556,6 +556,15 @@ pub struct OutputErrorArgs {
     /// letting its own joint of interest trade them away. Overrides `--prior` for them.
     #[arg(long, default_value = "off", value_parser = ["on", "off"])]
     pub carried_prior: String,
+    /// Release held values where a step ends above the noise floor: the values earlier
+    /// steps fitted (with a recorded standard error) that this step's data see better than
+    /// those steps did are fitted again with the step's parameters, from its result, under a
+    /// Gaussian prior about their held values with their standard errors (the sequential
+    /// estimate); kept when cost + prior term is lower. A value fitted within its standard
+    /// error on an earlier configuration can still be off by more than a later one
+    /// tolerates. `off`: the thesis's sequence, every earlier value held as fitted.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    pub release_held: String,
     /// Equation-error warm start: one more start from the plant's values first fits the
     /// torque balance at every sample (positions low-passed and differentiated, LuGre
     /// bristles driven by the estimated velocities; no simulation, so no drift), then the
@@ -599,6 +608,12 @@ pub struct OutputErrorArgs {
     /// be in --data. `off`: the steps alone (the thesis).
     #[arg(long, default_value = "off", value_parser = ["off", "after", "only"])]
     pub joint_fit: String,
+    /// The position sensor's noise σ (rad or m) when known, such as 2e-4: used instead of
+    /// the σ̂ estimated from each file (robust 5th differences of the positions) for the
+    /// noise-floor check, the prior's weight and the predictor step's check. `estimate`:
+    /// from the data.
+    #[arg(long, default_value = "estimate", value_name = "SIGMA|estimate")]
+    pub noise_sigma: String,
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
@@ -724,6 +739,13 @@ impl OutputErrorArgs {
                 },
             },
             estimate_initial_positions: initial_positions_arg == "estimate",
+            noise_sigma: match self.noise_sigma.trim() {
+                "estimate" => None,
+                x => match parse_number(x) {
+                    Ok(s) if s > 0.0 && s.is_finite() => Some(s),
+                    _ => bail!("--noise-sigma: expected 'estimate' or the sensor's positive noise σ such as 2e-4, got '{x}'"),
+                },
+            },
             ..OutputErrorOptions::default()
         };
         if !options.fits_the_plant_values() {
@@ -776,6 +798,7 @@ fn identify_sequence(
             "only" => JointFitMode::Only,
             _ => JointFitMode::Off,
         },
+        release_held: oe.release_held == "on",
     };
     let bar = indicatif::ProgressBar::new_spinner();
     bar.enable_steady_tick(std::time::Duration::from_millis(250));

@@ -242,6 +242,13 @@ pub struct OutputErrorOptions {
     /// cost, the report and the standard errors (conditional on the estimated initial
     /// positions) are then those of the estimated starts. `false`: the first sample.
     pub estimate_initial_positions: bool,
+    /// The position sensor's noise σ (rad or m), when known: used for every free joint
+    /// instead of the σ̂ estimated from each file's positions (robust 5th differences,
+    /// [`crate::signal::noise_sigma`]) — in the noise-floor check, the prior's weight and
+    /// the coarse predictor step's check. The estimate is biased upward where a joint's
+    /// motion has power at the highest frequencies (the Freedom 6S wrist's q4: 11–20 %
+    /// above the sensor's 2.02e-4 rad), which makes the floor check lenient there.
+    pub noise_sigma: Option<f64>,
 }
 
 /// An estimated initial position has settled when a round moves it by less than this
@@ -288,6 +295,7 @@ impl Default for OutputErrorOptions {
             predictor: Vec::new(),
             predictor_step: None,
             estimate_initial_positions: false,
+            noise_sigma: None,
         }
     }
 }
@@ -434,6 +442,9 @@ pub struct Problem {
     /// counts them, so a fitted symbol determined only given a held one is not called
     /// identifiable.
     held_ties: Vec<String>,
+    /// Values an earlier step fitted that this one fits again under a Gaussian prior of
+    /// their recorded standard errors ([`Problem::with_released`]).
+    released: Vec<String>,
     /// Links with a fitted symbol that are physically consistent at the plant's values
     /// (mass > 0, inertia about the centroid positive definite): a trial point that makes
     /// one of them impossible is rejected as a diverged simulation is
@@ -523,8 +534,16 @@ impl Problem {
                 lengths.join(", ")
             );
         }
+        if let Some(sigma) = options.noise_sigma {
+            if !(sigma > 0.0 && sigma.is_finite()) {
+                bail!("noise σ: expected a positive sensor noise (rad or m), got {sigma}");
+            }
+        }
         let noise: Vec<f64> = (0..nf)
             .map(|a| {
+                if let Some(sigma) = options.noise_sigma {
+                    return sigma;
+                }
                 let v: f64 = records
                     .iter()
                     .map(|r| crate::signal::noise_sigma(&r.q[a]).powi(2))
@@ -548,6 +567,7 @@ impl Problem {
             equation_error: None,
             predictor: None,
             held_ties: Vec::new(),
+            released: Vec::new(),
             guarded_links: Vec::new(),
             options,
         };
@@ -568,27 +588,39 @@ impl Problem {
                 .map(|(_, name)| name.to_string())
                 .collect()
         };
-        if let Some(tau) = problem.options.prior {
+        problem.set_prior()?;
+        Ok(problem)
+    }
+
+    /// The prior's centre and weights from the options ([`OutputErrorOptions::prior`],
+    /// [`OutputErrorOptions::carried_prior`]) and the released values
+    /// ([`Problem::with_released`]).
+    ///
+    /// # Errors
+    /// A prior spread τ that is not positive and finite.
+    fn set_prior(&mut self) -> Result<()> {
+        if let Some(tau) = self.options.prior {
             if !(tau > 0.0 && tau.is_finite()) {
                 bail!("prior: expected a positive relative spread τ (such as 0.1), got {tau}");
             }
         }
-        // The carried symbols' standard errors from the step that last fitted them.
-        let carried: Vec<Option<f64>> = problem
+        // The carried symbols' and released values' standard errors from the step that last
+        // fitted them.
+        let carried: Vec<Option<f64>> = self
             .names
             .iter()
-            .map(|n| problem.carried_standard_error(n))
+            .map(|n| self.carried_standard_error(n))
             .collect();
-        if problem.options.prior.is_some() || carried.iter().any(Option::is_some) {
-            let s_bar = problem.noise_residual_rms();
-            let p0 = problem.initial_values();
+        if self.options.prior.is_some() || carried.iter().any(Option::is_some) {
+            let s_bar = self.noise_residual_rms();
+            let p0 = self.initial_values();
             // Spread in the scaled coordinates u (the parameter's units / bound width): the
             // carried standard error, else τ |p₀| (τ × the width for a value near zero),
             // else none (weight 0).
             let weight: Vec<f64> = (0..p0.len())
                 .map(|i| {
-                    let width = problem.upper[i] - problem.lower[i];
-                    let spread = match (carried[i], problem.options.prior) {
+                    let width = self.upper[i] - self.lower[i];
+                    let spread = match (carried[i], self.options.prior) {
                         (Some(se), _) => se / width,
                         (None, Some(tau)) if p0[i].abs() > 1e-3 * width => {
                             tau * p0[i].abs() / width
@@ -599,9 +631,9 @@ impl Problem {
                     s_bar / spread
                 })
                 .collect();
-            problem.prior = Some((problem.to_scaled(&p0), weight));
+            self.prior = Some((self.to_scaled(&p0), weight));
         }
-        Ok(problem)
+        Ok(())
     }
 
     /// The fitted symbols [`OutputErrorOptions::carried_prior`] holds, with the standard
@@ -611,16 +643,54 @@ impl Problem {
     pub fn carried_prior(&self) -> Vec<(String, f64)> {
         self.names
             .iter()
+            .filter(|n| !self.released.contains(n))
             .filter_map(|n| Some((n.clone(), self.carried_standard_error(n)?)))
             .collect()
     }
 
-    /// The standard deviation (SI) of the carried prior on symbol `name`, if it has one.
+    /// The standard deviation (SI) of the prior on `name` from the standard error the plant
+    /// records for it: a carried symbol under [`OutputErrorOptions::carried_prior`], or a
+    /// released value ([`Problem::with_released`]).
     fn carried_standard_error(&self, name: &str) -> Option<f64> {
         let undetermined = self.plant.undetermined.iter().any(|n| n == name);
-        (self.options.carried_prior && undetermined)
+        let released = self.released.iter().any(|n| n == name);
+        (self.options.carried_prior && undetermined || released)
             .then(|| self.plant.standard_errors.get(name).copied())
             .flatten()
+    }
+
+    /// The same problem with `released` — values an earlier step fitted, which the plant
+    /// holds with their standard errors ([`Plant::standard_errors`]) and which are among
+    /// [`Problem::names`] — under a Gaussian prior about the plant's values with those
+    /// standard errors (weight s̄ / σ, as [`OutputErrorOptions::carried_prior`]): the
+    /// sequential estimate of a value this step's data see better than the step that
+    /// fitted it did ([`Statistics::held_information`]), the earlier data's verdict kept as
+    /// the prior, linearised and without their correlations.
+    ///
+    /// # Errors
+    /// A released value that is not fitted here, or has no recorded standard error.
+    pub fn with_released(mut self, released: Vec<String>) -> Result<Problem> {
+        for n in &released {
+            if !self.names.contains(n) {
+                bail!("released value '{n}' is not among the fitted parameters");
+            }
+            if !self.plant.standard_errors.contains_key(n) {
+                bail!("released value '{n}' has no standard error in the plant");
+            }
+        }
+        self.released = released;
+        self.set_prior()?;
+        Ok(self)
+    }
+
+    /// The released values ([`Problem::with_released`]) with their prior's standard
+    /// deviation (SI), in the order of [`Problem::names`].
+    pub fn released_prior(&self) -> Vec<(String, f64)> {
+        self.names
+            .iter()
+            .filter(|n| self.released.contains(n))
+            .filter_map(|n| Some((n.clone(), self.carried_standard_error(n)?)))
+            .collect()
     }
 
     /// s̄: the root mean square of a residual from the measurement noise alone, √(mean of
@@ -707,6 +777,7 @@ impl Problem {
             equation_error: None,
             predictor: self.predictor,
             held_ties: self.held_ties.clone(),
+            released: self.released.clone(),
             guarded_links: self.guarded_links.clone(),
             options: self.options.clone(),
         }

@@ -18,8 +18,14 @@ pub struct JointFit {
     pub joint: String,
     /// λ in the cost.
     pub weight: f64,
-    /// RMS position error (rad), all samples.
+    /// RMS position error (rad), all samples (MATLAB `compare`'s figure).
     pub rms: f64,
+    /// RMS position error (rad) over the samples the cost weighs (w > 0): after the
+    /// skipped transient under cost (4.3), every sample under (4.2). The noise floor is
+    /// judged on it: (4.3) skips the first samples because the initial state is not known
+    /// (on the Freedom 6S's k4 the truth from the measured first samples is at 1.50 σ on
+    /// q5 over all samples, 1.00 σ after the skip).
+    pub rms_fitted: f64,
     /// Largest |error| (rad).
     pub max_abs: f64,
     /// NRMSE fit % = 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖) (MATLAB `compare`).
@@ -33,6 +39,10 @@ pub struct JointFit {
     sst: f64,
     #[serde(skip)]
     n: usize,
+    #[serde(skip)]
+    sse_fitted: f64,
+    #[serde(skip)]
+    n_fitted: usize,
 }
 
 /// Uncertainty and fit figures at a solution.
@@ -54,6 +64,12 @@ pub struct Statistics {
     /// the parallel-axis term m7·x7·z7) is determined only given the tie's arbitrary
     /// value, and its standard error says so.
     pub held_ties: Vec<(String, f64)>,
+    /// Per held value of `held` (recorded standard error σ_h, not a tie): ρ_h = σ_h² /
+    /// var_h, var_h the variance this fit's data alone would give the value fitted with
+    /// the fitted parameters (the same sandwich covariance as `std_err_given_held`, the
+    /// held value's column appended), 0 where the data cannot determine it. ρ_h > 1: this
+    /// step sees the value better than the step that fitted it (`--release-held`).
+    pub held_information: Vec<(String, f64)>,
     /// Held values that enter the fit without a recorded standard error (and held ties
     /// without bounds): taken as exact.
     pub held_exact: Vec<String>,
@@ -76,7 +92,8 @@ pub struct Statistics {
     /// with exactly: the configuration's outputs determine only combinations of them (its
     /// base parameters).
     pub only_with: Vec<Vec<String>>,
-    /// Free joints whose RMS error exceeds [`FLOOR_FACTOR`] × their noise σ̂, as "q3 RMS
+    /// Free joints whose RMS error over the fitted samples ([`JointFit::rms_fitted`])
+    /// exceeds [`FLOOR_FACTOR`] × their noise σ̂, as "q3 RMS
     /// 12.4 σ̂": the residuals are not noise, so the standard errors (which assume they
     /// are) do not bound the error of the values, and no parameter is called identifiable.
     pub above_floor: Vec<String>,
@@ -236,12 +253,16 @@ impl Problem {
     pub fn joint_fits(&self, trajectories: &[Trajectory]) -> Vec<JointFit> {
         let nf = self.lambda.len();
         let mut joint = vec![JointFit::default(); nf];
-        for (rec, traj) in self.records.iter().zip(trajectories) {
+        for (ri, (rec, traj)) in self.records.iter().zip(trajectories).enumerate() {
             for a in 0..nf {
                 let y = &rec.q[a];
                 let mean = y.iter().sum::<f64>() / y.len() as f64;
                 for k in 0..y.len() {
                     let e = y[k] - traj.q[a][k];
+                    if self.sqrt_w[ri].get(k).is_some_and(|&w| w > 0.0) {
+                        joint[a].sse_fitted += e * e;
+                        joint[a].n_fitted += 1;
+                    }
                     joint[a].sse += e * e;
                     joint[a].sst += (y[k] - mean) * (y[k] - mean);
                     joint[a].n += 1;
@@ -256,6 +277,7 @@ impl Problem {
             jf.weight = self.lambda[a];
             jf.noise = self.noise[a];
             jf.rms = (jf.sse / jf.n.max(1) as f64).sqrt();
+            jf.rms_fitted = (jf.sse_fitted / jf.n_fitted.max(1) as f64).sqrt();
             jf.nrmse_fit = 100.0 * (1.0 - (jf.sse / jf.sst.max(1e-300)).sqrt());
         }
         joint
@@ -798,6 +820,7 @@ pub(crate) fn covariance_statistics(
     };
     let std_err: Vec<f64> = (0..n).map(|i| standard_error(&cov_scaled, i)).collect();
     let std_err_given_held: Vec<f64> = (0..n).map(|i| standard_error(&given_held, i)).collect();
+    let held_information = held_information(&cols, &held, sigma);
     let mut correlation = vec![vec![0.0; n]; n];
     let mut correlated = Vec::new();
     for i in 0..n {
@@ -832,8 +855,8 @@ pub(crate) fn covariance_statistics(
         .collect();
     let above_floor: Vec<String> = joints
         .iter()
-        .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
-        .map(|j| format!("{} RMS {:.3} σ̂", j.joint, j.rms / j.noise))
+        .filter(|j| j.noise > 0.0 && j.rms_fitted > FLOOR_FACTOR * j.noise)
+        .map(|j| format!("{} RMS {:.3} σ̂", j.joint, j.rms_fitted / j.noise))
         .collect();
     let identifiable: Vec<bool> = (0..n)
         .map(|i| {
@@ -850,6 +873,7 @@ pub(crate) fn covariance_statistics(
         std_err_given_held,
         held: held_share(&held, false),
         held_ties: held_share(&held, true),
+        held_information,
         held_exact: held.exact,
         relative_std_err: relative,
         correlation,
@@ -861,6 +885,72 @@ pub(crate) fn covariance_statistics(
         condition,
         joints,
     })
+}
+
+/// [`Statistics::held_information`]: per held value with a recorded standard error σ_h (not
+/// a tie), σ_h² / var_h, var_h the variance the same sandwich covariance as the fit's own
+/// (unit-norm columns `cols`, residual variances `sigma`) gives the value fitted with the
+/// others: the fitted columns with the held one appended. 0 where the value moves along a
+/// direction the data do not see (then this step cannot determine it at all).
+fn held_information(cols: &[Vec<f64>], held: &HeldColumns, sigma: &[f64]) -> Vec<(String, f64)> {
+    let n = cols.len();
+    let m = sigma.len();
+    let mut a = DMatrix::zeros(n + 1, n + 1);
+    let mut b = DMatrix::zeros(n + 1, n + 1);
+    for i in 0..n {
+        for j in i..n {
+            let (mut s, mut t) = (0.0, 0.0);
+            for k in 0..m {
+                let x = cols[i][k] * cols[j][k];
+                s += x;
+                t += x * sigma[k];
+            }
+            a[(i, j)] = s;
+            a[(j, i)] = s;
+            b[(i, j)] = t;
+            b[(j, i)] = t;
+        }
+    }
+    held.names
+        .iter()
+        .enumerate()
+        .filter(|&(k, _)| !held.tie.get(k).copied().unwrap_or(false))
+        .filter_map(|(k, name)| {
+            let col = held.cols.get(k)?;
+            let norm = col.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(norm > 0.0 && norm.is_finite()) {
+                return Some((name.clone(), 0.0));
+            }
+            let h: Vec<f64> = col.iter().map(|x| x / norm).collect();
+            let (mut a, mut b) = (a.clone(), b.clone());
+            for i in 0..=n {
+                let c = if i < n { &cols[i] } else { &h };
+                let (mut s, mut t) = (0.0, 0.0);
+                for q in 0..m {
+                    let x = c[q] * h[q];
+                    s += x;
+                    t += x * sigma[q];
+                }
+                a[(i, n)] = s;
+                a[(n, i)] = s;
+                b[(i, n)] = t;
+                b[(n, i)] = t;
+            }
+            let svd = a.svd(true, true);
+            let cutoff = svd.singular_values.max() * EXACT_SYMMETRY;
+            // A direction the data do not see that moves the held value: not determined.
+            let v_t = svd.v_t.as_ref()?;
+            let unseen =
+                (0..=n).any(|r| svd.singular_values[r] <= cutoff && v_t[(r, n)].abs() > 1e-6);
+            if unseen {
+                return Some((name.clone(), 0.0));
+            }
+            let ainv = svd.pseudo_inverse(cutoff).ok()?;
+            let var = (&ainv * b * &ainv)[(n, n)] / (norm * norm);
+            let se = held.std_err[k];
+            Some((name.clone(), if var > 0.0 { se * se / var } else { 0.0 }))
+        })
+        .collect()
 }
 
 /// One finite-difference column ∂r/∂x_i of residuals `at(s)` (at x_i + s): central
