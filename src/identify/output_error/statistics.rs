@@ -725,7 +725,6 @@ pub(crate) fn covariance_statistics(
     joints: Vec<JointFit>,
 ) -> Result<Statistics> {
     let n = names.len();
-    let m = sigma.len();
     // Columns scaled to unit norm; a zero column (the parameter changes no output)
     // stays zero and gets an infinite standard error.
     let norms: Vec<f64> = cols
@@ -743,22 +742,7 @@ pub(crate) fn covariance_statistics(
             }
         })
         .collect();
-    let mut a = DMatrix::zeros(n, n);
-    let mut b = DMatrix::zeros(n, n);
-    for i in 0..n {
-        for j in i..n {
-            let (mut s, mut t) = (0.0, 0.0);
-            for k in 0..m {
-                let x = cols[i][k] * cols[j][k];
-                s += x;
-                t += x * sigma[k];
-            }
-            a[(i, j)] = s;
-            a[(j, i)] = s;
-            b[(i, j)] = t;
-            b[(j, i)] = t;
-        }
-    }
+    let (a, b) = sandwich_parts(&cols, n, sigma);
     if !(a.iter().all(|x| x.is_finite()) && b.iter().all(|x| x.is_finite())) {
         bail!("the Jacobian at the fitted values is not finite");
     }
@@ -887,6 +871,32 @@ pub(crate) fn covariance_statistics(
     })
 }
 
+/// Σ_k x_k y_k and Σ_k x_k y_k σ_k: one element of JᵀJ and of JᵀΣJ.
+fn products(x: &[f64], y: &[f64], sigma: &[f64]) -> (f64, f64) {
+    x.iter()
+        .zip(y)
+        .zip(sigma)
+        .fold((0.0, 0.0), |(s, t), ((a, b), v)| (s + a * b, t + a * b * v))
+}
+
+/// JᵀJ and JᵀΣJ of the columns `cols` (Σ = diag(`sigma`)), in the top-left corner of
+/// `size` × `size` matrices (the rest zero, for columns appended later).
+fn sandwich_parts(cols: &[Vec<f64>], size: usize, sigma: &[f64]) -> (DMatrix<f64>, DMatrix<f64>) {
+    let n = cols.len();
+    let mut a = DMatrix::zeros(size, size);
+    let mut b = DMatrix::zeros(size, size);
+    for i in 0..n {
+        for j in i..n {
+            let (s, t) = products(&cols[i], &cols[j], sigma);
+            a[(i, j)] = s;
+            a[(j, i)] = s;
+            b[(i, j)] = t;
+            b[(j, i)] = t;
+        }
+    }
+    (a, b)
+}
+
 /// [`Statistics::held_information`]: per held value with a recorded standard error σ_h (not
 /// a tie), σ_h² / var_h, var_h the variance the same sandwich covariance as the fit's own
 /// (unit-norm columns `cols`, residual variances `sigma`) gives the value fitted with the
@@ -894,23 +904,7 @@ pub(crate) fn covariance_statistics(
 /// direction the data do not see (then this step cannot determine it at all).
 fn held_information(cols: &[Vec<f64>], held: &HeldColumns, sigma: &[f64]) -> Vec<(String, f64)> {
     let n = cols.len();
-    let m = sigma.len();
-    let mut a = DMatrix::zeros(n + 1, n + 1);
-    let mut b = DMatrix::zeros(n + 1, n + 1);
-    for i in 0..n {
-        for j in i..n {
-            let (mut s, mut t) = (0.0, 0.0);
-            for k in 0..m {
-                let x = cols[i][k] * cols[j][k];
-                s += x;
-                t += x * sigma[k];
-            }
-            a[(i, j)] = s;
-            a[(j, i)] = s;
-            b[(i, j)] = t;
-            b[(j, i)] = t;
-        }
-    }
+    let (a, b) = sandwich_parts(cols, n + 1, sigma);
     held.names
         .iter()
         .enumerate()
@@ -924,13 +918,7 @@ fn held_information(cols: &[Vec<f64>], held: &HeldColumns, sigma: &[f64]) -> Vec
             let h: Vec<f64> = col.iter().map(|x| x / norm).collect();
             let (mut a, mut b) = (a.clone(), b.clone());
             for i in 0..=n {
-                let c = if i < n { &cols[i] } else { &h };
-                let (mut s, mut t) = (0.0, 0.0);
-                for q in 0..m {
-                    let x = c[q] * h[q];
-                    s += x;
-                    t += x * sigma[q];
-                }
+                let (s, t) = products(if i < n { &cols[i] } else { &h }, &h, sigma);
                 a[(i, n)] = s;
                 a[(n, i)] = s;
                 b[(i, n)] = t;
