@@ -900,11 +900,21 @@ fn sandwich_parts(cols: &[Vec<f64>], size: usize, sigma: &[f64]) -> (DMatrix<f64
 /// [`Statistics::held_information`]: per held value with a recorded standard error σ_h (not
 /// a tie), σ_h² / var_h, var_h the variance the same sandwich covariance as the fit's own
 /// (unit-norm columns `cols`, residual variances `sigma`) gives the value fitted with the
-/// others: the fitted columns with the held one appended. 0 where the value moves along a
-/// direction the data do not see (then this step cannot determine it at all).
+/// others: the fitted columns with the held one appended. 0 where appending it adds a
+/// direction the data do not see (then this step cannot determine it at all); directions
+/// the fitted parameters alone leave unseen are truncated as in the covariance.
 fn held_information(cols: &[Vec<f64>], held: &HeldColumns, sigma: &[f64]) -> Vec<(String, f64)> {
     let n = cols.len();
     let (a, b) = sandwich_parts(cols, n + 1, sigma);
+    // Directions the fitted parameters' data do not see (an exact symmetry among them, such
+    // as k4's ties through held symbols): the held value is undetermined only if appending
+    // it adds one.
+    let unseen_directions = |a: &DMatrix<f64>| {
+        let sv = a.clone().singular_values();
+        let cutoff = sv.max() * EXACT_SYMMETRY;
+        sv.iter().filter(|&&x| x <= cutoff).count()
+    };
+    let fitted_unseen = unseen_directions(&a.view((0, 0), (n, n)).into_owned());
     held.names
         .iter()
         .enumerate()
@@ -924,15 +934,12 @@ fn held_information(cols: &[Vec<f64>], held: &HeldColumns, sigma: &[f64]) -> Vec
                 b[(i, n)] = t;
                 b[(n, i)] = t;
             }
-            let svd = a.svd(true, true);
-            let cutoff = svd.singular_values.max() * EXACT_SYMMETRY;
-            // A direction the data do not see that moves the held value: not determined.
-            let v_t = svd.v_t.as_ref()?;
-            let unseen =
-                (0..=n).any(|r| svd.singular_values[r] <= cutoff && v_t[(r, n)].abs() > 1e-6);
-            if unseen {
+            // The held value moves along a direction the data do not see: not determined.
+            if unseen_directions(&a) > fitted_unseen {
                 return Some((name.clone(), 0.0));
             }
+            let svd = a.svd(true, true);
+            let cutoff = svd.singular_values.max() * EXACT_SYMMETRY;
             let ainv = svd.pseudo_inverse(cutoff).ok()?;
             let var = (&ainv * b * &ainv)[(n, n)] / (norm * norm);
             let se = held.std_err[k];
@@ -1163,6 +1170,61 @@ mod tests {
     /// nothing; θ₃ is determined, its standard error that of the problem with the
     /// symmetry removed by holding θ₀ (a quantity the family does not move has the same
     /// error in every gauge).
+    /// [`Statistics::held_information`] beside an exact symmetry of the fitted parameters
+    /// (two columns identical to the finite-difference accuracy, as k4's ties through held
+    /// symbols): a held value whose
+    /// column is independent has ρ = σ_h² / var, var the ordinary least-squares variance of
+    /// the problem with the duplicate dropped and the held value fitted, s² [(XᵀX)⁻¹]_hh; a
+    /// held value whose column the fitted ones span has ρ = 0 (this step cannot tell it).
+    /// A first version called every held value of the Freedom 6S's k4 undetermined because
+    /// the fitted parameters' own symmetry was counted against it.
+    #[test]
+    fn held_information_is_the_variance_ratio_beside_an_exact_symmetry() {
+        let m = 400;
+        let s = 2e-3;
+        let t: Vec<f64> = (0..m).map(|k| k as f64 / m as f64).collect();
+        let a: Vec<f64> = t.iter().map(|&x| (5.0 * x).sin()).collect();
+        let b: Vec<f64> = t.iter().map(|&x| x * x - 0.3).collect();
+        let c: Vec<f64> = t.iter().map(|&x| (11.0 * x).cos() + 0.2 * x).collect();
+        let spanned: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 2.0 * x - y).collect();
+        // The duplicate as a finite-difference Jacobian has it: 1e-5 of the column off, in
+        // the held value's shape, so the unseen direction of the fitted parameters has a
+        // component 1e-5 along the held value.
+        let a_fd: Vec<f64> = a.iter().zip(&c).map(|(x, y)| x + 1e-5 * y).collect();
+        let names: Vec<String> = ["p0", "p1", "p2"].map(String::from).to_vec();
+        let held = HeldColumns {
+            names: vec!["h_free".into(), "h_spanned".into()],
+            std_err: vec![0.05, 0.05],
+            tie: vec![false, false],
+            cols: vec![c.clone(), spanned],
+            make_up: vec![None, None],
+            exact: Vec::new(),
+        };
+        let stats = covariance_statistics(
+            &names,
+            &[1.0, 1.0, 1.0],
+            (&[0.0; 3], &[2.0; 3]),
+            (vec![a.clone(), a_fd, b.clone()], held),
+            &vec![s * s; m],
+            vec![Vec::new(); 3],
+            Vec::new(),
+        )
+        .unwrap();
+        let x = DMatrix::from_fn(m, 3, |k, j| [&a, &b, &c][j][k]);
+        let var = s * s * (x.transpose() * &x).try_inverse().unwrap()[(2, 2)];
+        let expected = 0.05f64.powi(2) / var;
+        let info = &stats.held_information;
+        assert_eq!(info.len(), 2);
+        assert_eq!(info[0].0, "h_free");
+        assert!(expected > 1.0, "{expected}");
+        assert!(
+            (info[0].1 / expected - 1.0).abs() < 1e-4,
+            "{} vs {expected}",
+            info[0].1
+        );
+        assert_eq!(info[1], ("h_spanned".to_string(), 0.0));
+    }
+
     #[test]
     fn an_exact_symmetry_at_the_jacobians_accuracy_and_a_zero_column_leave_the_rest_determined() {
         let m = 300;
