@@ -808,7 +808,11 @@ pub fn release_held(
     let values = candidates
         .iter()
         .map(|(n, rho)| {
-            let i = second.names.iter().position(|x| x == n).unwrap_or(0);
+            let i = second
+                .names
+                .iter()
+                .position(|x| x == n)
+                .expect("with_released checked that every released value is fitted");
             (
                 n.clone(),
                 *rho,

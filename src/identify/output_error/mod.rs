@@ -609,7 +609,7 @@ impl Problem {
         let carried: Vec<Option<f64>> = self
             .names
             .iter()
-            .map(|n| self.carried_standard_error(n))
+            .map(|n| self.prior_standard_error(n))
             .collect();
         if self.options.prior.is_some() || carried.iter().any(Option::is_some) {
             let s_bar = self.noise_residual_rms();
@@ -644,14 +644,14 @@ impl Problem {
         self.names
             .iter()
             .filter(|n| !self.released.contains(n))
-            .filter_map(|n| Some((n.clone(), self.carried_standard_error(n)?)))
+            .filter_map(|n| Some((n.clone(), self.prior_standard_error(n)?)))
             .collect()
     }
 
     /// The standard deviation (SI) of the prior on `name` from the standard error the plant
     /// records for it: a carried symbol under [`OutputErrorOptions::carried_prior`], or a
     /// released value ([`Problem::with_released`]).
-    fn carried_standard_error(&self, name: &str) -> Option<f64> {
+    fn prior_standard_error(&self, name: &str) -> Option<f64> {
         let undetermined = self.plant.undetermined.iter().any(|n| n == name);
         let released = self.released.iter().any(|n| n == name);
         (self.options.carried_prior && undetermined || released)
@@ -689,7 +689,7 @@ impl Problem {
         self.names
             .iter()
             .filter(|n| self.released.contains(n))
-            .filter_map(|n| Some((n.clone(), self.carried_standard_error(n)?)))
+            .filter_map(|n| Some((n.clone(), self.prior_standard_error(n)?)))
             .collect()
     }
 
