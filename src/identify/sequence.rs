@@ -962,12 +962,19 @@ fn joint_fit(
 /// parameters, with its `stats`; the held values' share included), when the fit reached
 /// the noise floor (elsewhere the residuals are not noise and the standard errors say
 /// nothing), have a finite one and are not at a bound (there the Jacobian's one-sided
-/// information is no Gaussian); drop the records of those this fit did not qualify and of
-/// names the plant no longer has.
+/// information is no Gaussian), widened to the value's distance to an equally good minimum
+/// of another start ([`Statistics::other_minima`]); drop the records of those this fit did
+/// not qualify and of names the plant no longer has.
 fn record_standard_errors(plant: &mut Plant, names: &[String], stats: &Statistics) {
     let at_floor = stats.above_floor.is_empty();
     for (i, n) in names.iter().enumerate() {
-        let se = stats.std_err[i];
+        // A value that differs between equally good minima is known to no better than
+        // that difference.
+        let spread = plant
+            .parameters
+            .get(n)
+            .map_or(0.0, |&v| stats.other_minima_spread(n, v));
+        let se = stats.std_err[i].max(spread);
         if at_floor && se.is_finite() && se > 0.0 && !stats.at_bound[i] {
             plant.standard_errors.insert(n.clone(), se);
         } else {
@@ -1291,6 +1298,33 @@ fn step_markdown(
             stats.held_exact.join(", ")
         );
     }
+    for o in &stats.other_minima {
+        let _ = writeln!(
+            s,
+            "Start {} ends as low as the kept one within the noise (objective {} higher, Δχ² {:.2} ≤ {}): {}; the standard errors describe only the kept minimum's neighbourhood, so {}.\n",
+            o.start,
+            fmt_g(o.objective_difference),
+            o.chi2_difference,
+            super::output_error::EQUAL_MINIMUM_CHI2,
+            if o.moved.is_empty() {
+                format!(
+                    "no parameter there is more than {} standard errors away",
+                    super::output_error::EQUAL_MINIMUM_STD_ERRORS
+                )
+            } else {
+                o.moved
+                    .iter()
+                    .map(|(n, v, d)| format!("{n} = {} ({d:.1} σ away)", fmt_g(*v)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            },
+            if o.moved.is_empty() {
+                "nothing changes"
+            } else {
+                "those are not called identifiable, and the standard error the plant records for them is at least that distance"
+            }
+        );
+    }
     let _ = writeln!(
         s,
         "| parameter | initial | fitted | std error | given held | rel. % | bounds | identifiable |\n|---|---|---|---|---|---|---|---|"
@@ -1325,6 +1359,16 @@ fn step_markdown(
                 "only in combination with {} (base parameters)",
                 stats.only_with[i].join(", ")
             ));
+        }
+        for o in &stats.other_minima {
+            for (_, v, d) in o.moved.iter().filter(|m| m.0 == f.names[i]) {
+                why.push(format!(
+                    "start {} ends as low (Δχ² {:.2}) at {} ({d:.1} σ away)",
+                    o.start,
+                    o.chi2_difference,
+                    fmt_g(*v)
+                ));
+            }
         }
         for (a, b, c) in &stats.correlated {
             if *a == f.names[i] || *b == f.names[i] {

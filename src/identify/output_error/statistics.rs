@@ -10,6 +10,34 @@ pub const RELATIVE_STD_LIMIT: f64 = 0.02;
 /// A fit is at the noise floor when every free joint's RMS position error is at most this
 /// multiple of the joint's noise σ̂ estimated from the data (the issue's criterion: 1.5 σ).
 pub const FLOOR_FACTOR: f64 = 1.5;
+/// Δχ² (the objective's difference over s̄², [`Problem::noise_residual_rms`]) within which
+/// another start's minimum is as good as the kept one: 3.84, the 95 % quantile of χ² with
+/// one degree of freedom (a profile likelihood's 95 % interval).
+pub const EQUAL_MINIMUM_CHI2: f64 = 3.84;
+/// A parameter whose value at an equally good minimum ([`EQUAL_MINIMUM_CHI2`]) lies more
+/// than this many standard errors from the kept one is not determined by the data, whatever
+/// its standard error says.
+pub const EQUAL_MINIMUM_STD_ERRORS: f64 = 2.0;
+
+/// Another start's minimum as good as the kept one within the noise ([`EQUAL_MINIMUM_CHI2`]):
+/// the linearised standard errors describe only the kept minimum's neighbourhood, and a
+/// parameter that differs between the two by more than [`EQUAL_MINIMUM_STD_ERRORS`] of them
+/// is not identifiable from these data. The isolated step c4 of the Freedom 6S with the plant
+/// gains known: the kept fit (0.31497) had joint 2's Stribeck dip collapsed (Fs_2 = 1.0004
+/// Fc_2 at vs_2 = 0.46 rad/s) and called Fs_2 identifiable at ± 5.9e-6 N·m, 38 % below the
+/// truth; the Stribeck re-seed's branch ended at 0.31499 with the dip near the truth's.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct OtherMinimum {
+    /// The start that ended there ([`StartSummary::start`]).
+    pub start: usize,
+    /// Its objective (cost plus prior term) minus the kept one's (≥ 0).
+    pub objective_difference: f64,
+    /// `objective_difference` / s̄².
+    pub chi2_difference: f64,
+    /// Parameters farther than [`EQUAL_MINIMUM_STD_ERRORS`] standard errors from the kept
+    /// minimum: (name, value there (SI), distance in standard errors).
+    pub moved: Vec<(String, f64, f64)>,
+}
 
 /// Fit figures of one free joint over all files.
 #[derive(Debug, Clone, Default, Serialize)]
@@ -97,6 +125,9 @@ pub struct Statistics {
     /// 12.4 σ̂": the residuals are not noise, so the standard errors (which assume they
     /// are) do not bound the error of the values, and no parameter is called identifiable.
     pub above_floor: Vec<String>,
+    /// Other starts' minima as good as the kept one ([`OtherMinimum`]); a parameter that
+    /// moved between them is not identifiable ([`Statistics::mark_other_minima`]).
+    pub other_minima: Vec<OtherMinimum>,
     /// Condition number of the column-scaled JᵀJ.
     pub condition: f64,
     /// Per free joint.
@@ -866,9 +897,65 @@ pub(crate) fn covariance_statistics(
         identifiable,
         only_with,
         above_floor,
+        other_minima: Vec::new(),
         condition,
         joints,
     })
+}
+
+impl Statistics {
+    /// Compare the kept minimum `p` (physical values of `names`) with other starts' minima
+    /// `others`: (start, objective difference ≥ 0 to the kept one, physical values). Those
+    /// within Δχ² = [`EQUAL_MINIMUM_CHI2`] (difference / `s_bar2`, s̄² from
+    /// [`Problem::noise_residual_rms`]) are kept in `other_minima` with the parameters that
+    /// lie more than [`EQUAL_MINIMUM_STD_ERRORS`] standard errors (`std_err`) away there,
+    /// and those parameters are no longer called identifiable.
+    pub fn mark_other_minima(
+        &mut self,
+        names: &[String],
+        p: &[f64],
+        others: &[(usize, f64, Vec<f64>)],
+        s_bar2: f64,
+    ) {
+        if !(s_bar2 > 0.0 && s_bar2.is_finite()) {
+            return;
+        }
+        for (start, difference, q) in others {
+            let chi2 = difference.max(0.0) / s_bar2;
+            if !(chi2 <= EQUAL_MINIMUM_CHI2) {
+                continue;
+            }
+            let moved: Vec<(String, f64, f64)> = (0..names.len())
+                .filter_map(|i| {
+                    let distance = (q[i] - p[i]).abs() / self.std_err[i];
+                    (distance > EQUAL_MINIMUM_STD_ERRORS)
+                        .then(|| (names[i].clone(), q[i], distance))
+                })
+                .collect();
+            for (n, _, _) in &moved {
+                if let Some(i) = names.iter().position(|x| x == n) {
+                    self.identifiable[i] = false;
+                }
+            }
+            self.other_minima.push(OtherMinimum {
+                start: *start,
+                objective_difference: difference.max(0.0),
+                chi2_difference: chi2,
+                moved,
+            });
+        }
+    }
+
+    /// The largest distance (SI) of parameter `i` between the kept minimum `p` and the
+    /// equally good minima of [`Statistics::other_minima`]; 0 without them.
+    pub fn other_minima_spread(&self, name: &str, p: f64) -> f64 {
+        self.other_minima
+            .iter()
+            .flat_map(|o| &o.moved)
+            .filter(|(n, _, _)| n == name)
+            .map(|(_, v, _)| (v - p).abs())
+            .fold(0.0, f64::max)
+    }
 }
 
 /// Σ_k x_k y_k and Σ_k x_k y_k σ_k: one element of JᵀJ and of JᵀΣJ.
@@ -1009,6 +1096,47 @@ pub(crate) fn fitted_companions(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Another start within Δχ² ≤ 3.84 of the kept minimum takes away the identifiability
+    /// of what moved by more than 2 standard errors there, and widens its recorded spread;
+    /// a start beyond 3.84, or a value within 2 standard errors, changes nothing.
+    #[test]
+    fn an_equally_good_minimum_elsewhere_takes_away_what_moved() {
+        let names: Vec<String> = ["Fs_2", "Fc_2", "vs_2"].map(String::from).to_vec();
+        let p = [0.0444, 0.04435, 0.455];
+        let mut stats = Statistics {
+            std_err: vec![5.85e-6, 3.1e-6, f64::INFINITY],
+            identifiable: vec![true, true, false],
+            ..Default::default()
+        };
+        let s_bar2 = 7.8e-5;
+        let others = vec![
+            // Δχ² = 0.26: Fs_2 157 σ away, Fc_2 1.6 σ away.
+            (2, 2.06e-5, vec![0.04532, 0.04435 + 5.0e-6, 0.069]),
+            // Δχ² = 3.9: a distinguishable minimum.
+            (3, 3.9 * s_bar2, vec![0.0715, 0.0443, 0.019]),
+        ];
+        stats.mark_other_minima(&names, &p, &others, s_bar2);
+        assert_eq!(stats.other_minima.len(), 1);
+        let o = &stats.other_minima[0];
+        assert_eq!(o.start, 2);
+        assert!((o.chi2_difference - 2.06e-5 / 7.8e-5).abs() < 1e-12);
+        assert_eq!(o.moved.len(), 1);
+        assert_eq!(o.moved[0].0, "Fs_2");
+        assert!((o.moved[0].2 - (0.04532 - 0.0444) / 5.85e-6).abs() < 1e-6);
+        assert_eq!(stats.identifiable, [false, true, false]);
+        assert!((stats.other_minima_spread("Fs_2", p[0]) - 9.2e-4).abs() < 1e-12);
+        assert_eq!(stats.other_minima_spread("Fc_2", p[1]), 0.0);
+        // Without a noise scale nothing is compared.
+        let mut again = Statistics {
+            std_err: vec![5.85e-6, 3.1e-6, 1.0],
+            identifiable: vec![true; 3],
+            ..Default::default()
+        };
+        again.mark_other_minima(&names, &p, &others, 0.0);
+        assert!(again.other_minima.is_empty());
+        assert_eq!(again.identifiable, [true; 3]);
+    }
 
     /// The two-stage standard errors against a Monte Carlo of the two-stage estimator
     /// itself: y = A θ + b h + e (m = 200, e ~ N(0, s²)), h estimated before with error
