@@ -922,7 +922,7 @@ impl Statistics {
         }
         for (start, difference, q) in others {
             let chi2 = difference.max(0.0) / s_bar2;
-            if !(chi2 <= EQUAL_MINIMUM_CHI2) {
+            if !difference.is_finite() || chi2 > EQUAL_MINIMUM_CHI2 {
                 continue;
             }
             let moved: Vec<(String, f64, f64)> = (0..names.len())
