@@ -788,6 +788,8 @@ pub fn release_held(
     options.equation_error = None;
     options.predictor.clear();
     options.starts = 1;
+    // The first fit's minimum already had the Stribeck branch.
+    options.stribeck_reseed = false;
     let released: Vec<String> = candidates.iter().map(|c| c.0.clone()).collect();
     let mut names = fit.names.clone();
     names.extend(released.iter().cloned());

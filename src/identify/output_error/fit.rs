@@ -144,7 +144,10 @@ impl Problem {
             .iter()
             .filter(|r| r.summary.cost.is_finite())
             .min_by(|a, b| a.summary.cost.total_cmp(&b.summary.cost));
-        if let Some((u, note, count)) = lowest.and_then(|r| self.stribeck_reseed(&r.u)) {
+        let reseed = lowest
+            .filter(|_| self.options.stribeck_reseed)
+            .and_then(|r| self.stribeck_reseed(&r.u));
+        if let Some((u, note, count)) = reseed {
             evaluations.fetch_add(count, Ordering::Relaxed);
             let context = StageContext {
                 start: nstarts,

@@ -249,6 +249,11 @@ pub struct OutputErrorOptions {
     /// motion has power at the highest frequencies (the Freedom 6S wrist's q4: 11–20 %
     /// above the sensor's 2.02e-4 rad), which makes the floor check lenient there.
     pub noise_sigma: Option<f64>,
+    /// After the starts, re-seed a collapsed Stribeck dip of the best one and fit that
+    /// branch too ([`WarmUp::StribeckBranch`], [`Problem::stribeck_reseed`]). `false` for
+    /// a refit from a fitted minimum that already had the branch (the release of held
+    /// values, [`crate::identify::sequence::release_held`]).
+    pub stribeck_reseed: bool,
 }
 
 /// An estimated initial position has settled when a round moves it by less than this
@@ -296,6 +301,7 @@ impl Default for OutputErrorOptions {
             predictor_step: None,
             estimate_initial_positions: false,
             noise_sigma: None,
+            stribeck_reseed: true,
         }
     }
 }
