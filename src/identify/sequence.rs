@@ -972,10 +972,7 @@ fn record_standard_errors(plant: &mut Plant, names: &[String], stats: &Statistic
     for (i, n) in names.iter().enumerate() {
         // A value that differs between equally good minima is known to no better than
         // that difference.
-        let spread = plant
-            .parameters
-            .get(n)
-            .map_or(0.0, |&v| stats.other_minima_spread(n, v));
+        let spread = stats.other_minima_spread(i, n);
         let se = stats.std_err[i].max(spread);
         if at_floor && se.is_finite() && se > 0.0 && !stats.at_bound[i] {
             plant.standard_errors.insert(n.clone(), se);

@@ -217,16 +217,11 @@ impl Problem {
         // Other starts' minima as good as the kept one within the noise: what they move is
         // not determined, whatever the kept minimum's standard errors say.
         let objective = |r: &StartRun| r.summary.cost + self.prior_penalty(&r.u);
+        let kept = objective(&best);
         let others: Vec<(usize, f64, Vec<f64>)> = runs
             .iter()
             .filter(|r| r.summary.start != best.summary.start && r.summary.cost.is_finite())
-            .map(|r| {
-                (
-                    r.summary.start,
-                    objective(r) - objective(&best),
-                    self.to_physical(&r.u),
-                )
-            })
+            .map(|r| (r.summary.start, objective(r) - kept, self.to_physical(&r.u)))
             .collect();
         stats.mark_other_minima(
             &self.names,

@@ -925,16 +925,12 @@ impl Statistics {
             if !difference.is_finite() || chi2 > EQUAL_MINIMUM_CHI2 {
                 continue;
             }
-            let moved: Vec<(String, f64, f64)> = (0..names.len())
-                .filter_map(|i| {
-                    let distance = (q[i] - p[i]).abs() / self.std_err[i];
-                    (distance > EQUAL_MINIMUM_STD_ERRORS)
-                        .then(|| (names[i].clone(), q[i], distance))
-                })
-                .collect();
-            for (n, _, _) in &moved {
-                if let Some(i) = names.iter().position(|x| x == n) {
+            let mut moved = Vec::new();
+            for i in 0..names.len() {
+                let distance = (q[i] - p[i]).abs() / self.std_err[i];
+                if distance > EQUAL_MINIMUM_STD_ERRORS {
                     self.identifiable[i] = false;
+                    moved.push((names[i].clone(), q[i], distance));
                 }
             }
             self.other_minima.push(OtherMinimum {
@@ -946,14 +942,15 @@ impl Statistics {
         }
     }
 
-    /// The largest distance (SI) of parameter `i` between the kept minimum `p` and the
-    /// equally good minima of [`Statistics::other_minima`]; 0 without them.
-    pub fn other_minima_spread(&self, name: &str, p: f64) -> f64 {
+    /// The largest distance (SI) of parameter `i`, named `name`, between the kept minimum
+    /// and the equally good minima of [`Statistics::other_minima`] (the distance in
+    /// standard errors those record, times `std_err[i]`); 0 without them.
+    pub fn other_minima_spread(&self, i: usize, name: &str) -> f64 {
         self.other_minima
             .iter()
             .flat_map(|o| &o.moved)
             .filter(|(n, _, _)| n == name)
-            .map(|(_, v, _)| (v - p).abs())
+            .map(|(_, _, d)| d * self.std_err[i])
             .fold(0.0, f64::max)
     }
 }
@@ -1125,8 +1122,8 @@ mod tests {
         assert_eq!(o.moved[0].0, "Fs_2");
         assert!((o.moved[0].2 - (0.04532 - 0.0444) / 5.85e-6).abs() < 1e-6);
         assert_eq!(stats.identifiable, [false, true, false]);
-        assert!((stats.other_minima_spread("Fs_2", p[0]) - 9.2e-4).abs() < 1e-12);
-        assert_eq!(stats.other_minima_spread("Fc_2", p[1]), 0.0);
+        assert!((stats.other_minima_spread(0, "Fs_2") - 9.2e-4).abs() < 1e-12);
+        assert_eq!(stats.other_minima_spread(1, "Fc_2"), 0.0);
         // Without a noise scale nothing is compared.
         let mut again = Statistics {
             std_err: vec![5.85e-6, 3.1e-6, 1.0],
