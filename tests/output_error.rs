@@ -1245,6 +1245,62 @@ fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
     }
 }
 
+/// A dip lost the other way: vs on its upper bound leaves g(v) ≈ Fs at every velocity the
+/// files reach, so Fs carries the level the files saw (the truth's Fc) and Fc is barely
+/// seen (the rerun's k3: vs_2 = 9.48 rad/s on its bound, Fs_2 = the truth's Fc_2, Fc_2 40 %
+/// low). A re-seed that keeps Fc as the level puts the dip under the truth's Coulomb
+/// friction. Joint 4 of c1 with the truth's vs_4 at 0.05 rad/s, at Fc_4 = 0.9 × the truth's
+/// Fc_4, Fs_4 = the truth's Fc_4, vs_4 on its upper bound (Appendix D's): the seed must
+/// take Fc_4 = Fs_4's level, vs_4 at one of the grid's two points around the truth's
+/// (0.028 or 0.074 rad/s), and cost at most half the best seed with Fc_4 kept.
+#[test]
+fn a_stribeck_dip_lost_with_vs_on_its_upper_bound_is_re_seeded_at_the_level_seen() {
+    let d = tempfile::tempdir().unwrap();
+    let truth_file = truth(d.path());
+    let text = std::fs::read_to_string(&truth_file).unwrap();
+    assert!(text.contains("vs_4 = 0.19765"));
+    std::fs::write(&truth_file, text.replace("vs_4 = 0.19765", "vs_4 = 0.05")).unwrap();
+    let truth = Plant::load(&truth_file).unwrap();
+    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
+    let (conf, rec) = c1_record(d.path(), &truth);
+    let names: Vec<String> = ["Fc_4", "Fs_4", "vs_4"].map(String::from).to_vec();
+    let fc_truth = truth.parameters["Fc_4"];
+    let (vs_lower, vs_upper) = (0.003953, 9.8825);
+    let mut plant = truth.clone();
+    for n in &names {
+        let v = truth.parameters[n];
+        plant.bounds.insert(n.clone(), (v / 4.0, 4.0 * v));
+    }
+    plant.bounds.insert("vs_4".into(), (vs_lower, vs_upper));
+    let lost = [0.9 * fc_truth, fc_truth, vs_upper];
+    let options = OutputErrorOptions {
+        h: 1.0 / 12000.0,
+        ..OutputErrorOptions::default()
+    };
+    let problem = Problem::new(&plant, conf, names, vec![rec], &[4], options).unwrap();
+    let (seed, note, _) = problem
+        .stribeck_reseed(&problem.to_scaled(&lost))
+        .expect("vs on its bound: a re-seed");
+    let seed = problem.to_physical(&seed);
+    let seed_cost = problem.cost(&seed);
+    // The seeds the grid on Fc alone offers: Fc kept, Fs = Fc (1 + r).
+    let fc_kept = (0..9)
+        .flat_map(|g| {
+            let vs = vs_lower * (vs_upper / vs_lower).powf(g as f64 / 8.0);
+            [0.25, 0.5, 1.0].map(|r| problem.cost(&[lost[0], lost[0] * (1.0 + r), vs]))
+        })
+        .fold(f64::INFINITY, f64::min);
+    println!("{note}: {seed:?}, cost {seed_cost:.5e}; best with Fc kept {fc_kept:.5e}");
+    assert_eq!(seed[0], fc_truth, "Fc_4 of the seed");
+    assert!(seed[1] > 1.2 * seed[0], "Fs_4 of the seed {}", seed[1]);
+    assert!(
+        (0.02..0.08).contains(&seed[2]),
+        "vs_4 of the seed {}",
+        seed[2]
+    );
+    assert!(seed_cost < 0.5 * fc_kept, "{seed_cost} vs {fc_kept}");
+}
+
 #[test]
 fn the_equation_error_holds_at_the_truth_and_keeps_the_gain_scale_symmetry() {
     use lockstep::identify::equation_error::{EquationError, DEFAULT_CUTOFF};

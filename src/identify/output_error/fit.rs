@@ -565,12 +565,18 @@ impl Problem {
     /// vs_2 on its upper bound, Fs_2 = Fc_2 and q4 at 1.66 σ̂ (truth: vs_2 = 0.019 rad/s,
     /// Fs_2 = 1.61 Fc_2). Per such joint, the whole files' cost on a grid of
     /// [`STRIBECK_VS_GRID`] Stribeck velocities log-spaced over vs's bounds times levels
-    /// Fs = Fc (1 + r), r in [`STRIBECK_RATIOS`], the other parameters kept; the grid's
+    /// Fs = Fc (1 + r), r in [`STRIBECK_RATIOS`], the other parameters kept. Where vs sits
+    /// on its upper bound, the friction the files saw was Fs at every velocity
+    /// (g(v) = Fc + (Fs − Fc) e^{−(v/vs)²} ≈ Fs) and Fc was unseen, so the grid also tries
+    /// Fc = that Fs: the rerun's k3 ended with vs_2 = 9.48 rad/s on its bound, Fs_2 =
+    /// 0.0444 N·m (the truth's Fc_2: 0.0444) and Fc_2 = 0.026, and the grid on Fc alone
+    /// seeded vs_2 = 3.56 rad/s, a branch that ended at 0.489 against 0.429. The grid's
     /// best point seeds the branch even where it is above the minimum's cost (the other
     /// parameters have adapted to the missing dip: on k3 every grid point was). Returns
     /// the seed, a note for the report and the cost evaluations, or `None` when no joint
-    /// collapsed.
-    fn stribeck_reseed(&self, u: &[f64]) -> Option<(Vec<f64>, String, usize)> {
+    /// collapsed. `u` and the seed are scaled ([`Problem::to_scaled`]), one per fitted
+    /// parameter.
+    pub fn stribeck_reseed(&self, u: &[f64]) -> Option<(Vec<f64>, String, usize)> {
         let mut notes = Vec::new();
         let mut evaluations = 0;
         let mut p = self.to_physical(u);
@@ -586,16 +592,27 @@ impl Problem {
                 continue;
             }
             let (lo, hi) = (self.lower[iv], self.upper[iv]);
+            // The friction level the files saw, kept as Fc: Fc itself, and also Fs where
+            // vs sits on its upper bound (g(v) ≈ Fs at every velocity below vs).
+            let mut levels = vec![p[ic]];
+            if uv > 1.0 - 1e-3 && p[is] > p[ic] {
+                levels.push(p[is].clamp(self.lower[ic], self.upper[ic]));
+            }
             let intervals = (STRIBECK_VS_GRID - 1) as f64;
             let candidates: Vec<Vec<f64>> = (0..STRIBECK_VS_GRID)
                 .flat_map(|g| {
                     let vs = lo * (hi / lo).powf(g as f64 / intervals);
-                    STRIBECK_RATIOS.iter().map(move |&r| (vs, r))
+                    levels
+                        .iter()
+                        .flat_map(move |&fc| STRIBECK_RATIOS.iter().map(move |&r| (vs, fc, r)))
                 })
-                .map(|(vs, r)| {
+                .map(|(vs, fc, r)| {
                     let mut q = p.clone();
                     q[iv] = vs;
-                    q[is] = (p[ic] * (1.0 + r)).clamp(self.lower[is], self.upper[is]);
+                    q[ic] = fc;
+                    q[is] = (fc * (1.0 + r))
+                        .clamp(self.lower[is], self.upper[is])
+                        .max(fc);
                     q
                 })
                 .collect();
@@ -606,8 +623,16 @@ impl Problem {
                 .filter(|(c, _)| c.is_finite())
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((cost, q)) = best {
+                let fc_note = if q[ic] == p[ic] {
+                    String::new()
+                } else {
+                    format!(
+                        ", Fc {:.4} → {:.4} (the level vs on its upper bound left)",
+                        p[ic], q[ic]
+                    )
+                };
                 notes.push(format!(
-                    "joint {joint}: vs {:.4} → {:.4} rad/s, Fs {:.4} → {:.4} (cost {cost:.4e})",
+                    "joint {joint}: vs {:.4} → {:.4} rad/s, Fs {:.4} → {:.4}{fc_note} (cost {cost:.4e})",
                     p[iv], q[iv], p[is], q[is]
                 ));
                 p = q;
