@@ -2353,3 +2353,40 @@ fn the_plant_gain_scale_family_is_undetermined_and_a_held_gain_determines_it() {
         );
     }
 }
+
+/// The output injection holds an open-loop unstable plant on the measurements, so a
+/// prediction-error stage can walk to a point from which the whole files diverge (the
+/// rerun's k4: q3 at 127 rad/s by t = 3.6 s after ω = 10 rad/s). A stage that starts where
+/// the whole files simulate rejects such trial points. c1 at the truth but for joint 4's
+/// spring Ks_4 = −0.003 N·m/rad (pushing away from rest): without the injection q4 runs past
+/// 100 rad/s within a second, at ω = 30 rad/s the predictor simulates it. Guarded from the
+/// truth, that point fails naming the open loop, the truth's residuals are the predictor's;
+/// guarded from the unstable point itself (nothing to keep), it passes.
+#[test]
+fn a_predictor_stage_started_where_the_whole_files_simulate_rejects_points_where_they_do_not() {
+    let d = tempfile::tempdir().unwrap();
+    let (whole, at_truth, _) = problem_at_truth(d.path(), "J4", 0);
+    let i = whole.names.iter().position(|n| n == "Ks_4").unwrap();
+    let mut unstable = at_truth.clone();
+    unstable[i] = -0.003;
+    assert!(whole.residuals(&at_truth).is_ok());
+    let diverged = whole.residuals(&unstable).unwrap_err().0;
+    assert!(
+        diverged.contains("q4") && diverged.contains("beyond"),
+        "{diverged}"
+    );
+    let predictor = whole.predictor(30.0);
+    let held = predictor.residuals(&unstable).unwrap();
+    let guarded = predictor.clone().with_open_loop_guard(&whole, &at_truth);
+    assert_eq!(
+        guarded.residuals(&at_truth).unwrap(),
+        predictor.residuals(&at_truth).unwrap()
+    );
+    let rejected = guarded.residuals(&unstable).unwrap_err().0;
+    assert!(
+        rejected.starts_with("without the output injection: ") && rejected.contains("q4"),
+        "{rejected}"
+    );
+    let unguarded = predictor.with_open_loop_guard(&whole, &unstable);
+    assert_eq!(unguarded.residuals(&unstable).unwrap(), held);
+}
