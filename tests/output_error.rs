@@ -2182,9 +2182,12 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
     assert!(md.contains("## Joint fit of every step's files: free q3, q4, q5"));
 }
 
-/// A fit whose bounds exclude the truth ends away from the noise floor with the value at
-/// its bound, and the report says which values ended at a bound and what that may mean
-/// (joint 4's cable-drag spring Ks_4 bounded to 10–20 % of its true value; c1, 12 s).
+/// A fit whose bounds exclude the truth ends away from the noise floor with values at
+/// their bounds, and the report says which values ended at a bound and what that may mean
+/// (joint 4's cable-drag spring Ks_4 bounded to 10–20 % of its true value; c1, 12 s, 15
+/// iterations). Which values end there depends on the start kept: the plain start ends
+/// with Ks_4 on its upper bound; since the Stribeck re-seed also tries Fc = Fs, its branch
+/// ends lower (7.2e7 against 4.0e8) with σ1_4, σ2_4 and vs_4 on bounds instead.
 #[test]
 fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
     let d = tempfile::tempdir().unwrap();
@@ -2205,8 +2208,18 @@ fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
     let fitted: Vec<f64> = column(fit, &["fitted"]);
     let at_bound: Vec<bool> = column(fit, &["statistics", "at_bound"]);
     let k = names.iter().position(|n| n == "Ks_4").unwrap();
-    assert!(at_bound[k], "Ks_4 = {} not at its bound", fitted[k]);
-    assert!((fitted[k] - 0.2 * ks).abs() <= 1e-9 * ks, "{}", fitted[k]);
+    assert!(
+        (0.1 * ks..=0.2 * ks).contains(&fitted[k]),
+        "Ks_4 = {} outside its bounds",
+        fitted[k]
+    );
+    let bounded: Vec<&String> = names
+        .iter()
+        .zip(&at_bound)
+        .filter(|(_, &b)| b)
+        .map(|(n, _)| n)
+        .collect();
+    assert!(!bounded.is_empty(), "no value at a bound: {fitted:?}");
     assert!(!fit["statistics"]["above_floor"]
         .as_array()
         .unwrap()
@@ -2217,15 +2230,15 @@ fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
         .find(|l| l.contains("ended at a bound:"))
         .expect("no line on the values at their bounds");
     println!("{line}");
-    assert!(line.contains("Ks_4"), "{line}");
     assert!(line.contains("widen them"), "{line}");
-    let listed = line
+    let listed: Vec<&str> = line
         .split_once("ended at a bound: ")
         .and_then(|(_, rest)| rest.split_once(". "))
         .unwrap()
-        .0;
-    let count = at_bound.iter().filter(|&&b| b).count();
-    assert_eq!(listed.split(',').count(), count, "{line}");
+        .0
+        .split(", ")
+        .collect();
+    assert_eq!(listed, bounded, "{line}");
 }
 
 /// In k1 (joints 4 and 5 free, every parameter that scales with the plant gains fitted or
