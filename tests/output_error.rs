@@ -1125,6 +1125,26 @@ fn a_parameter_within_rounding_of_its_bound_does_not_freeze_the_fit() {
     );
 }
 
+/// The truth with joint 4's Stribeck velocity a tenth of Appendix D's (vs_4 = 0.05 rad/s;
+/// k3's vs_2 is 0.019 rad/s: a dip seen only at the reversals), 20 s of Table 4.3's J4
+/// chirp on c1 simulated from it into `dir`: the truth, c1 and the file's record.
+fn slow_dip_c1(
+    dir: &Path,
+) -> (
+    Plant,
+    &'static generated::Configuration,
+    lockstep::identify::output_error::Record,
+) {
+    let truth_file = truth(dir);
+    let text = std::fs::read_to_string(&truth_file).unwrap();
+    assert!(text.contains("vs_4 = 0.19765"));
+    std::fs::write(&truth_file, text.replace("vs_4 = 0.19765", "vs_4 = 0.05")).unwrap();
+    let truth = Plant::load(&truth_file).unwrap();
+    make_data(dir, &truth_file, "4.3", Some("J4"), "c1", "20");
+    let (conf, rec) = c1_record(dir, &truth);
+    (truth, conf, rec)
+}
+
 /// A collapsed Stribeck dip (Fs = Fc) leaves the cost flat in vs, so no gradient brings
 /// the dip back, and once the other parameters have adapted to its absence the collapsed
 /// point is a local minimum. With joint 4's Stribeck velocity at 0.05 rad/s, its gain
@@ -1136,15 +1156,7 @@ fn a_parameter_within_rounding_of_its_bound_does_not_freeze_the_fit() {
 #[test]
 fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
     let d = tempfile::tempdir().unwrap();
-    // Joint 4's Stribeck velocity a tenth of Appendix D's (k3's vs_2 is 0.019 rad/s): a
-    // dip seen only at the reversals.
-    let truth_file = truth(d.path());
-    let text = std::fs::read_to_string(&truth_file).unwrap();
-    assert!(text.contains("vs_4 = 0.19765"));
-    std::fs::write(&truth_file, text.replace("vs_4 = 0.19765", "vs_4 = 0.05")).unwrap();
-    let truth = Plant::load(&truth_file).unwrap();
-    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
-    let (conf, rec) = c1_record(d.path(), &truth);
+    let (truth, conf, rec) = slow_dip_c1(d.path());
     let adapted: Vec<String> = ["Kp_4", "sigma0_4", "sigma1_4", "sigma2_4", "Fc_4", "Ks_4"]
         .map(String::from)
         .to_vec();
@@ -1256,13 +1268,7 @@ fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
 #[test]
 fn a_stribeck_dip_lost_with_vs_on_its_upper_bound_is_re_seeded_at_the_level_seen() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    let text = std::fs::read_to_string(&truth_file).unwrap();
-    assert!(text.contains("vs_4 = 0.19765"));
-    std::fs::write(&truth_file, text.replace("vs_4 = 0.19765", "vs_4 = 0.05")).unwrap();
-    let truth = Plant::load(&truth_file).unwrap();
-    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
-    let (conf, rec) = c1_record(d.path(), &truth);
+    let (truth, conf, rec) = slow_dip_c1(d.path());
     let names: Vec<String> = ["Fc_4", "Fs_4", "vs_4"].map(String::from).to_vec();
     let fc_truth = truth.parameters["Fc_4"];
     let (vs_lower, vs_upper) = (0.003953, 9.8825);
