@@ -358,8 +358,8 @@ impl Problem {
                 }
                 Stage::Horizon(_) | Stage::Joint => self,
                 Stage::Predictor(omega) => {
-                    let (checked, note) = self.checked_predictor(omega, &u);
-                    staged = checked.with_open_loop_guard(self, &self.to_physical(&u));
+                    let note;
+                    (staged, note) = self.checked_predictor(omega, &u);
                     step_note = note;
                     &staged
                 }
@@ -380,10 +380,7 @@ impl Problem {
             // such a stage on the user's step from where it began.
             if let Stage::Predictor(omega) = stage {
                 let coarse = problem.options.predictor_step.is_some() && omega > 0.0;
-                let user = coarse.then(|| {
-                    self.predictor_on_user_step(omega)
-                        .with_open_loop_guard(self, &self.to_physical(&before))
-                });
+                let user = coarse.then(|| self.predictor_on_user_step(omega));
                 if let Some(user) = user {
                     if let Err(why) = user.residuals(&self.to_physical(&u)) {
                         u.copy_from_slice(&before);

@@ -443,10 +443,6 @@ pub struct Problem {
     /// Set on a prediction-error stage: the bandwidth ω (rad/s) of the output injection
     /// that pulls the simulation toward the measured positions ([`Problem::predictor`]).
     predictor: Option<f64>,
-    /// Set on a prediction-error stage whose start the whole files can be simulated from:
-    /// the user's step and integrator, on which a trial point's whole files must simulate
-    /// without the output injection too ([`Problem::residuals`]).
-    open_loop_guard: Option<(f64, Integrator)>,
     /// Rigid-body symbols of the configuration held at the plant's values although they
     /// tie exactly with fitted ones ([`Problem::with_held_ties`]): the structural check
     /// counts them, so a fitted symbol determined only given a held one is not called
@@ -576,7 +572,6 @@ impl Problem {
             prior: None,
             equation_error: None,
             predictor: None,
-            open_loop_guard: None,
             held_ties: Vec::new(),
             released: Vec::new(),
             guarded_links: Vec::new(),
@@ -787,7 +782,6 @@ impl Problem {
             prior: self.prior.clone(),
             equation_error: None,
             predictor: self.predictor,
-            open_loop_guard: self.open_loop_guard,
             held_ties: self.held_ties.clone(),
             released: self.released.clone(),
             guarded_links: self.guarded_links.clone(),
@@ -1067,24 +1061,11 @@ impl Problem {
     /// # Errors
     /// The plant cannot be configured or the simulation diverges (message with the file).
     pub fn simulate(&self, plant: &Plant, r: &Record) -> Result<Trajectory, TrialFailure> {
-        let on = (self.options.h, self.options.integrator);
-        self.simulate_on(plant, r, on, self.predictor)
-    }
-
-    /// [`Problem::simulate`] on step and integrator `on` (s, scheme), with the output
-    /// injection of bandwidth `predictor` (rad/s) or none.
-    fn simulate_on(
-        &self,
-        plant: &Plant,
-        r: &Record,
-        on: (f64, Integrator),
-        predictor: Option<f64>,
-    ) -> Result<Trajectory, TrialFailure> {
         let fail = |e: String| TrialFailure(format!("{}: {e}", r.file.display()));
         let mut sim = plant
             .simulator(self.conf.name, &r.q_all, ConsistencyPolicy::Warn)
             .map_err(|e| fail(format!("{e:#}")))?;
-        sim.model.integrator = on.1;
+        sim.model.integrator = self.options.integrator;
         let mut x0 = State::at_rest(self.conf.free.iter().map(|&j| r.q_all[j]).collect());
         if let Some(qd0) = &r.qd0 {
             for (a, &v) in qd0.iter().enumerate() {
@@ -1103,9 +1084,9 @@ impl Problem {
         sim.model
             .predict_at(
                 x0,
-                on.0,
+                self.options.h,
                 &input,
-                predictor.map(|omega| (omega, r.q.as_slice())),
+                self.predictor.map(|omega| (omega, r.q.as_slice())),
                 &r.t,
                 self.options.max_speed,
             )
@@ -1234,37 +1215,8 @@ impl Problem {
     /// A trial point that leaves a [guarded](Problem::guarded_links) link physically
     /// impossible fails too (named): the torque balance of the equation error and a
     /// strongly pulled predictor can be evaluated at a point no body has, and a fit that
-    /// starts consistent must not end there (a constraint, as the bounds are). So does, on
-    /// a prediction-error stage that started where the whole files simulate, a point from
-    /// which they do not ([`Problem::with_open_loop_guard`]).
+    /// starts consistent must not end there (a constraint, as the bounds are).
     pub fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
-        let r = self.stage_residuals(p)?;
-        if let Some(on) = self.open_loop_guard {
-            let plant = self.plant_at(p);
-            self.records
-                .par_iter()
-                .try_for_each(|rec| self.simulate_on(&plant, rec, on, None).map(|_| ()))
-                .map_err(|e| TrialFailure(format!("without the output injection: {}", e.0)))?;
-        }
-        Ok(r)
-    }
-
-    /// The same problem, on a prediction-error stage whose start the whole files simulate
-    /// from, guarded: a trial point ([`Problem::residuals`]) from which the whole files
-    /// cannot be simulated on the user's step without the output injection is rejected as a
-    /// diverged simulation is (the Jacobian's columns are not checked). The injection holds
-    /// an open-loop unstable plant on the measurements: k4 of the Freedom 6S's rerun left
-    /// ω = 10 rad/s at a point where q3 ran to 127 rad/s by t = 3.6 s without it, and no
-    /// later stage came back (whole files 5.5e3). Unguarded where the start itself does not
-    /// simulate (nothing to keep) and on every other stage.
-    pub fn with_open_loop_guard(mut self, whole_files: &Problem, p: &[f64]) -> Problem {
-        self.open_loop_guard = (self.predictor.is_some() && whole_files.residuals(p).is_ok())
-            .then_some((whole_files.options.h, whole_files.options.integrator));
-        self
-    }
-
-    /// [`Problem::residuals`] without the open-loop guard: the Jacobian's columns.
-    fn stage_residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
         if !self.guarded_links.is_empty() {
             let plant = self.plant_at(p);
             if let Some(f) = blocking_findings(&plant)
@@ -1301,7 +1253,7 @@ impl Problem {
                 let at = |s: f64| {
                     let mut xi = x.to_vec();
                     xi[i] += s;
-                    self.stage_residuals(&p_of(&xi))
+                    self.residuals(&p_of(&xi))
                 };
                 difference_column(&at, r0, steps[i], central)
             })
