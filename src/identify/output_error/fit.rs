@@ -586,8 +586,10 @@ impl Problem {
                 continue;
             };
             let collapsed = p[is] <= (1.0 + STRIBECK_COLLAPSED) * p[ic];
+            // Within this fraction of vs's bound width from a bound counts as on it.
+            const NEAR: f64 = 1e-3;
             let uv = (p[iv] - self.lower[iv]) / (self.upper[iv] - self.lower[iv]);
-            let on_bound = !(1e-3..=1.0 - 1e-3).contains(&uv);
+            let on_bound = !(NEAR..=1.0 - NEAR).contains(&uv);
             if !(collapsed || on_bound) || self.lower[iv] <= 0.0 {
                 continue;
             }
@@ -595,7 +597,7 @@ impl Problem {
             // The friction level the files saw, kept as Fc: Fc itself, and also Fs where
             // vs sits on its upper bound (g(v) ≈ Fs at every velocity below vs).
             let mut levels = vec![p[ic]];
-            if uv > 1.0 - 1e-3 && p[is] > p[ic] {
+            if uv > 1.0 - NEAR && p[is] > p[ic] {
                 levels.push(p[is].clamp(self.lower[ic], self.upper[ic]));
             }
             let intervals = (STRIBECK_VS_GRID - 1) as f64;
