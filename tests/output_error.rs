@@ -2188,12 +2188,14 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
     assert!(md.contains("## Joint fit of every step's files: free q3, q4, q5"));
 }
 
-/// A fit whose bounds exclude the truth ends away from the noise floor with values at
-/// their bounds, and the report says which values ended at a bound and what that may mean
-/// (joint 4's cable-drag spring Ks_4 bounded to 10–20 % of its true value; c1, 12 s, 15
-/// iterations). Which values end there depends on the start kept: the plain start ends
-/// with Ks_4 on its upper bound; since the Stribeck re-seed also tries Fc = Fs, its branch
-/// ends lower (7.2e7 against 4.0e8) with σ1_4, σ2_4 and vs_4 on bounds instead.
+/// A fit whose bounds exclude the truth ends away from the noise floor with the value at
+/// its bound, and the report says exactly which values ended at a bound and what that may
+/// mean (joint 4's cable-drag spring Ks_4 bounded to 10–20 % of its true value; c1, 12 s,
+/// 15 iterations). Joint 4's Stribeck dip and plant gain are held at the truth's (bounds
+/// lower = upper). With the dip fitted, the Stribeck re-seed's branch (Fc = Fs tried) ends
+/// lower (7.2e7 against 4.0e8) with σ1_4, σ2_4 and vs_4 on their bounds and Ks_4 inside;
+/// with the gain fitted, the plant-gain scale lets Kp_4 run to its bound instead (3.6e8,
+/// Ks_4 at 17 %): either would test something else than the bound the truth is outside of.
 #[test]
 fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
     let d = tempfile::tempdir().unwrap();
@@ -2202,6 +2204,13 @@ fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
     let ks = truth.parameters["Ks_4"];
     plant.bounds.insert("Ks_4".into(), (0.1 * ks, 0.2 * ks));
     plant.parameters.insert("Ks_4".into(), 0.15 * ks);
+    // The Stribeck dip and the gain held at the truth's (bounds lower = upper): no re-seed
+    // branch and no gain scale (either ends with other values on their bounds, Ks_4 inside).
+    for n in ["Fs_4", "vs_4", "Kp_4"] {
+        let v = truth.parameters[n];
+        plant.bounds.insert(n.into(), (v, v));
+        plant.parameters.insert(n.into(), v);
+    }
     plant.save(&start).unwrap();
     let report = identify_isolated(
         d.path(),
@@ -2214,11 +2223,8 @@ fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
     let fitted: Vec<f64> = column(fit, &["fitted"]);
     let at_bound: Vec<bool> = column(fit, &["statistics", "at_bound"]);
     let k = names.iter().position(|n| n == "Ks_4").unwrap();
-    assert!(
-        (0.1 * ks..=0.2 * ks).contains(&fitted[k]),
-        "Ks_4 = {} outside its bounds",
-        fitted[k]
-    );
+    assert!(at_bound[k], "Ks_4 = {} not at its bound", fitted[k]);
+    assert!((fitted[k] - 0.2 * ks).abs() <= 1e-9 * ks, "{}", fitted[k]);
     let bounded: Vec<&String> = names
         .iter()
         .zip(&at_bound)
