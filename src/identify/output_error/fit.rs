@@ -5,8 +5,9 @@
 use super::*;
 
 /// Where the final stage starts: the lowest-cost entry of `simulable` (name, whole files'
-/// cost (4.2)/(4.3), scaled parameters; never empty: the start is first, then each warm-up
-/// result the whole files can be simulated from, in order), into `u`, the warm-ups' end
+/// cost (4.2)/(4.3), scaled parameters: the start first where the whole files can be
+/// simulated from it, then each warm-up result they can be simulated from, in order; `u`
+/// is left as it is when there is none), into `u`, the warm-ups' end
 /// whose whole files' cost is `cost_u` (infinite where they cannot be simulated from it).
 /// The final stage minimises exactly that cost, so the warm-ups only choose where it
 /// starts. Two ways the warm-ups' end is not the best start:
@@ -63,6 +64,15 @@ pub struct StartSummary {
     pub warm_up: WarmUp,
 }
 
+/// One predictor stage as run ([`Problem::run_predictor_stage`]): how it ended, the
+/// report's note on its step and refinement, and its cost (Σ r² of the predictor's errors)
+/// at its end, infinite where they cannot be simulated.
+struct PredictorRun {
+    outcome: StageOutcome,
+    note: String,
+    cost: f64,
+}
+
 /// One start as run: where it ended (scaled parameters) and its summary.
 #[derive(Debug, Clone)]
 struct StartRun {
@@ -78,9 +88,9 @@ impl Problem {
     /// keeping the lowest cost. `progress` is called after every cost evaluation.
     ///
     /// # Errors
-    /// No start to fit (no horizons and no warm-up), or every start fails (the start's
-    /// simulation diverges, or the optimiser reports an input error); the message names
-    /// the first failure.
+    /// No start to fit (no horizons and no warm-up), or every start fails (the whole
+    /// files cannot be simulated from where its final stage begins, or the optimiser
+    /// reports an input error); the message names the first failure.
     pub fn fit(&self, progress: &(dyn Fn(Progress) + Sync)) -> Result<FitResult> {
         let started = Instant::now();
         let n = self.names.len();
@@ -283,8 +293,10 @@ impl Problem {
     }
 
     /// One start: `stages` in turn from scaled parameters `u0` (the equation-error stage
-    /// on `equation_error`), each warm-starting the next; a stage whose start cannot be
-    /// simulated, or whose optimiser fails, ends the start.
+    /// on `equation_error`), each warm-starting the next; a final stage whose start cannot
+    /// be simulated, or whose optimiser fails, ends the start. Where warm-ups come first
+    /// the whole files need not be simulable from `u0` (a start whose open loop runs away
+    /// on the data: the warm-ups take it from there).
     fn run_start(
         &self,
         context: &StageContext,
@@ -294,8 +306,19 @@ impl Problem {
         equation_error: Option<&Result<Problem>>,
     ) -> StartRun {
         let start = context.start;
-        let start_cost = match self.residuals(&self.to_physical(&u0)) {
-            Ok(r) => r.iter().map(|x| x * x).sum(),
+        // A start the whole files diverge from is still warmed up where there are warm-ups:
+        // the equation error simulates nothing, and the predictor's output injection holds
+        // a simulation on the data that runs away without it.
+        let warmed_up = stages.iter().any(|s| !s.is_final());
+        let (start_cost, start_note) = match self.residuals(&self.to_physical(&u0)) {
+            Ok(r) => (r.iter().map(|x| x * x).sum(), None),
+            Err(why) if warmed_up => (
+                f64::INFINITY,
+                Some(format!(
+                    "the start cannot be simulated ({}): warmed up from there",
+                    why.0
+                )),
+            ),
             Err(why) => {
                 return StartRun {
                     u: u0,
@@ -316,16 +339,22 @@ impl Problem {
         let mut iterations = 0;
         let mut diverged = 0;
         // How each stage ended, for the report.
-        let mut ended: Vec<String> = Vec::new();
+        let mut ended: Vec<String> = start_note.into_iter().collect();
         // The records with estimated initial positions, once the whole files' stage ran on
         // them.
         let mut estimated: Option<Problem> = None;
         // The warm-ups' results the whole files can be simulated from, with their cost
-        // (4.2)/(4.3): the start first.
-        let mut simulable = vec![("the start".to_string(), start_cost, u.clone())];
+        // (4.2)/(4.3): the start first, where they can be simulated from it.
+        let mut simulable = Vec::new();
+        if start_cost.is_finite() {
+            simulable.push(("the start".to_string(), start_cost, u.clone()));
+        }
         // The whole files' cost at `u`, where known (after the start and each warm-up; not
         // after a final stage, which moves `u` with the records it estimates).
         let mut cost_u = Some(start_cost);
+        // The last predictor stage's bandwidth (rad/s) and its cost at its end, for the
+        // refinement of the next ([`Problem::run_predictor_refined`]).
+        let mut previous_predictor: Option<(f64, f64)> = None;
         for &stage in stages {
             if stage.is_final() {
                 let at_u = cost_u.take().unwrap_or_else(|| self.cost_at(&u));
@@ -356,13 +385,7 @@ impl Problem {
                     staged = self.truncated(frac);
                     &staged
                 }
-                Stage::Horizon(_) | Stage::Joint => self,
-                Stage::Predictor(omega) => {
-                    let note;
-                    (staged, note) = self.checked_predictor(omega, &u);
-                    step_note = note;
-                    &staged
-                }
+                Stage::Horizon(_) | Stage::Joint | Stage::Predictor(_) => self,
                 Stage::EquationError => match equation_error {
                     Some(Ok(p)) => p,
                     Some(Err(e)) => {
@@ -372,29 +395,20 @@ impl Problem {
                     None => continue,
                 },
             };
-            let before = u.clone();
-            let mut outcome = problem.run_stage(stage, &mut u, context);
-            // A coarse predictor stage (ETDRK4 takes the friction's stiffness exactly) can
-            // end where RK4 on the user's step diverges, and then no later stage starts
-            // (k3 of the Freedom 6S after ω = 100 rad/s: q2 at 270 rad/s by t = 3.4 s): rerun
-            // such a stage on the user's step from where it began.
-            if let Stage::Predictor(omega) = stage {
-                let coarse = problem.options.predictor_step.is_some() && omega > 0.0;
-                let user = coarse.then(|| self.predictor_on_user_step(omega));
-                if let Some(user) = user {
-                    if let Err(why) = user.residuals(&self.to_physical(&u)) {
-                        u.copy_from_slice(&before);
-                        diverged += outcome.failures;
-                        iterations += outcome.iterations;
-                        let rerun = user.run_stage(stage, &mut u, context);
-                        step_note = format!(
-                            "{step_note} (its result could not be simulated on the user's step, {}: rerun there)",
-                            why.0
-                        );
-                        outcome = rerun;
-                    }
-                }
-            }
+            let outcome = if let Stage::Predictor(omega) = stage {
+                let run = self.run_predictor_refined(
+                    omega,
+                    &mut u,
+                    context,
+                    previous_predictor,
+                    PREDICTOR_REFINEMENTS,
+                );
+                previous_predictor = Some((omega, run.cost));
+                step_note = run.note;
+                run.outcome
+            } else {
+                problem.run_stage(stage, &mut u, context)
+            };
             diverged += outcome.failures;
             iterations += outcome.iterations;
             // What the warm-up's result is worth on the whole files, which the final stage
@@ -437,6 +451,125 @@ impl Problem {
             },
             records: estimated.map(|p| p.records),
         }
+    }
+
+    /// One predictor stage at bandwidth `omega` (rad/s) from scaled parameters `u`, which it
+    /// updates in place: on [`OutputErrorOptions::predictor_step`] where that step's check
+    /// allows ([`Problem::checked_predictor`]), and rerun on the user's step from where it
+    /// began when its result cannot be simulated there. A coarse predictor stage (ETDRK4
+    /// takes the friction's stiffness exactly) can end where RK4 on the user's step
+    /// diverges, and then no later stage starts (k3 of the Freedom 6S after ω = 100 rad/s:
+    /// q2 at 270 rad/s by t = 3.4 s).
+    fn run_predictor_stage(
+        &self,
+        omega: f64,
+        u: &mut [f64],
+        context: &StageContext,
+    ) -> PredictorRun {
+        let stage = Stage::Predictor(omega);
+        let before = u.to_vec();
+        let (problem, mut note) = self.checked_predictor(omega, u);
+        let mut outcome = problem.run_stage(stage, u, context);
+        let coarse = problem.options.predictor_step.is_some() && omega > 0.0;
+        let mut ran_on = problem;
+        if coarse {
+            let user = self.predictor_on_user_step(omega);
+            if let Err(why) = user.residuals(&self.to_physical(u)) {
+                u.copy_from_slice(&before);
+                let rerun = user.run_stage(stage, u, context);
+                note = format!(
+                    "{note} (its result could not be simulated on the user's step, {}: rerun there)",
+                    why.0
+                );
+                outcome = StageOutcome {
+                    iterations: outcome.iterations + rerun.iterations,
+                    failures: outcome.failures + rerun.failures,
+                    ..rerun
+                };
+                ran_on = user;
+            }
+        }
+        PredictorRun {
+            cost: ran_on.cost(&self.to_physical(u)),
+            outcome,
+            note,
+        }
+    }
+
+    /// [`Problem::run_predictor_stage`] with the homotopy's step refined where the stage
+    /// lost the track: when it ends above [`PREDICTOR_REFINE_FACTOR`] times the larger of
+    /// the noise floor (m s̄², [`Problem::noise_residual_rms`]) and the cost at the end of
+    /// the previous predictor stage `previous` (its ω, its cost), it is run again from its
+    /// start through the geometric mean of the two bandwidths, each of those two refined in
+    /// turn while `depth` > 0, and the lower of the two ends at `omega` is kept. A
+    /// predictor's minima at neighbouring bandwidths are close when the plant is near the
+    /// data, and its cost at ω stays at or below the output error's floor; a jump means the
+    /// stage left the path. k4 of the Freedom 6S from the rerun's k3 plant: ω = 30 rad/s
+    /// ended at 0.386 (floor ≈ 0.30), ω = 10 at 4.99 with the whole files diverging from
+    /// its result, and the fit at 5488; through ω = 17 rad/s, 0.262 then 0.278 at ω = 10.
+    fn run_predictor_refined(
+        &self,
+        omega: f64,
+        u: &mut [f64],
+        context: &StageContext,
+        previous: Option<(f64, f64)>,
+        depth: usize,
+    ) -> PredictorRun {
+        let before = u.to_vec();
+        let first = self.run_predictor_stage(omega, u, context);
+        let floor = self.noise_residual_rms().powi(2) * self.residual_count() as f64;
+        let Some((omega_previous, cost_previous)) = previous else {
+            return first;
+        };
+        let limit = PREDICTOR_REFINE_FACTOR * floor.max(cost_previous);
+        if depth == 0 || first.cost <= limit || first.outcome.stop || omega_previous <= omega {
+            return first;
+        }
+        let omega_between = (omega_previous * omega).sqrt();
+        let mut v = before;
+        let between =
+            self.run_predictor_refined(omega_between, &mut v, context, previous, depth - 1);
+        let again = self.run_predictor_refined(
+            omega,
+            &mut v,
+            context,
+            Some((omega_between, between.cost)),
+            depth - 1,
+        );
+        let iterations =
+            first.outcome.iterations + between.outcome.iterations + again.outcome.iterations;
+        let failures = first.outcome.failures + between.outcome.failures + again.outcome.failures;
+        let kept = again.cost < first.cost;
+        let why = format!(
+            "ended at {:.4e}, above {PREDICTOR_REFINE_FACTOR} × {:.4e} (the larger of the noise floor and {}'s end)",
+            first.cost,
+            floor.max(cost_previous),
+            Stage::Predictor(omega_previous),
+        );
+        let through = format!(
+            "through {} ({}, {:.4e})",
+            Stage::Predictor(omega_between),
+            between.outcome.status,
+            between.cost
+        );
+        let (mut run, note) = if kept {
+            u.copy_from_slice(&v);
+            let note = format!(
+                "{}: {}, {why}: rerun from its start {through}, then again, kept ({:.4e})",
+                first.note, first.outcome.status, again.cost
+            );
+            (again, note)
+        } else {
+            let note = format!(
+                "{}, {why}; tried from its start {through}, then again ({}, {:.4e}): not lower, the first run kept",
+                first.note, again.outcome.status, again.cost
+            );
+            (first, note)
+        };
+        run.note = note;
+        run.outcome.iterations = iterations;
+        run.outcome.failures = failures;
+        run
     }
 
     /// The cost (4.2)/(4.3) of the whole files at scaled parameters `u`; infinite where

@@ -68,6 +68,20 @@ const BOUND_SNAP: f64 = 1e-9;
 /// Stribeck velocities tried by the Stribeck re-seed, log-spaced over vs's bounds.
 const STRIBECK_VS_GRID: usize = 9;
 
+/// A predictor stage that ends above this factor times the larger of the noise floor and
+/// the previous predictor stage's end is rerun through an intermediate bandwidth
+/// ([`Problem::run_predictor_refined`]). Near the data the predictor's cost rises slowly
+/// as ω falls, toward the whole files' floor: on the Freedom 6S paths that reached the
+/// floor (k2..k5), every predictor stage ended below 1.4 × the step's final cost (k5's
+/// ω = 1 rad/s: 0.419 against 0.310). Where a stage lost the path its cost jumped: k4
+/// from the rerun's k3 plant, 0.386 at ω = 30 rad/s, 4.99 at 10; k5 of that path, 0.306
+/// at ω = 10 rad/s, 0.728 at 3 and 4.50 at 1.
+pub const PREDICTOR_REFINE_FACTOR: f64 = 2.0;
+
+/// How many times [`Problem::run_predictor_refined`] may halve a predictor step (in
+/// log ω): a factor 3 between stages becomes at most ≈ 1.32.
+const PREDICTOR_REFINEMENTS: usize = 2;
+
 /// A fitted Stribeck dip below this fraction of Fc counts as collapsed for the Stribeck
 /// re-seed: a joint-4 dip of Fs = 2.1 Fc at vs = 0.05 rad/s fitted from its collapse ended
 /// at Fs = 1.024 Fc, vs = 0.26 rad/s, cost 4 % above the truth's.
@@ -385,7 +399,22 @@ impl std::fmt::Display for Stage {
             Stage::Segments(s) => write!(f, "segments of {s} s"),
             Stage::Horizon(h) => write!(f, "horizon {:.0} %", 100.0 * h),
             Stage::EquationError => write!(f, "equation error"),
-            Stage::Predictor(omega) => write!(f, "predictor ω = {omega} rad/s"),
+            // Four significant digits: a refined bandwidth is a geometric mean (17.32, not
+            // 17.320508075688775).
+            Stage::Predictor(omega) => {
+                let digits = if *omega > 0.0 && omega.is_finite() {
+                    (3 - omega.log10().floor() as i32).clamp(0, 12) as usize
+                } else {
+                    0
+                };
+                let text = format!("{omega:.digits$}");
+                let text = if text.contains('.') {
+                    text.trim_end_matches('0').trim_end_matches('.')
+                } else {
+                    &text
+                };
+                write!(f, "predictor ω = {text} rad/s")
+            }
             Stage::Joint => write!(f, "joint fit"),
         }
     }
@@ -1723,6 +1752,20 @@ impl FitResult {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_predictor_stage_is_named_by_its_bandwidth_to_four_significant_digits() {
+        let name = |omega: f64| super::Stage::Predictor(omega).to_string();
+        assert_eq!(name(100.0), "predictor ω = 100 rad/s");
+        assert_eq!(
+            name(30.0f64.sqrt() * 10.0f64.sqrt()),
+            "predictor ω = 17.32 rad/s"
+        );
+        assert_eq!(name(3.0f64.sqrt()), "predictor ω = 1.732 rad/s");
+        assert_eq!(name(5.5), "predictor ω = 5.5 rad/s");
+        assert_eq!(name(0.25), "predictor ω = 0.25 rad/s");
+        assert_eq!(name(0.0), "predictor ω = 0 rad/s");
+    }
+
     use super::*;
 
     /// The 7-point cubic Savitzky–Golay derivative is exact for quartics (its error term is
