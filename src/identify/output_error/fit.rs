@@ -43,6 +43,24 @@ pub(super) fn start_final_stage(
     })
 }
 
+/// The bandwidth (rad/s) through which a predictor stage at `omega` that ended at `cost`
+/// is rerun ([`Problem::run_predictor_refined`]): the geometric mean of `omega` and the
+/// previous predictor stage's bandwidth, where the stage ended above
+/// [`PREDICTOR_REFINE_FACTOR`] × the larger of `floor` (the noise floor's cost) and the
+/// previous stage's end (`previous`: its ω, its cost). `None` for the first predictor
+/// stage, a stage at a bandwidth not below the previous one's, or one that kept to the
+/// path.
+pub(super) fn refinement_bandwidth(
+    omega: f64,
+    cost: f64,
+    previous: Option<(f64, f64)>,
+    floor: f64,
+) -> Option<f64> {
+    let (omega_previous, cost_previous) = previous?;
+    let lost = cost > PREDICTOR_REFINE_FACTOR * floor.max(cost_previous);
+    (lost && omega_previous > omega).then(|| (omega_previous * omega).sqrt())
+}
+
 /// One start of a multi-start fit.
 #[derive(Debug, Clone, Serialize)]
 pub struct StartSummary {
@@ -518,14 +536,14 @@ impl Problem {
         let before = u.to_vec();
         let first = self.run_predictor_stage(omega, u, context);
         let floor = self.noise_residual_rms().powi(2) * self.residual_count() as f64;
-        let Some((omega_previous, cost_previous)) = previous else {
+        let refined = refinement_bandwidth(omega, first.cost, previous, floor);
+        let (Some(omega_between), Some((omega_previous, cost_previous))) = (refined, previous)
+        else {
             return first;
         };
-        let limit = PREDICTOR_REFINE_FACTOR * floor.max(cost_previous);
-        if depth == 0 || first.cost <= limit || first.outcome.stop || omega_previous <= omega {
+        if depth == 0 || first.outcome.stop {
             return first;
         }
-        let omega_between = (omega_previous * omega).sqrt();
         let mut v = before;
         let between =
             self.run_predictor_refined(omega_between, &mut v, context, previous, depth - 1);
@@ -813,6 +831,41 @@ impl Problem {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The refinement's rule on the predictor stages' ends of the Freedom 6S's coupled
+    /// steps: those that lost the path are refined, those on it are not.
+    #[test]
+    fn a_predictor_stage_that_lost_the_path_is_refined_and_one_on_it_is_not() {
+        // Stage ends (ω, cost) recorded on the Freedom 6S's coupled steps, floor ≈ 0.30.
+        let floor = 0.30;
+        // k4 from the rerun's k3 plant: ω = 30 ended at 0.386, ω = 10 at 4.99 (the whole
+        // files diverged from it).
+        let w = refinement_bandwidth(10.0, 4.99, Some((30.0, 0.386)), floor).unwrap();
+        assert!((w - 300f64.sqrt()).abs() < 1e-12, "{w}");
+        // k5 of that path: ω = 10 at 0.306, ω = 3 at 0.728.
+        assert!(refinement_bandwidth(3.0, 0.728, Some((10.0, 0.306)), floor).is_some());
+        // Paths that reached the floor: k4 of the status table (ω = 30 at 0.273, 10 at
+        // 0.278), k5 (ω = 3 at 0.342, 1 at 0.419), k3's first stage after ω = 100 (0.110 →
+        // 0.238: below twice the floor, whatever its ratio to the previous end).
+        assert_eq!(
+            refinement_bandwidth(10.0, 0.278, Some((30.0, 0.273)), floor),
+            None
+        );
+        assert_eq!(
+            refinement_bandwidth(1.0, 0.419, Some((3.0, 0.342)), floor),
+            None
+        );
+        assert_eq!(
+            refinement_bandwidth(30.0, 0.238, Some((100.0, 0.110)), floor),
+            None
+        );
+        // The first predictor stage, and a bandwidth above the previous one.
+        assert_eq!(refinement_bandwidth(100.0, 50.0, None, floor), None);
+        assert_eq!(
+            refinement_bandwidth(3.0, 50.0, Some((1.0, 0.3)), floor),
+            None
+        );
+    }
 
     /// The final stage starts from the lowest whole files' cost among the start and the
     /// warm-ups' results: the warm-ups' end where it is the lowest, else the lowest earlier
