@@ -1098,14 +1098,22 @@ fn step_markdown(
     };
     let _ = writeln!(
         s,
-        "## {title}\n\n{} file(s): {}. {} residuals, {} parameters. Cost {} → {} ({:.1} % lower). {:.1} s wall, {} cost evaluations and {} Jacobians; best of {} start(s): start {} ({}).\n",
+        "## {title}\n\n{} file(s): {}. {} residuals, {} parameters. Cost {} → {}{}. {:.1} s wall, {} cost evaluations and {} Jacobians; best of {} start(s): start {} ({}).\n",
         f.files.len(),
         f.files.iter().map(|p| format!("`{}`", p.display())).collect::<Vec<_>>().join(", "),
         f.residuals,
         f.names.len(),
-        fmt_g(f.cost_before),
+        if f.cost_before.is_finite() {
+            fmt_g(f.cost_before)
+        } else {
+            "∞ (the whole files cannot be simulated from the plant's values)".into()
+        },
         fmt_g(f.cost_after),
-        100.0 * (1.0 - f.cost_after / f.cost_before),
+        if f.cost_before.is_finite() {
+            format!(" ({:.1} % lower)", 100.0 * (1.0 - f.cost_after / f.cost_before))
+        } else {
+            String::new()
+        },
         f.wall_s,
         f.evaluations,
         f.jacobians,
