@@ -524,7 +524,8 @@ impl Problem {
     /// data, and its cost at ω stays at or below the output error's floor; a jump means the
     /// stage left the path. k4 of the Freedom 6S from the rerun's k3 plant: ω = 30 rad/s
     /// ended at 0.386 (floor ≈ 0.30), ω = 10 at 4.99 with the whole files diverging from
-    /// its result, and the fit at 5488; through ω = 17 rad/s, 0.262 then 0.278 at ω = 10.
+    /// its result, and the fit at 5488; through ω = 17.32 rad/s, 0.261 then 0.278 at
+    /// ω = 10, and the fit at the floor (0.30158).
     fn run_predictor_refined(
         &self,
         omega: f64,
@@ -564,23 +565,25 @@ impl Problem {
             floor.max(cost_previous),
             Stage::Predictor(omega_previous),
         );
+        // The stage between with its own step's note and refinement, if any.
         let through = format!(
-            "through {} ({}, {:.4e})",
+            "through {}{} ({}, {:.4e})",
             Stage::Predictor(omega_between),
+            between.note,
             between.outcome.status,
             between.cost
         );
         let (mut run, note) = if kept {
             u.copy_from_slice(&v);
             let note = format!(
-                "{}: {}, {why}: rerun from its start {through}, then again, kept ({:.4e})",
-                first.note, first.outcome.status, again.cost
+                "{}: {}, {why}: rerun from its start {through}, then again{}, kept ({:.4e})",
+                first.note, first.outcome.status, again.note, again.cost
             );
             (again, note)
         } else {
             let note = format!(
-                "{}, {why}; tried from its start {through}, then again ({}, {:.4e}): not lower, the first run kept",
-                first.note, again.outcome.status, again.cost
+                "{}, {why}; tried from its start {through}, then again{} ({}, {:.4e}): not lower, the first run kept",
+                first.note, again.note, again.outcome.status, again.cost
             );
             (first, note)
         };
