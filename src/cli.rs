@@ -580,8 +580,10 @@ pub struct OutputErrorArgs {
     /// damped output injection of each bandwidth ω (rad/s) in turn (a Luenberger observer:
     /// at large ω a low-passed equation error, smooth in the parameters; ω → 0 is the
     /// output error). It follows the equation error when `--equation-error` is on, or is one
-    /// more start from the plant's values. `none`: no such stages. Default: 100,30,10,3,1
-    /// for the coupled method, none for the isolated.
+    /// more start from the plant's values. A stage that ends above twice the larger of the
+    /// noise floor and the previous stage's end is run again through the geometric mean of
+    /// the two bandwidths (twice at most; the report says so). `none`: no such stages.
+    /// Default: 100,30,10,3,1 for the coupled method, none for the isolated.
     #[arg(long, value_name = "OMEGAS")]
     pub predictor: Option<String>,
     /// Step (s) of the predictor's stages, simulated by ETDRK4, e.g. 1/2000: the output
