@@ -560,14 +560,14 @@ impl Problem {
         let failures = first.outcome.failures + between.outcome.failures + again.outcome.failures;
         let kept = again.cost < first.cost;
         let why = format!(
-            "ended at {:.4e}, above {PREDICTOR_REFINE_FACTOR} × {:.4e} (the larger of the noise floor and {}'s end)",
+            "ended at {:.5e}, above {PREDICTOR_REFINE_FACTOR} × {:.4e} (the larger of the noise floor and {}'s end)",
             first.cost,
             floor.max(cost_previous),
             Stage::Predictor(omega_previous),
         );
         // The stage between with its own step's note and refinement, if any.
         let through = format!(
-            "through {}{} ({}, {:.4e})",
+            "through {}{} ({}, {:.5e})",
             Stage::Predictor(omega_between),
             between.note,
             between.outcome.status,
@@ -576,13 +576,13 @@ impl Problem {
         let (mut run, note) = if kept {
             u.copy_from_slice(&v);
             let note = format!(
-                "{}: {}, {why}: rerun from its start {through}, then again{}, kept ({:.4e})",
+                "{}: {}, {why}: rerun from its start {through}, then again{}, kept ({:.5e})",
                 first.note, first.outcome.status, again.note, again.cost
             );
             (again, note)
         } else {
             let note = format!(
-                "{}, {why}; tried from its start {through}, then again{} ({}, {:.4e}): not lower, the first run kept",
+                "{}, {why}; tried from its start {through}, then again{} ({}, {:.5e}): not lower, the first run kept",
                 first.note, again.note, again.outcome.status, again.cost
             );
             (first, note)
