@@ -1752,9 +1752,11 @@ impl FitResult {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     #[test]
     fn a_predictor_stage_is_named_by_its_bandwidth_to_four_significant_digits() {
-        let name = |omega: f64| super::Stage::Predictor(omega).to_string();
+        let name = |omega: f64| Stage::Predictor(omega).to_string();
         assert_eq!(name(100.0), "predictor ω = 100 rad/s");
         assert_eq!(
             name(30.0f64.sqrt() * 10.0f64.sqrt()),
@@ -1765,8 +1767,6 @@ mod tests {
         assert_eq!(name(0.25), "predictor ω = 0.25 rad/s");
         assert_eq!(name(0.0), "predictor ω = 0 rad/s");
     }
-
-    use super::*;
 
     /// The 7-point cubic Savitzky–Golay derivative is exact for quartics (its error term is
     /// the fifth derivative) and its noise gain is √Σc² / 252 ≈ 0.51 per Δt.
