@@ -1096,6 +1096,22 @@ fn step_markdown(
             }
         )
     };
+    // The cost before and by how much the fit lowered it; a start the whole files cannot
+    // be simulated from has no cost to compare with.
+    let (cost_before, lower) = if f.cost_before.is_finite() {
+        (
+            fmt_g(f.cost_before),
+            format!(
+                " ({:.1} % lower)",
+                100.0 * (1.0 - f.cost_after / f.cost_before)
+            ),
+        )
+    } else {
+        (
+            "∞ (the whole files cannot be simulated from the plant's values)".into(),
+            String::new(),
+        )
+    };
     let _ = writeln!(
         s,
         "## {title}\n\n{} file(s): {}. {} residuals, {} parameters. Cost {} → {}{}. {:.1} s wall, {} cost evaluations and {} Jacobians; best of {} start(s): start {} ({}).\n",
@@ -1103,17 +1119,9 @@ fn step_markdown(
         f.files.iter().map(|p| format!("`{}`", p.display())).collect::<Vec<_>>().join(", "),
         f.residuals,
         f.names.len(),
-        if f.cost_before.is_finite() {
-            fmt_g(f.cost_before)
-        } else {
-            "∞ (the whole files cannot be simulated from the plant's values)".into()
-        },
+        cost_before,
         fmt_g(f.cost_after),
-        if f.cost_before.is_finite() {
-            format!(" ({:.1} % lower)", 100.0 * (1.0 - f.cost_after / f.cost_before))
-        } else {
-            String::new()
-        },
+        lower,
         f.wall_s,
         f.evaluations,
         f.jacobians,
