@@ -1020,6 +1020,13 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
             integrator(i)
         );
     }
+    if !o.predictor.is_empty() {
+        let _ = write!(
+            simulation,
+            "; the predictor's stages by the {} method",
+            o.predictor_optimiser
+        );
+    }
     if o.jacobian_refresh > 1 {
         let _ = write!(
             simulation,

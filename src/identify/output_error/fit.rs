@@ -708,7 +708,12 @@ impl Problem {
         }
         let frozen: Vec<bool> = self.names.iter().map(|n| self.is_frozen(n)).collect();
         let config = stage_rules(&self.options, stage);
-        minimise(self, stage, &frozen, config, u, context, start_cost)
+        match (stage, self.options.predictor_optimiser) {
+            (Stage::Predictor(_), StageOptimiser::TrustRegionReflective) => {
+                minimise_trf(self, stage, &frozen, &config, u, context, start_cost)
+            }
+            _ => minimise(self, stage, &frozen, config, u, context, start_cost),
+        }
     }
 
     /// Stribeck re-seed of scaled parameters `u` (a fitted minimum) for

@@ -400,9 +400,342 @@ impl MPFitter for Fitter<'_> {
     }
 }
 
+/// [`minimise`] by basin's trust-region-reflective method
+/// ([`StageOptimiser::TrustRegionReflective`]) instead of rmpfit's Levenberg–Marquardt:
+/// `problem` from scaled parameters `u` ∈ [0, 1]ⁿ, updated in place; parameters where
+/// `frozen` is true stay. A finite-difference Jacobian (columns in parallel, step
+/// [`OutputErrorOptions::fd_step`] of the bound width) at every iteration; it stops on
+/// `config`'s relative cost change (ftol), relative step (xtol) or iteration limit, as
+/// [`stage_rules`] set them for the stage; the prior's rows as in [`minimise`]. A trial point whose
+/// simulation fails returns residuals 1e3 × the start's root mean square, so the step is
+/// rejected and the trust region shrinks; `start_cost` (the cost at `u`) sets that level.
+pub(crate) fn minimise_trf(
+    problem: &dyn LeastSquares,
+    stage: Stage,
+    frozen: &[bool],
+    config: &MPConfig,
+    u: &mut [f64],
+    context: &StageContext,
+    start_cost: f64,
+) -> StageOutcome {
+    use basin::{
+        BoxBounds, ConstraintSet, CostFunction, DenseMatrix, Executor, Jacobian, Residual,
+        TrustRegionReflective,
+    };
+    use std::convert::Infallible;
+    use std::sync::Mutex;
+
+    /// The stage's free parameters as basin sees them: the scaled values of the free
+    /// ones, the frozen ones fixed at `base`.
+    struct Free<'a> {
+        problem: &'a dyn LeastSquares,
+        context: &'a StageContext<'a>,
+        stage: Stage,
+        base: Vec<f64>,
+        free: Vec<usize>,
+        lower: Vec<f64>,
+        upper: Vec<f64>,
+        level: f64,
+        failures: &'a AtomicUsize,
+        best: &'a Mutex<f64>,
+    }
+
+    impl Free<'_> {
+        /// All scaled parameters with the free ones at `x` (clamped into [0, 1]: the
+        /// method's iterates stay strictly inside, this guards rounding).
+        fn full(&self, x: &[f64]) -> Vec<f64> {
+            let mut u = self.base.clone();
+            for (&i, &v) in self.free.iter().zip(x) {
+                u[i] = v.clamp(0.0, 1.0);
+            }
+            u
+        }
+
+        /// The simulated residuals at scaled `u`, then the prior's rows.
+        fn residuals(&self, u: &[f64]) -> Vec<f64> {
+            let p = self.problem;
+            let count = self.context.evaluations.fetch_add(1, Ordering::Relaxed) + 1;
+            let mut r = p.residuals(&p.to_physical(u)).unwrap_or_else(|_| {
+                self.failures.fetch_add(1, Ordering::Relaxed);
+                vec![self.level; p.residual_count()]
+            });
+            r.extend(p.prior_residuals(u));
+            let c: f64 = r.iter().map(|x| x * x).sum();
+            let best = {
+                let mut best = self.best.lock().unwrap_or_else(|e| e.into_inner());
+                *best = best.min(c);
+                *best
+            };
+            (self.context.progress)(Progress {
+                start: self.context.start,
+                starts: self.context.starts,
+                stage: self.stage,
+                iteration: self.context.jacobians.load(Ordering::Relaxed),
+                evaluations: count,
+                cost: best,
+                elapsed: self.context.started.elapsed().as_secs_f64(),
+            });
+            r
+        }
+    }
+
+    impl basin::Constraints for Free<'_> {
+        type Set = ConstraintSet<BoxBounds<Vec<f64>>>;
+        fn constraints(&self) -> <Self::Set as basin::ConstraintDescription>::Borrowed<'_> {
+            ConstraintSet::new().with_bounds(BoxBounds::new(Some(&self.lower), Some(&self.upper)))
+        }
+    }
+
+    impl CostFunction for Free<'_> {
+        type Param = Vec<f64>;
+        type Output = f64;
+        type Error = Infallible;
+        fn cost(&self, x: &Vec<f64>) -> Result<f64, Infallible> {
+            Ok(0.5
+                * self
+                    .residuals(&self.full(x))
+                    .iter()
+                    .map(|r| r * r)
+                    .sum::<f64>())
+        }
+    }
+
+    impl Residual for Free<'_> {
+        type Param = Vec<f64>;
+        type Output = Vec<f64>;
+        type Error = Infallible;
+        fn residual(&self, x: &Vec<f64>) -> Result<Vec<f64>, Infallible> {
+            Ok(self.residuals(&self.full(x)))
+        }
+    }
+
+    impl Jacobian for Free<'_> {
+        type Jacobian = DenseMatrix;
+        fn jacobian(&self, x: &Vec<f64>) -> Result<DenseMatrix, Infallible> {
+            let p = self.problem;
+            let u = self.full(x);
+            let r0 = self.residuals(&u);
+            let m = p.residual_count();
+            let h = p.options().fd_step;
+            // A step only for the free columns; toward the interior near the upper bound.
+            let steps: Vec<f64> = self
+                .free
+                .iter()
+                .map(|&i| if u[i] + h > 1.0 { -h } else { h })
+                .collect();
+            let free = &self.free;
+            let base = &u;
+            let p_of = |y: &[f64]| {
+                let mut v = base.clone();
+                for (&i, &yi) in free.iter().zip(y) {
+                    v[i] = yi;
+                }
+                p.to_physical(&v)
+            };
+            let y: Vec<f64> = free.iter().map(|&i| u[i]).collect();
+            let columns = p.jacobian_columns(&y, &r0[..m], &steps, &p_of, false);
+            self.context.jacobians.fetch_add(1, Ordering::Relaxed);
+            self.context
+                .evaluations
+                .fetch_add(free.len(), Ordering::Relaxed);
+            let n = free.len();
+            let rows = r0.len();
+            let mut j = vec![0.0; rows * n];
+            for (c, column) in columns.iter().enumerate() {
+                for (k, &d) in column.iter().enumerate() {
+                    j[k * n + c] = d;
+                }
+            }
+            // The prior's rows: its weight on the diagonal.
+            if let Some(weight) = p.prior_weight() {
+                for (c, &i) in free.iter().enumerate() {
+                    j[(m + i) * n + c] = weight[i];
+                }
+            }
+            Ok(DenseMatrix::from_row_slice(rows, n, &j))
+        }
+    }
+
+    let free: Vec<usize> = (0..u.len()).filter(|&i| !frozen[i]).collect();
+    let m = problem.residual_count();
+    let x0: Vec<f64> = free.iter().map(|&i| u[i].clamp(0.0, 1.0)).collect();
+    let failures = AtomicUsize::new(0);
+    let best = Mutex::new(f64::INFINITY);
+    let fitter = Free {
+        problem,
+        context,
+        stage,
+        base: u.to_vec(),
+        lower: vec![0.0; free.len()],
+        upper: vec![1.0; free.len()],
+        free: free.clone(),
+        level: (start_cost.max(1e-12) / m as f64).sqrt() * 1e3,
+        failures: &failures,
+        best: &best,
+    };
+    let jacobians_before = context.jacobians.load(Ordering::Relaxed);
+    let solver = TrustRegionReflective::new()
+        .with_relative_cost_change_tolerance(config.ftol)
+        .with_relative_step_tolerance::<Vec<f64>, f64>(config.xtol);
+    let run = Executor::from_start(fitter, solver, x0)
+        .max_iter(config.max_iter as u64)
+        .run();
+    let failures = failures.load(Ordering::Relaxed);
+    match run {
+        Ok(result) => {
+            let iterations = result.iter() as usize;
+            // The best point basin saw (the method is monotone: its last accepted one).
+            for (&i, &v) in free.iter().zip(result.best_param()) {
+                u[i] = v.clamp(0.0, 1.0);
+            }
+            StageOutcome {
+                status: format!(
+                    "trust-region-reflective: {:?} after {iterations} iteration(s) ({} Jacobians)",
+                    result.report.termination.code(),
+                    context.jacobians.load(Ordering::Relaxed) - jacobians_before
+                ),
+                iterations,
+                failures,
+                stop: false,
+            }
+        }
+        Err(e) => StageOutcome {
+            status: format!("trust-region-reflective: optimiser error {e:?}"),
+            iterations: 0,
+            failures,
+            stop: true,
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// y = a e^{−b t} sampled at t = 0, 0.1, …, 2.9 s, with a ∈ [0, 4] and b ∈ [0, b_max]
+    /// mapped to the unit square: a least-squares problem whose minimum is known.
+    struct Decay {
+        b_max: f64,
+        y: Vec<f64>,
+        options: OutputErrorOptions,
+    }
+
+    impl Decay {
+        /// Data of a = 2, b = 0.7 without noise.
+        fn new(b_max: f64) -> Decay {
+            Decay {
+                b_max,
+                y: (0..30)
+                    .map(|k| 2.0 * (-0.7 * 0.1 * k as f64).exp())
+                    .collect(),
+                options: OutputErrorOptions::default(),
+            }
+        }
+    }
+
+    impl LeastSquares for Decay {
+        fn residual_count(&self) -> usize {
+            self.y.len()
+        }
+        fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
+            Ok(self
+                .y
+                .iter()
+                .enumerate()
+                .map(|(k, y)| y - p[0] * (-p[1] * 0.1 * k as f64).exp())
+                .collect())
+        }
+        fn to_physical(&self, u: &[f64]) -> Vec<f64> {
+            vec![4.0 * u[0], self.b_max * u[1]]
+        }
+        fn jacobian_columns(
+            &self,
+            x: &[f64],
+            r0: &[f64],
+            steps: &[f64],
+            p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+            _central: bool,
+        ) -> Vec<Vec<f64>> {
+            (0..x.len())
+                .map(|i| {
+                    let mut xi = x.to_vec();
+                    xi[i] += steps[i];
+                    let r = self.residuals(&p_of(&xi)).unwrap();
+                    r.iter().zip(r0).map(|(a, b)| (a - b) / steps[i]).collect()
+                })
+                .collect()
+        }
+        fn options(&self) -> &OutputErrorOptions {
+            &self.options
+        }
+    }
+
+    fn trf(problem: &Decay, frozen: &[bool], u: &mut [f64]) -> StageOutcome {
+        let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
+        let context = StageContext {
+            start: 0,
+            starts: 1,
+            evaluations: &evaluations,
+            jacobians: &jacobians,
+            started: Instant::now(),
+            progress: &|_| {},
+        };
+        let cost = |u: &[f64]| -> f64 {
+            let r = problem.residuals(&problem.to_physical(u)).unwrap();
+            r.iter().map(|x| x * x).sum()
+        };
+        let start_cost = cost(u);
+        // The last predictor stage's rules: the user's (default) tolerances.
+        let config = stage_rules(&OutputErrorOptions::default(), Stage::Predictor(1.0));
+        let outcome = minimise_trf(
+            problem,
+            Stage::Predictor(1.0),
+            frozen,
+            &config,
+            u,
+            &context,
+            start_cost,
+        );
+        assert!(jacobians.load(Ordering::Relaxed) >= 1);
+        assert!(cost(u) < start_cost);
+        outcome
+    }
+
+    /// The trust-region-reflective stage finds the known minimum inside the bounds, ends
+    /// on an upper bound that excludes the truth where the conditional minimum of the other
+    /// parameter is the closed form's, and leaves a frozen parameter where it was.
+    #[test]
+    fn the_trust_region_reflective_stage_finds_the_minimum_within_the_bounds() {
+        // Inside: a = 2, b = 0.7 ↔ u = (0.5, 0.35) with b ∈ [0, 2].
+        let inside = Decay::new(2.0);
+        let mut u = vec![0.1, 0.9];
+        let outcome = trf(&inside, &[false, false], &mut u);
+        assert!(!outcome.stop, "{}", outcome.status);
+        let p = inside.to_physical(&u);
+        assert!(
+            (p[0] - 2.0).abs() < 1e-6 && (p[1] - 0.7).abs() < 1e-6,
+            "{p:?}"
+        );
+        // b ≤ 0.5 excludes the truth: b ends on its bound, and a at the least-squares
+        // amplitude for that decay, Σ y e^{−b t} / Σ e^{−2 b t}.
+        let bounded = Decay::new(0.5);
+        let mut u = vec![0.2, 0.3];
+        trf(&bounded, &[false, false], &mut u);
+        let p = bounded.to_physical(&u);
+        assert!((p[1] - 0.5).abs() < 1e-9, "{p:?}");
+        let e: Vec<f64> = (0..30).map(|k| (-0.5 * 0.1 * k as f64).exp()).collect();
+        let a = bounded.y.iter().zip(&e).map(|(y, e)| y * e).sum::<f64>()
+            / e.iter().map(|e| e * e).sum::<f64>();
+        assert!((p[0] - a).abs() < 1e-6 * a, "{} vs {a}", p[0]);
+        // b frozen at 0.4: a alone is fitted, b stays.
+        let mut u = vec![0.2, 0.2];
+        trf(&inside, &[false, true], &mut u);
+        assert_eq!(u[1], 0.2);
+        let e: Vec<f64> = (0..30).map(|k| (-0.4 * 0.1 * k as f64).exp()).collect();
+        let a = inside.y.iter().zip(&e).map(|(y, e)| y * e).sum::<f64>()
+            / e.iter().map(|e| e * e).sum::<f64>();
+        assert!((inside.to_physical(&u)[0] - a).abs() < 1e-6 * a);
+    }
 
     /// Broyden's update meets the secant condition J⁺ Δu = Δr, changes J only along Δu
     /// (J⁺ v = J v for v ⟂ Δu), leaves an exact Jacobian of a linear map as it is, and
