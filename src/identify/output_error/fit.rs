@@ -823,14 +823,7 @@ impl Problem {
         ee.residuals(&self.to_physical(&u))
             .map_err(|e| anyhow::anyhow!("{}", e.0))?;
         let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
-        let context = StageContext {
-            start: 0,
-            starts: 1,
-            evaluations: &evaluations,
-            jacobians: &jacobians,
-            started: Instant::now(),
-            progress: &|_| {},
-        };
+        let context = StageContext::alone(&evaluations, &jacobians);
         let outcome = ee.run_stage(Stage::EquationError, &mut u, &context);
         Ok((self.to_physical(&u), outcome.status))
     }

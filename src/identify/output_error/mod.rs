@@ -1294,32 +1294,6 @@ impl Problem {
         Ok(self.residuals_of(&self.trajectories(p)?))
     }
 
-    /// Finite-difference Jacobian ∂r/∂x (n columns of length m; forward, or central where
-    /// `central` and both sides simulate) at `x` where
-    /// `p_of(x)` gives the physical parameters, `steps[i]` the step of column i (the sign
-    /// chosen by the caller to stay in the feasible set); all columns simulated in parallel.
-    /// A column whose simulation fails is retried with the opposite step, then left zero.
-    fn jacobian_columns(
-        &self,
-        x: &[f64],
-        r0: &[f64],
-        steps: &[f64],
-        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
-        central: bool,
-    ) -> Vec<Vec<f64>> {
-        (0..x.len())
-            .into_par_iter()
-            .map(|i| {
-                let at = |s: f64| {
-                    let mut xi = x.to_vec();
-                    xi[i] += s;
-                    self.residuals(&p_of(&xi))
-                };
-                difference_column(&at, r0, steps[i], central)
-            })
-            .collect()
-    }
-
     /// Σ r² at `p`, or +∞ where the simulation fails.
     pub fn cost(&self, p: &[f64]) -> f64 {
         self.residuals(p)

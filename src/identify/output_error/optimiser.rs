@@ -123,18 +123,10 @@ pub(crate) fn minimise(
             failures,
             stop: false,
         },
-        Err(MPError::Eval) => StageOutcome {
-            status: "stopped, a simulation failed".into(),
-            iterations: 0,
-            failures,
-            stop: true,
-        },
-        Err(e) => StageOutcome {
-            status: format!("optimiser error {e:?}"),
-            iterations: 0,
-            failures,
-            stop: true,
-        },
+        Err(MPError::Eval) => {
+            StageOutcome::stopped("stopped, a simulation failed".into(), failures)
+        }
+        Err(e) => StageOutcome::stopped(format!("optimiser error {e:?}"), failures),
     }
 }
 
@@ -149,6 +141,21 @@ pub(crate) struct StageContext<'a> {
     pub(crate) progress: &'a (dyn Fn(Progress) + Sync),
 }
 
+impl<'a> StageContext<'a> {
+    /// The context of a lone start (1 of 1) on `evaluations` and `jacobians`, its clock
+    /// started now, no progress display.
+    pub(crate) fn alone(evaluations: &'a AtomicUsize, jacobians: &'a AtomicUsize) -> Self {
+        StageContext {
+            start: 0,
+            starts: 1,
+            evaluations,
+            jacobians,
+            started: Instant::now(),
+            progress: &|_| {},
+        }
+    }
+}
+
 /// How a stage ended.
 pub(crate) struct StageOutcome {
     /// For the report, e.g. "Convergence in parameter value after 6 iteration(s)".
@@ -158,6 +165,19 @@ pub(crate) struct StageOutcome {
     pub(crate) failures: usize,
     /// The start cannot go on to the next stage.
     pub(crate) stop: bool,
+}
+
+impl StageOutcome {
+    /// A stage the optimiser could not run: `status` says why, after `failures` trial
+    /// points that could not be simulated; the start cannot go on.
+    fn stopped(status: String, failures: usize) -> StageOutcome {
+        StageOutcome {
+            status,
+            iterations: 0,
+            failures,
+            stop: true,
+        }
+    }
 }
 
 /// What the Levenberg–Marquardt adapter ([`Fitter`]) needs of a fit: residuals at physical
@@ -171,7 +191,11 @@ pub(crate) trait LeastSquares: Sync {
     fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure>;
     /// Physical parameters from scaled ones.
     fn to_physical(&self, u: &[f64]) -> Vec<f64>;
-    /// ∂r/∂x per parameter, as [`Problem::jacobian_columns`].
+    /// Finite-difference Jacobian ∂r/∂x (n columns of length m; forward, or central where
+    /// `central` and both sides simulate) at `x` where `p_of(x)` gives the physical
+    /// parameters, `steps[i]` the step of column i (the sign chosen by the caller to stay
+    /// in the feasible set); all columns simulated in parallel. A column whose simulation
+    /// fails is retried with the opposite step, then left zero.
     fn jacobian_columns(
         &self,
         x: &[f64],
@@ -179,7 +203,19 @@ pub(crate) trait LeastSquares: Sync {
         steps: &[f64],
         p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
         central: bool,
-    ) -> Vec<Vec<f64>>;
+    ) -> Vec<Vec<f64>> {
+        (0..x.len())
+            .into_par_iter()
+            .map(|i| {
+                let at = |s: f64| {
+                    let mut xi = x.to_vec();
+                    xi[i] += s;
+                    self.residuals(&p_of(&xi))
+                };
+                difference_column(&at, r0, steps[i], central)
+            })
+            .collect()
+    }
     /// The fit's settings.
     fn options(&self) -> &OutputErrorOptions;
     /// The prior's weight per parameter (its rows' diagonal), if the fit has a prior.
@@ -201,16 +237,6 @@ impl LeastSquares for Problem {
     }
     fn to_physical(&self, u: &[f64]) -> Vec<f64> {
         Problem::to_physical(self, u)
-    }
-    fn jacobian_columns(
-        &self,
-        x: &[f64],
-        r0: &[f64],
-        steps: &[f64],
-        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
-        central: bool,
-    ) -> Vec<Vec<f64>> {
-        Problem::jacobian_columns(self, x, r0, steps, p_of, central)
     }
     fn options(&self) -> &OutputErrorOptions {
         &self.options
@@ -599,12 +625,10 @@ pub(crate) fn minimise_trf(
                 stop: false,
             }
         }
-        Err(e) => StageOutcome {
-            status: format!("trust-region-reflective: optimiser error {e:?}"),
-            iterations: 0,
+        Err(e) => StageOutcome::stopped(
+            format!("trust-region-reflective: optimiser error {e:?}"),
             failures,
-            stop: true,
-        },
+        ),
     }
 }
 
@@ -648,23 +672,6 @@ mod tests {
         fn to_physical(&self, u: &[f64]) -> Vec<f64> {
             vec![4.0 * u[0], self.b_max * u[1]]
         }
-        fn jacobian_columns(
-            &self,
-            x: &[f64],
-            r0: &[f64],
-            steps: &[f64],
-            p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
-            _central: bool,
-        ) -> Vec<Vec<f64>> {
-            (0..x.len())
-                .map(|i| {
-                    let mut xi = x.to_vec();
-                    xi[i] += steps[i];
-                    let r = self.residuals(&p_of(&xi)).unwrap();
-                    r.iter().zip(r0).map(|(a, b)| (a - b) / steps[i]).collect()
-                })
-                .collect()
-        }
         fn options(&self) -> &OutputErrorOptions {
             &self.options
         }
@@ -672,14 +679,7 @@ mod tests {
 
     fn trf(problem: &Decay, frozen: &[bool], u: &mut [f64]) -> StageOutcome {
         let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
-        let context = StageContext {
-            start: 0,
-            starts: 1,
-            evaluations: &evaluations,
-            jacobians: &jacobians,
-            started: Instant::now(),
-            progress: &|_| {},
-        };
+        let context = StageContext::alone(&evaluations, &jacobians);
         let cost = |u: &[f64]| -> f64 {
             let r = problem.residuals(&problem.to_physical(u)).unwrap();
             r.iter().map(|x| x * x).sum()
