@@ -3,6 +3,7 @@
 //! Broyden's rank-one update between refreshes, and each stage's stopping rules.
 
 use super::*;
+use std::sync::Mutex;
 
 /// The stopping rules of a fit's `stage` under `options` ([`Problem::run_stage`]).
 /// Segment and short-horizon stages stop on looser rules: relative step 1e-4 (or the
@@ -84,10 +85,7 @@ pub(crate) fn minimise(
     let mut fitter = Fitter {
         problem,
         context,
-        best: f64::INFINITY,
-        stage,
-        cache: None,
-        failures: 0,
+        evaluator: Evaluator::new(problem, context, stage, start_cost),
         jacobian: None,
         config,
         pars: frozen
@@ -102,7 +100,6 @@ pub(crate) fn minimise(
                 ..MPPar::new()
             })
             .collect(),
-        start_cost,
     };
     let mut result = fitter.mpfit(u);
     let mut iterations = result.as_ref().map_or(0, |st| st.n_iter);
@@ -115,7 +112,7 @@ pub(crate) fn minimise(
         iterations += result.as_ref().map_or(0, |st| st.n_iter);
         reruns += 1;
     }
-    let failures = fitter.failures;
+    let failures = fitter.evaluator.failures();
     match result {
         Ok(st) => StageOutcome {
             status: format!("{:?} after {iterations} iteration(s)", st.success),
@@ -253,16 +250,12 @@ impl LeastSquares for Problem {
 struct Fitter<'a> {
     problem: &'a dyn LeastSquares,
     context: &'a StageContext<'a>,
-    best: f64,
-    stage: Stage,
-    cache: Option<(Vec<f64>, Vec<f64>)>,
-    failures: usize,
+    evaluator: Evaluator<'a>,
     /// The last Jacobian handed to the optimiser ([`OutputErrorOptions::jacobian_refresh`]).
     jacobian: Option<LastJacobian>,
 
     config: MPConfig,
     pars: Vec<MPPar>,
-    start_cost: f64,
 }
 
 /// A Jacobian of the simulated residuals and where it was taken.
@@ -306,29 +299,68 @@ impl LastJacobian {
     }
 }
 
-impl Fitter<'_> {
-    fn evaluate(&mut self, u: &[f64]) -> Vec<f64> {
-        if let Some((cu, cr)) = &self.cache {
+/// A stage's residual evaluations, shared by both optimisers' adapters: the simulated
+/// residuals at scaled parameters then the prior's rows, the last point's cached (an
+/// optimiser asks again for the point whose Jacobian it takes), every simulation counted in
+/// the fit's evaluations, and the progress display fed the lowest cost seen. A trial point
+/// where the plant diverges gets residuals of 1e3 × the start's root mean square, a cost
+/// far above the start's, so that the step is rejected and the trust region shrinks.
+struct Evaluator<'a> {
+    problem: &'a dyn LeastSquares,
+    context: &'a StageContext<'a>,
+    stage: Stage,
+    /// The residual of a trial point that cannot be simulated.
+    level: f64,
+    cache: Mutex<Option<(Vec<f64>, Vec<f64>)>>,
+    best: Mutex<f64>,
+    failures: AtomicUsize,
+}
+
+impl<'a> Evaluator<'a> {
+    /// For `stage` of `problem` from a start of cost `start_cost`.
+    fn new(
+        problem: &'a dyn LeastSquares,
+        context: &'a StageContext<'a>,
+        stage: Stage,
+        start_cost: f64,
+    ) -> Self {
+        let m = problem.residual_count();
+        Evaluator {
+            problem,
+            context,
+            stage,
+            level: (start_cost.max(1e-12) / m as f64).sqrt() * 1e3,
+            cache: Mutex::new(None),
+            best: Mutex::new(f64::INFINITY),
+            failures: AtomicUsize::new(0),
+        }
+    }
+
+    /// The residuals at scaled parameters `u` (simulated, then the prior's rows).
+    fn residuals(&self, u: &[f64]) -> Vec<f64> {
+        if let Some((cu, cr)) = self
+            .cache
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .as_ref()
+        {
             if cu.as_slice() == u {
                 return cr.clone();
             }
         }
         self.context.evaluations.fetch_add(1, Ordering::Relaxed);
-        let m = self.problem.residual_count();
-        let mut r = match self.problem.residuals(&self.problem.to_physical(u)) {
-            Ok(r) => r,
-            Err(_) => {
-                // A trial point where the plant diverges: a cost far above the start's so
-                // that the step is rejected and the trust region shrinks.
-                self.failures += 1;
-                let level = (self.start_cost.max(1e-12) / m as f64).sqrt() * 1e3;
-                vec![level; m]
-            }
-        };
-        r.extend(self.problem.prior_residuals(u));
+        let p = self.problem;
+        let mut r = p.residuals(&p.to_physical(u)).unwrap_or_else(|_| {
+            self.failures.fetch_add(1, Ordering::Relaxed);
+            vec![self.level; p.residual_count()]
+        });
+        r.extend(p.prior_residuals(u));
         let c: f64 = r.iter().map(|x| x * x).sum();
-        self.best = self.best.min(c);
-        let best = self.best;
+        let best = {
+            let mut best = self.best.lock().unwrap_or_else(|e| e.into_inner());
+            *best = best.min(c);
+            *best
+        };
         (self.context.progress)(Progress {
             start: self.context.start,
             starts: self.context.starts,
@@ -338,14 +370,19 @@ impl Fitter<'_> {
             cost: best,
             elapsed: self.context.started.elapsed().as_secs_f64(),
         });
-        self.cache = Some((u.to_vec(), r.clone()));
+        *self.cache.lock().unwrap_or_else(|e| e.into_inner()) = Some((u.to_vec(), r.clone()));
         r
+    }
+
+    /// Trial points that could not be simulated so far.
+    fn failures(&self) -> usize {
+        self.failures.load(Ordering::Relaxed)
     }
 }
 
 impl MPFitter for Fitter<'_> {
     fn eval(&mut self, params: &[f64], deviates: &mut [f64]) -> MPResult<()> {
-        let r = self.evaluate(params);
+        let r = self.evaluator.residuals(params);
         deviates.copy_from_slice(&r);
         Ok(())
     }
@@ -368,7 +405,7 @@ impl MPFitter for Fitter<'_> {
         deviates: &mut [f64],
         derivs: &mut [Option<Vec<f64>>],
     ) -> MPResult<()> {
-        let r0 = self.evaluate(params);
+        let r0 = self.evaluator.residuals(params);
         deviates.copy_from_slice(&r0);
         self.context.jacobians.fetch_add(1, Ordering::Relaxed);
         let p = self.problem;
@@ -449,21 +486,17 @@ pub(crate) fn minimise_trf(
         TrustRegionReflective,
     };
     use std::convert::Infallible;
-    use std::sync::Mutex;
 
     /// The stage's free parameters as basin sees them: the scaled values of the free
     /// ones, the frozen ones fixed at `base`.
     struct Free<'a> {
         problem: &'a dyn LeastSquares,
         context: &'a StageContext<'a>,
-        stage: Stage,
+        evaluator: &'a Evaluator<'a>,
         base: Vec<f64>,
         free: Vec<usize>,
         lower: Vec<f64>,
         upper: Vec<f64>,
-        level: f64,
-        failures: &'a AtomicUsize,
-        best: &'a Mutex<f64>,
     }
 
     impl Free<'_> {
@@ -475,33 +508,6 @@ pub(crate) fn minimise_trf(
                 u[i] = v.clamp(0.0, 1.0);
             }
             u
-        }
-
-        /// The simulated residuals at scaled `u`, then the prior's rows.
-        fn residuals(&self, u: &[f64]) -> Vec<f64> {
-            let p = self.problem;
-            let count = self.context.evaluations.fetch_add(1, Ordering::Relaxed) + 1;
-            let mut r = p.residuals(&p.to_physical(u)).unwrap_or_else(|_| {
-                self.failures.fetch_add(1, Ordering::Relaxed);
-                vec![self.level; p.residual_count()]
-            });
-            r.extend(p.prior_residuals(u));
-            let c: f64 = r.iter().map(|x| x * x).sum();
-            let best = {
-                let mut best = self.best.lock().unwrap_or_else(|e| e.into_inner());
-                *best = best.min(c);
-                *best
-            };
-            (self.context.progress)(Progress {
-                start: self.context.start,
-                starts: self.context.starts,
-                stage: self.stage,
-                iteration: self.context.jacobians.load(Ordering::Relaxed),
-                evaluations: count,
-                cost: best,
-                elapsed: self.context.started.elapsed().as_secs_f64(),
-            });
-            r
         }
     }
 
@@ -519,6 +525,7 @@ pub(crate) fn minimise_trf(
         fn cost(&self, x: &Vec<f64>) -> Result<f64, Infallible> {
             Ok(0.5
                 * self
+                    .evaluator
                     .residuals(&self.full(x))
                     .iter()
                     .map(|r| r * r)
@@ -531,7 +538,7 @@ pub(crate) fn minimise_trf(
         type Output = Vec<f64>;
         type Error = Infallible;
         fn residual(&self, x: &Vec<f64>) -> Result<Vec<f64>, Infallible> {
-            Ok(self.residuals(&self.full(x)))
+            Ok(self.evaluator.residuals(&self.full(x)))
         }
     }
 
@@ -540,7 +547,7 @@ pub(crate) fn minimise_trf(
         fn jacobian(&self, x: &Vec<f64>) -> Result<DenseMatrix, Infallible> {
             let p = self.problem;
             let u = self.full(x);
-            let r0 = self.residuals(&u);
+            let r0 = self.evaluator.residuals(&u);
             let m = p.residual_count();
             let h = p.options().fd_step;
             // A step only for the free columns; toward the interior near the upper bound.
@@ -583,21 +590,16 @@ pub(crate) fn minimise_trf(
     }
 
     let free: Vec<usize> = (0..u.len()).filter(|&i| !frozen[i]).collect();
-    let m = problem.residual_count();
     let x0: Vec<f64> = free.iter().map(|&i| u[i].clamp(0.0, 1.0)).collect();
-    let failures = AtomicUsize::new(0);
-    let best = Mutex::new(f64::INFINITY);
+    let evaluator = Evaluator::new(problem, context, stage, start_cost);
     let fitter = Free {
         problem,
         context,
-        stage,
+        evaluator: &evaluator,
         base: u.to_vec(),
         lower: vec![0.0; free.len()],
         upper: vec![1.0; free.len()],
         free: free.clone(),
-        level: (start_cost.max(1e-12) / m as f64).sqrt() * 1e3,
-        failures: &failures,
-        best: &best,
     };
     let jacobians_before = context.jacobians.load(Ordering::Relaxed);
     let solver = TrustRegionReflective::new()
@@ -606,7 +608,7 @@ pub(crate) fn minimise_trf(
     let run = Executor::from_start(fitter, solver, x0)
         .max_iter(config.max_iter as u64)
         .run();
-    let failures = failures.load(Ordering::Relaxed);
+    let failures = evaluator.failures();
     match run {
         Ok(result) => {
             let iterations = result.iter() as usize;
