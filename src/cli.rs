@@ -597,8 +597,13 @@ pub struct OutputErrorArgs {
     /// follows a descent that the Levenberg–Marquardt stops on with a collapsed trust
     /// region (k3 of the Freedom 6S at ω = 100 rad/s: 0.148 → 0.110 where it stopped at
     /// 0.147), at one finite-difference Jacobian per iteration.
-    #[arg(long, default_value = "lm", value_parser = ["lm", "trf"])]
-    pub predictor_optimiser: String,
+    #[arg(long, value_enum, default_value = "lm")]
+    pub predictor_optimiser: StageOptimiser,
+    /// Optimiser of the whole files' stage (the cost itself) and of the refit that
+    /// releases held values: `lm` or `trf`, as --predictor-optimiser. The horizons',
+    /// segments' and equation error's stages run `lm`.
+    #[arg(long, value_enum, default_value = "lm")]
+    pub whole_files_optimiser: StageOptimiser,
     /// Initial positions of the free joints in every file: `estimate`d with the parameters
     /// at the whole files' stage (as MATLAB `oe`/`pem` with `InitialCondition = 'estimate'`;
     /// the first sample carries the sensor noise, which a trajectory sensitive to its start
@@ -747,10 +752,8 @@ impl OutputErrorArgs {
                     _ => bail!("--predictor-step: expected 'none' or a positive step in seconds such as 1/2000, got '{x}'"),
                 },
             },
-            predictor_optimiser: match self.predictor_optimiser.as_str() {
-                "trf" => StageOptimiser::TrustRegionReflective,
-                _ => StageOptimiser::LevenbergMarquardt,
-            },
+            predictor_optimiser: self.predictor_optimiser,
+            whole_files_optimiser: self.whole_files_optimiser,
             estimate_initial_positions: initial_positions_arg == "estimate",
             noise_sigma: match self.noise_sigma.trim() {
                 "estimate" => None,

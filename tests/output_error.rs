@@ -2203,15 +2203,23 @@ fn a_start_the_whole_files_diverge_from_is_warmed_up_to_the_noise_floor() {
         .contains("predictor ω = 100 rad/s"));
 }
 
-/// The same through the trust-region-reflective method for the predictor's stages
-/// (`--predictor-optimiser trf`): the same floor, what it calls identifiable within 5 %,
-/// and the report names the method of each predictor stage.
+/// The same through the trust-region-reflective method for the predictor's stages and
+/// the whole files' (`--predictor-optimiser trf --whole-files-optimiser trf`): the same
+/// floor, what it calls identifiable within 5 %, and the report names the method of each
+/// stage.
 #[test]
-fn the_trust_region_reflective_predictor_warms_a_diverging_start_up_to_the_noise_floor() {
-    let starts = fit_the_diverging_start(&["--predictor-optimiser", "trf"]);
+fn the_trust_region_reflective_method_warms_a_diverging_start_up_to_the_noise_floor() {
+    let starts = fit_the_diverging_start(&[
+        "--predictor-optimiser",
+        "trf",
+        "--whole-files-optimiser",
+        "trf",
+    ]);
     let status = starts[0]["status"].as_str().unwrap();
     assert!(
-        status.contains("predictor ω = 100 rad/s") && status.contains("trust-region-reflective"),
+        status.contains("predictor ω = 100 rad/s (")
+            && status.contains("): trust-region-reflective: ")
+            && status.contains("horizon 100 %: trust-region-reflective: "),
         "{status}"
     );
 }

@@ -1027,6 +1027,11 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
             o.predictor_optimiser
         );
     }
+    let _ = write!(
+        simulation,
+        "; the whole files' stage by the {} method",
+        o.whole_files_optimiser
+    );
     if o.jacobian_refresh > 1 {
         let _ = write!(
             simulation,

@@ -691,9 +691,12 @@ impl Problem {
             .fold(0.0, f64::max)
     }
 
-    /// One bounded Levenberg–Marquardt run of `stage` on this problem from the scaled
+    /// One bounded least-squares run of `stage` on this problem from the scaled
     /// parameters `u`, which it updates in place, on the stage's stopping rules
-    /// ([`stage_rules`]).
+    /// ([`stage_rules`]), by the stage's optimiser
+    /// ([`OutputErrorOptions::predictor_optimiser`],
+    /// [`OutputErrorOptions::whole_files_optimiser`]; rmpfit's Levenberg–Marquardt
+    /// elsewhere).
     fn run_stage(&self, stage: Stage, u: &mut [f64], context: &StageContext) -> StageOutcome {
         let warm_up = !stage.is_final();
         let start_cost = self.cost(&self.to_physical(u));
@@ -708,11 +711,18 @@ impl Problem {
         }
         let frozen: Vec<bool> = self.names.iter().map(|n| self.is_frozen(n)).collect();
         let config = stage_rules(&self.options, stage);
-        match (stage, self.options.predictor_optimiser) {
-            (Stage::Predictor(_), StageOptimiser::TrustRegionReflective) => {
+        let optimiser = match stage {
+            Stage::Predictor(_) => self.options.predictor_optimiser,
+            s if s.is_final() => self.options.whole_files_optimiser,
+            _ => StageOptimiser::LevenbergMarquardt,
+        };
+        match optimiser {
+            StageOptimiser::TrustRegionReflective => {
                 minimise_trf(self, stage, &frozen, &config, u, context, start_cost)
             }
-            _ => minimise(self, stage, &frozen, config, u, context, start_cost),
+            StageOptimiser::LevenbergMarquardt => {
+                minimise(self, stage, &frozen, config, u, context, start_cost)
+            }
         }
     }
 

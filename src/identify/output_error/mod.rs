@@ -268,16 +268,22 @@ pub struct OutputErrorOptions {
     /// a refit from a fitted minimum that already had the branch (the release of held
     /// values, [`crate::identify::sequence::release_held`]).
     pub stribeck_reseed: bool,
-    /// The optimiser of the predictor's stages ([`StageOptimiser`]); every other stage runs
-    /// rmpfit's Levenberg–Marquardt.
+    /// The optimiser of the predictor's stages ([`StageOptimiser`]).
     pub predictor_optimiser: StageOptimiser,
+    /// The optimiser of the whole files' stage, the cost (4.2)/(4.3) itself
+    /// ([`Stage::is_final`]), and of the refits that release held values. Every other
+    /// stage (horizons, segments, equation error, the joint fit) runs rmpfit's
+    /// Levenberg–Marquardt.
+    pub whole_files_optimiser: StageOptimiser,
 }
 
 /// The bounded least-squares method of a fit's stages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
 pub enum StageOptimiser {
     /// rmpfit's bounded Levenberg–Marquardt (MINPACK's `lmdif` with CMPFIT's limits), with
     /// [`OutputErrorOptions::jacobian_refresh`]'s Broyden updates between Jacobians.
+    /// The CLI's `lm`.
+    #[value(name = "lm")]
     LevenbergMarquardt,
     /// basin's trust-region-reflective method (Coleman & Li, *SIAM J. Optim.* 6, 1996;
     /// SciPy's `least_squares(method='trf')`): bounds by an affine scaling that shrinks
@@ -287,7 +293,8 @@ pub enum StageOptimiser {
     /// "convergence in chi-square value" with a projected gradient still pointing down a
     /// straight descent to 0.11032), it reached 0.11032 in 23 iterations; rmpfit restarted
     /// there stopped at 0.14734 after 7. Its stage at ω = 30 rad/s then went on to 0.2377,
-    /// where the Levenberg–Marquardt had lost the path (2.47).
+    /// where the Levenberg–Marquardt had lost the path (2.47). The CLI's `trf`.
+    #[value(name = "trf")]
     TrustRegionReflective,
 }
 
@@ -347,6 +354,7 @@ impl Default for OutputErrorOptions {
             noise_sigma: None,
             stribeck_reseed: true,
             predictor_optimiser: StageOptimiser::LevenbergMarquardt,
+            whole_files_optimiser: StageOptimiser::LevenbergMarquardt,
         }
     }
 }
