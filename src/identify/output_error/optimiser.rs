@@ -557,14 +557,7 @@ pub(crate) fn minimise_trf(
                 .map(|&i| if u[i] + h > 1.0 { -h } else { h })
                 .collect();
             let free = &self.free;
-            let base = &u;
-            let p_of = |y: &[f64]| {
-                let mut v = base.clone();
-                for (&i, &yi) in free.iter().zip(y) {
-                    v[i] = yi;
-                }
-                p.to_physical(&v)
-            };
+            let p_of = |y: &[f64]| p.to_physical(&self.full(y));
             let y: Vec<f64> = free.iter().map(|&i| u[i]).collect();
             let columns = p.jacobian_columns(&y, &r0[..m], &steps, &p_of, false);
             self.context.jacobians.fetch_add(1, Ordering::Relaxed);
