@@ -1644,6 +1644,92 @@ fn a_held_values_standard_error_is_propagated_along_the_plant_gain_scale() {
     assert_eq!(exact.std_err, exact.std_err_given_held);
 }
 
+/// c6 (joint 0 alone) sees the rigid body through one base parameter, its inertia
+/// D_00 at the files' locked pose: the spanning symbol I1_33 plus the held ties' terms.
+/// With two held ties short of the truth (I2_33 × 0.75, m1 × 0.8), D_00 needs I1_33
+/// past its upper bound (the truth + 30 %): the first fit ends there, above the noise
+/// floor. The reach across held ties fits again with I1_33's bound moved out by what the
+/// held ties can carry, spreads D_00 back over every symbol's own bounds and fits on
+/// them: the noise floor, D_00 within 0.2 % of the truth's, every value within its own
+/// bounds, and the held ties that moved in the plant written.
+#[test]
+fn a_spanning_symbol_on_its_bound_reaches_its_base_parameter_through_the_held_ties() {
+    use lockstep::plant::ConsistencyPolicy;
+    let d = tempfile::tempdir().unwrap();
+    let truth_file = truth(d.path());
+    let truth = Plant::load(&truth_file).unwrap();
+    make_data(d.path(), &truth_file, "4.3", Some("J0"), "c6", "12");
+    let start = truth_within_bounds(d.path(), &truth_file, &[("I2_33", 0.75), ("m1", 0.8)]);
+    let mut plant = Plant::load(&start).unwrap();
+    // The plant gain known (as the isolated method needs for c6): held at the truth's.
+    let kp = truth.parameters["Kp_0"];
+    plant.bounds.insert("Kp_0".into(), (kp, kp));
+    plant.save(&start).unwrap();
+    let report = identify_isolated(
+        d.path(),
+        &start,
+        "c6",
+        &["--step", "1/2000", "--horizons", "1"],
+    );
+    let step = &report["steps"][0];
+    let reach = &step["tie_reach"];
+    println!("{reach:#}");
+    // The premise: the first fit ended on I1_33's upper bound above the floor.
+    let representatives = reach["representatives"].as_array().unwrap();
+    assert_eq!(representatives.len(), 1, "{representatives:?}");
+    assert_eq!(representatives[0][0], "I1_33");
+    let upper = plant.bounds["I1_33"].1;
+    assert_eq!(representatives[0][1].as_f64().unwrap(), upper);
+    let cost_before = reach["cost_before"].as_f64().unwrap();
+    let cost_after = reach["cost_after"].as_f64().unwrap();
+    assert!(reach["kept"].as_bool().unwrap());
+    assert!(
+        cost_after < 0.5 * cost_before,
+        "{cost_before} → {cost_after}"
+    );
+    let fit = &step["fit"];
+    for j in fit["statistics"]["joints"].as_array().unwrap() {
+        let (rms, noise) = (j["rms"].as_f64().unwrap(), j["noise"].as_f64().unwrap());
+        assert!(
+            rms <= 1.1 * noise,
+            "joint {} at {:.2} σ̂",
+            j["joint"],
+            rms / noise
+        );
+    }
+    let out = d.path().join("out");
+    let written = Plant::load(&out.join("plant.toml")).unwrap();
+    let moved: Vec<(String, f64, f64)> = serde_json::from_value(reach["moved"].clone()).unwrap();
+    assert!(!moved.is_empty());
+    for (n, before, after) in &moved {
+        assert_eq!(plant.parameters[n], *before, "{n}");
+        assert_eq!(written.parameters[n], *after, "{n}");
+    }
+    for (n, &(lo, hi)) in &plant.bounds {
+        let v = written.parameters[n];
+        assert!(lo <= v && v <= hi, "{n} = {v} outside [{lo}, {hi}]");
+    }
+    // D_00 at the files' locked pose: the truth's.
+    let conf = truth.model.configuration("c6").unwrap();
+    let rec = read_record(&d.path().join("data/c6_run.csv"), truth.model, conf, 0.01).unwrap();
+    let d00 = |p: &Plant| {
+        p.simulator("c6", &rec.q_all, ConsistencyPolicy::Warn)
+            .unwrap()
+            .model
+            .inertia_matrix(&[rec.q_all[0]])[(0, 0)]
+    };
+    let (fitted, true_d00, held_d00) = (d00(&written), d00(&truth), d00(&plant));
+    println!("D_00: start {held_d00:.6e}, fitted {fitted:.6e}, truth {true_d00:.6e}");
+    assert!(
+        (held_d00 / true_d00 - 1.0).abs() > 0.02,
+        "premise: the start's D_00 is short"
+    );
+    assert!(
+        (fitted / true_d00 - 1.0).abs() < 2e-3,
+        "D_00 {fitted} against {true_d00}"
+    );
+}
+
 /// Isolated step c5 (joint 1 alone, the other joints locked) sees 42 rigid-body symbols
 /// only through 3 base parameters where its file holds the locked joints (the inertia
 /// about joint 1's axis and two gravity terms). With `--rigid-body spanning` it fits the 3

@@ -430,6 +430,26 @@ pub fn least_change_along_ties(
     lower: &[f64],
     upper: &[f64],
 ) -> anyhow::Result<Vec<f64>> {
+    least_change_along_ties_at(plant, conf, &[], names, initial, lower, upper)
+}
+
+/// [`least_change_along_ties`] with the base parameters of data whose locked joints sit at
+/// `locked_at` ([`base_parameters_at`]; empty: anywhere), which tie more symbols than the
+/// base parameters anywhere do. A start value outside its bounds is clamped into them
+/// first, and the penalty then moves the others to keep β: how [`tie_reach`]'s widened
+/// fit is brought back inside every symbol's own bounds.
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing).
+pub fn least_change_along_ties_at(
+    plant: &crate::plant::Plant,
+    conf: &Configuration,
+    locked_at: &[Vec<f64>],
+    names: &[String],
+    initial: &[f64],
+    lower: &[f64],
+    upper: &[f64],
+) -> anyhow::Result<Vec<f64>> {
     let model = plant.model;
     let mut values: Vec<f64> = names
         .iter()
@@ -439,7 +459,7 @@ pub fn least_change_along_ties(
     if rigid.is_empty() {
         return Ok(values);
     }
-    let base = BaseMap::new(model, conf);
+    let base = BaseMap::at(model, conf, locked_at);
     let width: Vec<f64> = rigid.iter().map(|&i| upper[i] - lower[i]).collect();
     let nr = rigid.len();
     let beta_at = |at: &mut crate::plant::Plant, z: &[f64]| -> anyhow::Result<Vec<f64>> {
@@ -464,7 +484,11 @@ pub fn least_change_along_ties(
     let to_z =
         |x: &[f64]| -> Vec<f64> { rigid.iter().zip(&width).map(|(&i, w)| x[i] / w).collect() };
     let (z0, zlo, zhi) = (to_z(initial), to_z(lower), to_z(upper));
-    let mut z = to_z(&values);
+    let mut z: Vec<f64> = to_z(&values)
+        .iter()
+        .enumerate()
+        .map(|(c, &x)| x.clamp(zlo[c], zhi[c]))
+        .collect();
     // min ‖z − z₀‖² subject to β(z) = β(fit) and the bounds, by a penalty K ‖scaled β
     // violation‖² raised in steps (each fit warm-starts the next) with bounded
     // Levenberg–Marquardt.
@@ -510,6 +534,62 @@ pub fn least_change_along_ties(
         values[i] = (z[c] * width[c]).clamp(lower[i], upper[i]);
     }
     Ok(values)
+}
+
+/// How far the held rigid-body symbols `held` can carry, within their bounds, the base
+/// parameters β that the fitted symbol `representative` moves in configuration `conf`
+/// with its locked joints at `locked_at` ([`base_parameters_at`]): in the
+/// representative's units (kg, kg·m, kg·m²), the largest over the β rows k it moves of
+/// Σ_h |∂β_k/∂h| (upper_h − lower_h) / |∂β_k/∂representative|. A fit whose spanning
+/// symbol ([`spanning_symbols`]) ends on a bound while the data want its β further, with
+/// the held ties at values an earlier step could not determine, can reach that β by
+/// moving them instead (c6 of the Freedom 6S, joint 0 alone: its single inertia
+/// β = I1_33 + the held links' terms; with I1_33 on its upper bound the fit ended at
+/// 26 σ̂, with I1_33 free to the tie's reach at 0.98 σ̂). Linear in each symbol's step
+/// (β is at most quadratic in each symbol): a box for a search, not a guarantee.
+/// 0 when `held` is empty or the representative moves no β.
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing); a held symbol
+/// without bounds (named).
+pub fn tie_reach(
+    plant: &crate::plant::Plant,
+    conf: &Configuration,
+    locked_at: &[Vec<f64>],
+    representative: &str,
+    held: &[String],
+) -> anyhow::Result<f64> {
+    if held.is_empty() {
+        return Ok(0.0);
+    }
+    let names: Vec<String> = std::iter::once(representative.to_string())
+        .chain(held.iter().cloned())
+        .collect();
+    let width = names
+        .iter()
+        .map(|n| {
+            plant
+                .bounds
+                .get(n)
+                .map(|&(lo, hi)| hi - lo)
+                .ok_or_else(|| anyhow::anyhow!("'{n}' has no bounds"))
+        })
+        .collect::<anyhow::Result<Vec<f64>>>()?;
+    let columns: Vec<usize> = (0..names.len()).collect();
+    let (_, g) = base_jacobian(plant, &[(conf, locked_at)], &names, &columns, &|_, _| 1.0)?;
+    let largest = (0..g.nrows()).fold(0.0f64, |a, k| a.max(g[(k, 0)].abs()));
+    if largest == 0.0 {
+        return Ok(0.0);
+    }
+    Ok((0..g.nrows())
+        .filter(|&k| g[(k, 0)].abs() > 1e-9 * largest)
+        .map(|k| {
+            (1..names.len())
+                .map(|c| g[(k, c)].abs() * width[c])
+                .sum::<f64>()
+                / g[(k, 0)].abs()
+        })
+        .fold(0.0, f64::max))
 }
 
 /// G = ∂β/∂s: the base parameters β of every configuration of `places` (rows, unscaled;

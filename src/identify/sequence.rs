@@ -357,6 +357,8 @@ pub struct StepReport {
     pub carried_prior: Vec<(String, f64)>,
     /// The release of held values ([`SequenceOptions::release_held`]), when tried.
     pub release: Option<Release>,
+    /// The reach across held ties ([`reach_across_held_ties`]), when tried.
+    pub tie_reach: Option<TieReach>,
 }
 
 /// Information ratio ρ ([`Statistics::held_information`]) above which a held value is
@@ -381,6 +383,33 @@ pub struct Release {
     /// How the release's fit ended.
     pub status: String,
     /// Its cost evaluations, Jacobians and wall time (s), included in the step's.
+    pub evaluations: usize,
+    /// Jacobians.
+    pub jacobians: usize,
+    /// Wall time (s).
+    pub wall_s: f64,
+}
+
+/// The reach across held ties after a step that ended above the noise floor with a
+/// fitted rigid-body symbol on a bound ([`reach_across_held_ties`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct TieReach {
+    /// Per fitted symbol on a bound: name, that bound, the bounds of the wide fit (SI),
+    /// its value there (the β the held ties then carried).
+    pub representatives: Vec<(String, f64, (f64, f64), f64)>,
+    /// Held ties moved along the tie to carry it: name, value before, after (SI). Applied
+    /// to the plant when [`TieReach::kept`].
+    pub moved: Vec<(String, f64, f64)>,
+    /// The step's cost before (its first fit), after the wide fit, and after the fit on
+    /// the own bounds from the spread values.
+    pub cost_before: f64,
+    /// Cost of the wide fit.
+    pub cost_wide: f64,
+    /// Cost after.
+    pub cost_after: f64,
+    /// Whether the result was kept (its cost + prior term below the first fit's).
+    pub kept: bool,
+    /// Cost evaluations of both refits, included in the step's.
     pub evaluations: usize,
     /// Jacobians.
     pub jacobians: usize,
@@ -645,6 +674,15 @@ pub fn run(
         let carried_prior = problem.carried_prior();
         let cname = s.config.clone();
         let fit = problem.fit(&|p| progress(&cname, p))?;
+        let (fit, tie_reach) =
+            reach_across_held_ties(&problem, &current, fit, &s.interest, &s.tied_held, &|p| {
+                progress(&cname, p)
+            })?;
+        if let Some(t) = tie_reach.as_ref().filter(|t| t.kept) {
+            for (n, _, v) in &t.moved {
+                current.parameters.insert(n.clone(), *v);
+            }
+        }
         let (fit, release) = if opts.release_held && !fit.statistics.above_floor.is_empty() {
             release_held(&problem, &current, fit, &s.interest, &s.tied_held, &|p| {
                 progress(&cname, p)
@@ -690,6 +728,7 @@ pub fn run(
             impossible,
             carried_prior,
             release,
+            tie_reach,
         });
         current.description = format!(
             "{} — identified by lockstep ({} method, steps {})",
@@ -782,14 +821,7 @@ pub fn release_held(
     }
     let mut from = plant.clone();
     fit.apply(&mut from);
-    let mut options = problem.options().clone();
-    options.horizons = vec![1.0];
-    options.segments.clear();
-    options.equation_error = None;
-    options.predictor.clear();
-    options.starts = 1;
-    // The first fit's minimum already had the Stribeck branch.
-    options.stribeck_reseed = false;
+    let options = refit_options(problem);
     let released: Vec<String> = candidates.iter().map(|c| c.0.clone()).collect();
     let mut names = fit.names.clone();
     names.extend(released.iter().cloned());
@@ -837,14 +869,34 @@ pub fn release_held(
         jacobians: second.jacobians,
         wall_s: second.wall_s,
     };
+    Ok((merge_refit(fit, second, kept, plant), Some(summary)))
+}
+
+/// The options of a refit from a step's fitted minimum ([`release_held`],
+/// [`reach_across_held_ties`]): `problem`'s, with the whole files only (no warm-ups), one
+/// start, and no Stribeck re-seed (the first fit's minimum already had that branch).
+fn refit_options(problem: &Problem) -> OutputErrorOptions {
+    let mut options = problem.options().clone();
+    options.horizons = vec![1.0];
+    options.segments.clear();
+    options.equation_error = None;
+    options.predictor.clear();
+    options.starts = 1;
+    options.stribeck_reseed = false;
+    options
+}
+
+/// The step's result after a refit `second` of its `fit` from `plant` (the plant the step
+/// started from): the refit's values and statistics with the step's history (initial
+/// values, cost before, starts) when `kept`, else the fit; the work of both either way.
+fn merge_refit(fit: FitResult, second: FitResult, kept: bool, plant: &Plant) -> FitResult {
     if !kept {
         let mut fit = fit;
         fit.evaluations += second.evaluations;
         fit.jacobians += second.jacobians;
         fit.wall_s += second.wall_s;
-        return Ok((fit, Some(summary)));
+        return fit;
     }
-    // The step's result: the release's values and statistics, the step's history.
     let mut merged = second;
     for (i, n) in merged.names.iter().enumerate() {
         merged.initial[i] = match fit.names.iter().position(|x| x == n) {
@@ -858,7 +910,161 @@ pub fn release_held(
     merged.wall_s += fit.wall_s;
     merged.starts = fit.starts;
     merged.best_start = fit.best_start;
-    Ok((merged, Some(summary)))
+    merged
+}
+
+/// A fitted rigid-body symbol's value within this fraction of its bound width from a
+/// bound counts as on it ([`reach_across_held_ties`]).
+const ON_BOUND: f64 = 1e-6;
+
+/// The reach across held ties after a step's `fit` of `problem` (joints of interest
+/// `interest`, rigid-body symbols held along ties `held_ties`) ended above the noise
+/// floor with a fitted rigid-body symbol on a bound; `plant` is the plant the step
+/// started from. Such a symbol stands for base parameters β that it shares with held
+/// ties ([`spanning_symbols`]), held at values an earlier step could not determine, so
+/// its bound is not β's: the held ties can carry β further within their own bounds
+/// ([`tie_reach`](super::identifiability::tie_reach)). The step is fitted again from
+/// the fit's values with each such symbol's bound moved out by that reach; the result's
+/// β is then spread back over the fitted and held symbols within their own bounds,
+/// nearest the step's initial values and the held values
+/// ([`least_change_along_ties_at`](super::identifiability::least_change_along_ties_at));
+/// and the step is fitted once more from there, on its own bounds. Kept when that
+/// last fit's cost + prior term is below the first fit's; the held ties that moved are
+/// then in [`TieReach::moved`], for the plant. On c6 of the Freedom 6S (joint 0 alone,
+/// its inertia β = I1_33 + the held links' terms) the first fit ended with I1_33 on its
+/// upper bound at 26 σ̂.
+///
+/// # Errors
+/// A refit's problem cannot be set up; the barycentric parameters cannot be formed.
+pub fn reach_across_held_ties(
+    problem: &Problem,
+    plant: &Plant,
+    fit: FitResult,
+    interest: &[usize],
+    held_ties: &[String],
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<(FitResult, Option<TieReach>)> {
+    if held_ties.is_empty() || fit.statistics.above_floor.is_empty() {
+        return Ok((fit, None));
+    }
+    let model = plant.model;
+    let conf = problem.configuration();
+    let locked_at = problem.locked_at();
+    let mut from = plant.clone();
+    fit.apply(&mut from);
+    let mut wide = from.clone();
+    let mut representatives = Vec::new();
+    for (i, n) in fit.names.iter().enumerate() {
+        if !model.inertial_symbols.contains(&n.as_str()) {
+            continue;
+        }
+        let (lo, hi) = (fit.lower[i], fit.upper[i]);
+        let near = ON_BOUND * (hi - lo);
+        let at_upper = fit.fitted[i] >= hi - near;
+        if !(at_upper || fit.fitted[i] <= lo + near) {
+            continue;
+        }
+        let reach = super::identifiability::tie_reach(&from, conf, &locked_at, n, held_ties)
+            .context("the reach across held ties")?;
+        if reach <= near {
+            continue;
+        }
+        let bound = if at_upper { hi } else { lo };
+        let widened = if at_upper {
+            (lo, hi + reach)
+        } else {
+            (lo - reach, hi)
+        };
+        wide.bounds.insert(n.clone(), widened);
+        representatives.push((n.clone(), bound, widened));
+    }
+    if representatives.is_empty() {
+        return Ok((fit, None));
+    }
+    let mut options = refit_options(problem);
+    // The wide fit's values are only a β to spread back: no least change on them.
+    options.least_change = false;
+    // The first fit's Stribeck branch was fitted with the rigid body held short of its
+    // β: the friction may have absorbed the missing inertia (c6 of the Freedom 6S: the
+    // dip collapsed, Fs_0 = Fc_0, and the wide fit from there ended at 1.68 σ̂).
+    options.stribeck_reseed = problem.options().stribeck_reseed;
+    let refit = |at: &Plant, options: OutputErrorOptions| -> Result<FitResult> {
+        Problem::new(
+            at,
+            conf,
+            fit.names.clone(),
+            problem.records.clone(),
+            interest,
+            options,
+        )
+        .map(|p| p.with_held_ties(held_ties.to_vec()))
+        .context("the reach across held ties")?
+        .fit(progress)
+    };
+    let first = refit(&wide, options)?;
+    // β of the wide fit spread back over the fitted and held symbols, on their own bounds.
+    let mut reached = wide.clone();
+    first.apply(&mut reached);
+    let names: Vec<String> = fit.names.iter().chain(held_ties).cloned().collect();
+    let initial: Vec<f64> = fit
+        .initial
+        .iter()
+        .copied()
+        .chain(held_ties.iter().map(|n| plant.parameters[n]))
+        .collect();
+    let own = |n: &String| -> Result<(f64, f64)> {
+        plant
+            .bounds
+            .get(n)
+            .copied()
+            .with_context(|| format!("the reach across held ties: '{n}' has no bounds"))
+    };
+    let (lower, upper): (Vec<f64>, Vec<f64>) = names
+        .iter()
+        .map(own)
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .unzip();
+    let spread = super::identifiability::least_change_along_ties_at(
+        &reached, conf, &locked_at, &names, &initial, &lower, &upper,
+    )?;
+    let mut back = from.clone();
+    back.set_values(&names, &spread);
+    let second = refit(&back, refit_options(problem))?;
+    let objective_before = fit.cost_after + fit.prior_penalty;
+    let objective_after = second.cost_after + second.prior_penalty;
+    let kept = objective_after < objective_before;
+    let k = fit.names.len();
+    let moved = held_ties
+        .iter()
+        .enumerate()
+        .filter(|&(h, n)| {
+            (spread[k + h] - plant.parameters[n]).abs() > ON_BOUND * (upper[k + h] - lower[k + h])
+        })
+        .map(|(h, n)| (n.clone(), plant.parameters[n], spread[k + h]))
+        .collect();
+    let summary = TieReach {
+        representatives: representatives
+            .iter()
+            .map(|(n, bound, widened)| {
+                let i = first.names.iter().position(|x| x == n).unwrap_or(0);
+                (n.clone(), *bound, *widened, first.fitted[i])
+            })
+            .collect(),
+        moved,
+        cost_before: fit.cost_after,
+        cost_wide: first.cost_after,
+        cost_after: second.cost_after,
+        kept,
+        evaluations: first.evaluations + second.evaluations,
+        jacobians: first.jacobians + second.jacobians,
+        wall_s: first.wall_s + second.wall_s,
+    };
+    let mut second = second;
+    second.evaluations = summary.evaluations;
+    second.jacobians = summary.jacobians;
+    second.wall_s = summary.wall_s;
+    Ok((merge_refit(fit, second, kept, plant), Some(summary)))
 }
 
 /// Write the plant and the report (Markdown and JSON) into `out`, each atomically.
@@ -957,6 +1163,7 @@ fn joint_fit(
         impossible,
         carried_prior: Vec::new(),
         release: None,
+        tie_reach: None,
     })
 }
 
@@ -1198,6 +1405,41 @@ fn step_markdown(
             "Carried prior (`--carried-prior on`): Gaussian about the values the earlier steps left, standard deviation their standard errors there: {}; the prior's term at the result {} (the fit minimised cost + prior term).\n",
             plus_minus(&st.carried_prior),
             fmt_g(f.prior_penalty)
+        );
+    }
+    if let Some(t) = &st.tie_reach {
+        let _ = writeln!(
+            s,
+            "Reach across held ties (the step's first fit ended above the noise floor with {} on a bound that the held ties could carry further): fitted again with {}; cost {} → {} there, spread back over the symbols' own bounds ({}), then fitted on them: {} ({}; {} cost evaluations, {} Jacobians, {:.1} s).\n",
+            t.representatives
+                .iter()
+                .map(|(n, bound, ..)| format!("{n} at {}", fmt_g(*bound)))
+                .collect::<Vec<_>>()
+                .join(", "),
+            t.representatives
+                .iter()
+                .map(|(n, _, (lo, hi), v)| format!("{n} in [{}, {}] (to {})", fmt_g(*lo), fmt_g(*hi), fmt_g(*v)))
+                .collect::<Vec<_>>()
+                .join(", "),
+            fmt_g(t.cost_before),
+            fmt_g(t.cost_wide),
+            if t.moved.is_empty() {
+                "no held tie moved".to_string()
+            } else {
+                format!(
+                    "held ties moved: {}",
+                    t.moved
+                        .iter()
+                        .map(|(n, a, b)| format!("{n} {} → {}", fmt_g(*a), fmt_g(*b)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            },
+            fmt_g(t.cost_after),
+            if t.kept { "kept: the values and statistics below are these, and the plant has the moved held ties" } else { "not lower: not kept" },
+            t.evaluations,
+            t.jacobians,
+            t.wall_s
         );
     }
     if let Some(r) = &st.release {
