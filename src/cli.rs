@@ -565,6 +565,14 @@ pub struct OutputErrorArgs {
     /// tolerates. `off`: the thesis's sequence, every earlier value held as fitted.
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub release_held: String,
+    /// Reach across held ties where a step ends above the noise floor with a spanning
+    /// rigid-body symbol on a bound: fitted again with that bound moved out by what the
+    /// held ties (rigid-body symbols an earlier step left undetermined) can carry within
+    /// their bounds, the result spread back over every symbol's own bounds, then fitted
+    /// there; kept when lower, the held ties moved in the plant written. `off`: the held
+    /// ties stay where they are (c6 of the Freedom 6S then ends at 26 σ̂).
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    pub tie_reach: String,
     /// Equation-error warm start: one more start from the plant's values first fits the
     /// torque balance at every sample (positions low-passed and differentiated, LuGre
     /// bristles driven by the estimated velocities; no simulation, so no drift), then the
@@ -815,6 +823,7 @@ fn identify_sequence(
             _ => JointFitMode::Off,
         },
         release_held: oe.release_held == "on",
+        tie_reach: oe.tie_reach == "on",
     };
     let bar = indicatif::ProgressBar::new_spinner();
     bar.enable_steady_tick(std::time::Duration::from_millis(250));

@@ -1651,7 +1651,8 @@ fn a_held_values_standard_error_is_propagated_along_the_plant_gain_scale() {
 /// floor. The reach across held ties fits again with I1_33's bound moved out by what the
 /// held ties can carry, spreads D_00 back over every symbol's own bounds and fits on
 /// them: the noise floor, D_00 within 0.2 % of the truth's, every value within its own
-/// bounds, and the held ties that moved in the plant written.
+/// bounds, and the held ties that moved in the plant written. With `--tie-reach off` the
+/// step ends above the floor (measured: q0 at 1.92 σ̂).
 #[test]
 fn a_spanning_symbol_on_its_bound_reaches_its_base_parameter_through_the_held_ties() {
     use lockstep::plant::ConsistencyPolicy;
@@ -1665,12 +1666,21 @@ fn a_spanning_symbol_on_its_bound_reaches_its_base_parameter_through_the_held_ti
     let kp = truth.parameters["Kp_0"];
     plant.bounds.insert("Kp_0".into(), (kp, kp));
     plant.save(&start).unwrap();
-    let report = identify_isolated(
+    let args = ["--step", "1/2000", "--horizons", "1"];
+    // Without the reach (`--tie-reach off`) the step ends above the floor.
+    let off = identify_isolated(
         d.path(),
         &start,
         "c6",
-        &["--step", "1/2000", "--horizons", "1"],
+        &[&args[..], &["--tie-reach", "off"]].concat(),
     );
+    assert!(off["steps"][0]["tie_reach"].is_null());
+    let above: Vec<String> = column(&off["steps"][0]["fit"], &["statistics", "above_floor"]);
+    assert!(
+        above.len() == 1 && above[0].starts_with("q0 RMS"),
+        "{above:?}"
+    );
+    let report = identify_isolated(d.path(), &start, "c6", &args);
     let step = &report["steps"][0];
     let reach = &step["tie_reach"];
     println!("{reach:#}");

@@ -477,6 +477,9 @@ pub struct SequenceOptions {
     /// better than those steps did (ρ > [`RELEASE_INFORMATION`]) are fitted again, under a
     /// prior of their recorded standard errors.
     pub release_held: bool,
+    /// Reach across held ties where a step ends above the noise floor with a spanning
+    /// rigid-body symbol on a bound ([`reach_across_held_ties`]).
+    pub tie_reach: bool,
 }
 
 /// The joint fit of a sequence's steps (`lockstep identify --joint-fit`,
@@ -674,10 +677,13 @@ pub fn run(
         let carried_prior = problem.carried_prior();
         let cname = s.config.clone();
         let fit = problem.fit(&|p| progress(&cname, p))?;
-        let (fit, tie_reach) =
+        let (fit, tie_reach) = if opts.tie_reach {
             reach_across_held_ties(&problem, &current, fit, &s.interest, &s.tied_held, &|p| {
                 progress(&cname, p)
-            })?;
+            })?
+        } else {
+            (fit, None)
+        };
         if let Some(t) = tie_reach.as_ref().filter(|t| t.kept) {
             for (n, _, v) in &t.moved {
                 current.parameters.insert(n.clone(), *v);
@@ -959,6 +965,10 @@ pub fn reach_across_held_ties(
             continue;
         }
         let (lo, hi) = (fit.lower[i], fit.upper[i]);
+        if hi <= lo {
+            // Held by its bounds (lower = upper): the user's value, not a bound to reach past.
+            continue;
+        }
         let near = ON_BOUND * (hi - lo);
         let at_upper = fit.fitted[i] >= hi - near;
         if !(at_upper || fit.fitted[i] <= lo + near) {
