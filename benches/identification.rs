@@ -146,6 +146,7 @@ fn sequence(dir: &Path, data: &Path) {
         rigid_body: RigidBodyFit::Spanning,
         joint: JointFitMode::Off,
         release_held: true,
+        tie_reach: true,
     };
     let report = run(&start, &[data.to_path_buf()], &opts, &|_, _| {}).unwrap();
     println!(
