@@ -831,16 +831,9 @@ pub fn release_held(
     let released: Vec<String> = candidates.iter().map(|c| c.0.clone()).collect();
     let mut names = fit.names.clone();
     names.extend(released.iter().cloned());
-    let release = Problem::new(
-        &from,
-        problem.configuration(),
-        names,
-        problem.records.clone(),
-        interest,
-        options,
-    )
-    .and_then(|p| p.with_held_ties(held_ties.to_vec()).with_released(released))
-    .context("releasing held values")?;
+    let release = refit_problem(problem, &from, names, interest, held_ties, options)
+        .and_then(|p| p.with_released(released))
+        .context("releasing held values")?;
     let objective_before = fit.cost_after + fit.prior_penalty;
     let second = release.fit(progress)?;
     let objective_after = second.cost_after + second.prior_penalty;
@@ -876,6 +869,31 @@ pub fn release_held(
         wall_s: second.wall_s,
     };
     Ok((merge_refit(fit, second, kept, plant), Some(summary)))
+}
+
+/// A refit of `problem`'s step on its files from plant `at` ([`release_held`],
+/// [`reach_across_held_ties`]): `names` fitted under `options`, joints of interest
+/// `interest`, rigid-body symbols held along ties `held_ties`.
+///
+/// # Errors
+/// As [`Problem::new`] (a fitted value without bounds, or outside them).
+fn refit_problem(
+    problem: &Problem,
+    at: &Plant,
+    names: Vec<String>,
+    interest: &[usize],
+    held_ties: &[String],
+    options: OutputErrorOptions,
+) -> Result<Problem> {
+    Ok(Problem::new(
+        at,
+        problem.configuration(),
+        names,
+        problem.records.clone(),
+        interest,
+        options,
+    )?
+    .with_held_ties(held_ties.to_vec()))
 }
 
 /// The options of a refit from a step's fitted minimum ([`release_held`],
@@ -986,7 +1004,7 @@ pub fn reach_across_held_ties(
             (lo - reach, hi)
         };
         wide.bounds.insert(n.clone(), widened);
-        representatives.push((n.clone(), bound, widened));
+        representatives.push((i, bound, widened));
     }
     if representatives.is_empty() {
         return Ok((fit, None));
@@ -999,17 +1017,9 @@ pub fn reach_across_held_ties(
     // dip collapsed, Fs_0 = Fc_0, and the wide fit from there ended at 1.68 σ̂).
     options.stribeck_reseed = problem.options().stribeck_reseed;
     let refit = |at: &Plant, options: OutputErrorOptions| -> Result<FitResult> {
-        Problem::new(
-            at,
-            conf,
-            fit.names.clone(),
-            problem.records.clone(),
-            interest,
-            options,
-        )
-        .map(|p| p.with_held_ties(held_ties.to_vec()))
-        .context("the reach across held ties")?
-        .fit(progress)
+        refit_problem(problem, at, fit.names.clone(), interest, held_ties, options)
+            .context("the reach across held ties")?
+            .fit(progress)
     };
     let first = refit(&wide, options)?;
     // β of the wide fit spread back over the fitted and held symbols, on their own bounds.
@@ -1054,12 +1064,10 @@ pub fn reach_across_held_ties(
         .map(|(h, n)| (n.clone(), plant.parameters[n], spread[k + h]))
         .collect();
     let summary = TieReach {
+        // The wide fit has the step's names in the step's order.
         representatives: representatives
             .iter()
-            .map(|(n, bound, widened)| {
-                let i = first.names.iter().position(|x| x == n).unwrap_or(0);
-                (n.clone(), *bound, *widened, first.fitted[i])
-            })
+            .map(|&(i, bound, widened)| (fit.names[i].clone(), bound, widened, first.fitted[i]))
             .collect(),
         moved,
         cost_before: fit.cost_after,

@@ -83,8 +83,6 @@ pub(crate) fn minimise(
         }
     }
     let mut fitter = Fitter {
-        problem,
-        context,
         evaluator: Evaluator::new(problem, context, stage, start_cost),
         jacobian: None,
         config,
@@ -248,8 +246,6 @@ impl LeastSquares for Problem {
 
 /// The rmpfit adapter: scaled parameters, cached residuals, user (parallel) Jacobian.
 struct Fitter<'a> {
-    problem: &'a dyn LeastSquares,
-    context: &'a StageContext<'a>,
     evaluator: Evaluator<'a>,
     /// The last Jacobian handed to the optimiser ([`OutputErrorOptions::jacobian_refresh`]).
     jacobian: Option<LastJacobian>,
@@ -374,6 +370,29 @@ impl<'a> Evaluator<'a> {
         r
     }
 
+    /// Forward-difference columns ∂r/∂x of the simulated residuals at scaled values `x`
+    /// (`p_of(x)` the physical parameters; `r0` the residuals there, prior's rows allowed),
+    /// step [`OutputErrorOptions::fd_step`], toward the interior where a step would pass
+    /// the upper bound 1; the simulations counted in the fit's evaluations.
+    fn difference_columns(
+        &self,
+        x: &[f64],
+        r0: &[f64],
+        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
+    ) -> Vec<Vec<f64>> {
+        let p = self.problem;
+        let h = p.options().fd_step;
+        let steps: Vec<f64> = x
+            .iter()
+            .map(|&u| if u + h > 1.0 { -h } else { h })
+            .collect();
+        let columns = p.jacobian_columns(x, &r0[..p.residual_count()], &steps, p_of, false);
+        self.context
+            .evaluations
+            .fetch_add(x.len(), Ordering::Relaxed);
+        columns
+    }
+
     /// Trial points that could not be simulated so far.
     fn failures(&self) -> usize {
         self.failures.load(Ordering::Relaxed)
@@ -388,7 +407,8 @@ impl MPFitter for Fitter<'_> {
     }
 
     fn number_of_points(&self) -> usize {
-        self.problem.residual_count() + self.problem.prior_weight().map_or(0, <[f64]>::len)
+        let p = self.evaluator.problem;
+        p.residual_count() + p.prior_weight().map_or(0, <[f64]>::len)
     }
 
     fn config(&self) -> &MPConfig {
@@ -407,8 +427,11 @@ impl MPFitter for Fitter<'_> {
     ) -> MPResult<()> {
         let r0 = self.evaluator.residuals(params);
         deviates.copy_from_slice(&r0);
-        self.context.jacobians.fetch_add(1, Ordering::Relaxed);
-        let p = self.problem;
+        self.evaluator
+            .context
+            .jacobians
+            .fetch_add(1, Ordering::Relaxed);
+        let p = self.evaluator.problem;
         let m = p.residual_count();
         let sum_sq = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
         // Broyden's update where the last step lowered the simulated cost and the refresh
@@ -424,21 +447,9 @@ impl MPFitter for Fitter<'_> {
         let last = match updated {
             Some(last) => last,
             None => {
-                let h = p.options().fd_step;
-                let steps: Vec<f64> = params
-                    .iter()
-                    .map(|&u| if u + h > 1.0 { -h } else { h })
-                    .collect();
-                let columns = p.jacobian_columns(
-                    params,
-                    &r0[..m],
-                    &steps,
-                    &|x: &[f64]| p.to_physical(x),
-                    false,
-                );
-                self.context
-                    .evaluations
-                    .fetch_add(params.len(), Ordering::Relaxed);
+                let columns = self
+                    .evaluator
+                    .difference_columns(params, &r0, &|x: &[f64]| p.to_physical(x));
                 LastJacobian {
                     u: params.to_vec(),
                     r: r0[..m].to_vec(),
@@ -490,8 +501,6 @@ pub(crate) fn minimise_trf(
     /// The stage's free parameters as basin sees them: the scaled values of the free
     /// ones, the frozen ones fixed at `base`.
     struct Free<'a> {
-        problem: &'a dyn LeastSquares,
-        context: &'a StageContext<'a>,
         evaluator: &'a Evaluator<'a>,
         base: Vec<f64>,
         free: Vec<usize>,
@@ -545,25 +554,20 @@ pub(crate) fn minimise_trf(
     impl Jacobian for Free<'_> {
         type Jacobian = DenseMatrix;
         fn jacobian(&self, x: &Vec<f64>) -> Result<DenseMatrix, Infallible> {
-            let p = self.problem;
+            let p = self.evaluator.problem;
             let u = self.full(x);
             let r0 = self.evaluator.residuals(&u);
             let m = p.residual_count();
-            let h = p.options().fd_step;
-            // A step only for the free columns; toward the interior near the upper bound.
-            let steps: Vec<f64> = self
-                .free
-                .iter()
-                .map(|&i| if u[i] + h > 1.0 { -h } else { h })
-                .collect();
+            // Columns only for the free parameters.
             let free = &self.free;
-            let p_of = |y: &[f64]| p.to_physical(&self.full(y));
             let y: Vec<f64> = free.iter().map(|&i| u[i]).collect();
-            let columns = p.jacobian_columns(&y, &r0[..m], &steps, &p_of, false);
-            self.context.jacobians.fetch_add(1, Ordering::Relaxed);
-            self.context
-                .evaluations
-                .fetch_add(free.len(), Ordering::Relaxed);
+            let columns = self
+                .evaluator
+                .difference_columns(&y, &r0, &|y: &[f64]| p.to_physical(&self.full(y)));
+            self.evaluator
+                .context
+                .jacobians
+                .fetch_add(1, Ordering::Relaxed);
             let n = free.len();
             let rows = r0.len();
             let mut j = vec![0.0; rows * n];
@@ -586,8 +590,6 @@ pub(crate) fn minimise_trf(
     let x0: Vec<f64> = free.iter().map(|&i| u[i].clamp(0.0, 1.0)).collect();
     let evaluator = Evaluator::new(problem, context, stage, start_cost);
     let fitter = Free {
-        problem,
-        context,
         evaluator: &evaluator,
         base: u.to_vec(),
         lower: vec![0.0; free.len()],
