@@ -515,7 +515,8 @@ pub struct OutputErrorArgs {
     /// A finite-difference Jacobian (one simulation per fitted parameter) at most every N
     /// iterations of a stage, Broyden's rank-one update from the step taken between them;
     /// a step that did not lower the cost, and the end of every stage, take a fresh one.
-    /// 1: finite differences at every iteration.
+    /// Both optimisers (--predictor-optimiser, --whole-files-optimiser). 1: finite
+    /// differences at every iteration.
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub jacobian_refresh: usize,
     /// Multiple-shooting warm-up, e.g. `--segments 1,4`: one more start from the plant's
@@ -604,7 +605,8 @@ pub struct OutputErrorArgs {
     /// (every other stage's), or `trf`, basin's trust-region-reflective method, which
     /// follows a descent that the Levenberg–Marquardt stops on with a collapsed trust
     /// region (k3 of the Freedom 6S at ω = 100 rad/s: 0.148 → 0.110 where it stopped at
-    /// 0.147), at one finite-difference Jacobian per iteration.
+    /// 0.147), at one Jacobian per accepted step (finite differences, or Broyden's update
+    /// between them with --jacobian-refresh).
     #[arg(long, value_enum, default_value = "lm")]
     pub predictor_optimiser: StageOptimiser,
     /// Optimiser of the whole files' stage (the cost itself) and of the refit that
