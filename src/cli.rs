@@ -516,9 +516,10 @@ pub struct OutputErrorArgs {
     /// iterations of a stage, Broyden's rank-one update from the step taken between them;
     /// a step that did not lower the cost, and the end of every stage, take a fresh one.
     /// Both optimisers (--predictor-optimiser, --whole-files-optimiser). 1: finite
-    /// differences at every iteration.
-    #[arg(long, default_value_t = 1, value_name = "N")]
-    pub jacobian_refresh: usize,
+    /// differences at every iteration. Default: 4 for the coupled method (the Freedom 6S's
+    /// k1 and k2 at 30–50 % fewer simulations, README), 1 for the isolated.
+    #[arg(long, value_name = "N")]
+    pub jacobian_refresh: Option<usize>,
     /// Multiple-shooting warm-up, e.g. `--segments 1,4`: one more start from the plant's
     /// values fits every file cut into segments of these lengths (s) in turn, each segment
     /// simulated from the measured state at its start (velocities from the positions), then
@@ -598,16 +599,17 @@ pub struct OutputErrorArgs {
     /// Step (s) of the predictor's stages, simulated by ETDRK4, e.g. 1/2000: the output
     /// injection keeps an early error from growing along the file, so the stages that move
     /// the parameters most of the way run far coarser than the whole files need. `none`:
-    /// the predictor's stages on --step and --integrator.
-    #[arg(long, default_value = "none", value_name = "STEP")]
-    pub predictor_step: String,
+    /// the predictor's stages on --step and --integrator. Default: 1/2000 for the coupled
+    /// method, none for the isolated.
+    #[arg(long, value_name = "STEP")]
+    pub predictor_step: Option<String>,
     /// Optimiser of the predictor's stages: `lm`, rmpfit's bounded Levenberg–Marquardt
     /// (every other stage's), or `trf`, basin's trust-region-reflective method, which
     /// follows a descent that the Levenberg–Marquardt stops on with a collapsed trust
     /// region (k3 of the Freedom 6S at ω = 100 rad/s: 0.148 → 0.110 where it stopped at
     /// 0.147), at one Jacobian per accepted step (finite differences, or Broyden's update
-    /// between them with --jacobian-refresh).
-    #[arg(long, value_enum, default_value = "lm")]
+    /// between them with --jacobian-refresh). Default: trf.
+    #[arg(long, value_enum, default_value = "trf")]
     pub predictor_optimiser: StageOptimiser,
     /// Optimiser of the whole files' stage (the cost itself) and of the refit that
     /// releases held values: `lm` or `trf`, as --predictor-optimiser. The horizons',
@@ -668,6 +670,8 @@ impl OutputErrorArgs {
         let predictor_arg = pick(&self.predictor, "100,30,10,3,1", "none");
         let equation_error_arg = pick(&self.equation_error, "on", "off");
         let initial_positions_arg = pick(&self.initial_positions, "estimate", "measured");
+        let predictor_step_arg = pick(&self.predictor_step, "1/2000", "none");
+        let jacobian_refresh = self.jacobian_refresh.unwrap_or(if coupled { 4 } else { 1 });
         let weighting =
             match self
                 .cost
@@ -687,7 +691,7 @@ impl OutputErrorArgs {
         if !(self.weight > 0.0 && self.weight.is_finite()) {
             bail!("--weight: expected a positive weight, got {}", self.weight);
         }
-        if self.starts == 0 || self.max_iter == 0 || self.jacobian_refresh == 0 {
+        if self.starts == 0 || self.max_iter == 0 || jacobian_refresh == 0 {
             bail!("--starts, --max-iter and --jacobian-refresh must be at least 1");
         }
         if !(self.xtol > 0.0 && self.ftol > 0.0) {
@@ -732,7 +736,7 @@ impl OutputErrorArgs {
             xtol: self.xtol,
             ftol: self.ftol,
             max_iter: self.max_iter,
-            jacobian_refresh: self.jacobian_refresh,
+            jacobian_refresh,
             starts: self.starts,
             seed: self.seed,
             horizons,
@@ -755,7 +759,7 @@ impl OutputErrorArgs {
                     _ => bail!("--equation-error: expected on, off or a filter cut-off in (0, 1) of the Nyquist frequency such as 0.2, got '{x}'"),
                 },
             },
-            predictor_step: match self.predictor_step.trim() {
+            predictor_step: match predictor_step_arg.trim() {
                 "none" => None,
                 x => match parse_number(x) {
                     Ok(h) if h > 0.0 && h.is_finite() => Some((h, Integrator::Etdrk4)),
