@@ -2088,7 +2088,7 @@ fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
     assert!(stats.identifiable[0], "{:?}", stats.correlated);
 }
 
-/// The release of held values (`--release-held`, [`release_held`]): joint 4's Coulomb
+/// The release of held values (`--release-held`, `StepRefit::release_held`): joint 4's Coulomb
 /// level, which k1 fits, is held 2 % off with a recorded standard error of 1 % while k2
 /// fits joint 3's friction (30 s of Table 4.7); k2's fit ends above the noise floor. Its
 /// statistics say how much better k2's data see Fc_4 than its recorded error: ρ =
@@ -2099,7 +2099,7 @@ fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
 /// history (cost before, the first fit's evaluations counted).
 #[test]
 fn a_held_value_the_step_sees_better_is_released_and_the_floor_reached() {
-    use lockstep::identify::sequence::release_held;
+    use lockstep::identify::sequence::StepRefit;
     let d = tempfile::tempdir().unwrap();
     let truth_file = truth(d.path());
     let truth = Plant::load(&truth_file).unwrap();
@@ -2159,8 +2159,14 @@ fn a_held_value_the_step_sees_better_is_released_and_the_floor_reached() {
     eprintln!("ρ(Fc_4) = {rho:.4}, from the augmented fit's standard error {reference:.4}");
     assert!(rho > 1.0);
     assert!((rho / reference - 1.0).abs() < 0.05, "{rho} vs {reference}");
-    let (released, summary) =
-        release_held(&problem, &start, fit.clone(), &[3], &[], &|_| {}).unwrap();
+    let (released, summary) = StepRefit {
+        problem: &problem,
+        interest: &[3],
+        held_ties: &[],
+        progress: &|_| {},
+    }
+    .release_held(&start, fit.clone())
+    .unwrap();
     let summary = summary.expect("Fc_4 is released");
     eprintln!("{summary:?}");
     assert!(summary.kept);

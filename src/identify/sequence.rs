@@ -357,7 +357,7 @@ pub struct StepReport {
     pub carried_prior: Vec<(String, f64)>,
     /// The release of held values ([`SequenceOptions::release_held`]), when tried.
     pub release: Option<Release>,
-    /// The reach across held ties ([`reach_across_held_ties`]), when tried.
+    /// The reach across held ties ([`StepRefit::reach_across_held_ties`]), when tried.
     pub tie_reach: Option<TieReach>,
 }
 
@@ -391,7 +391,7 @@ pub struct Release {
 }
 
 /// The reach across held ties after a step that ended above the noise floor with a
-/// fitted rigid-body symbol on a bound ([`reach_across_held_ties`]).
+/// fitted rigid-body symbol on a bound ([`StepRefit::reach_across_held_ties`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct TieReach {
     /// Per fitted symbol on a bound: name, that bound, the bounds of the wide fit (SI),
@@ -473,12 +473,12 @@ pub struct SequenceOptions {
     /// Whether a joint fit of the steps follows (or replaces) the step-by-step fits.
     pub joint: JointFitMode,
     /// Release held values where a step ends above the noise floor
-    /// ([`release_held`]): the values earlier steps fitted that this step's data see
+    /// ([`StepRefit::release_held`]): the values earlier steps fitted that this step's data see
     /// better than those steps did (ρ > [`RELEASE_INFORMATION`]) are fitted again, under a
     /// prior of their recorded standard errors.
     pub release_held: bool,
     /// Reach across held ties where a step ends above the noise floor with a spanning
-    /// rigid-body symbol on a bound ([`reach_across_held_ties`]).
+    /// rigid-body symbol on a bound ([`StepRefit::reach_across_held_ties`]).
     pub tie_reach: bool,
 }
 
@@ -677,10 +677,15 @@ pub fn run(
         let carried_prior = problem.carried_prior();
         let cname = s.config.clone();
         let fit = problem.fit(&|p| progress(&cname, p))?;
+        let step_progress = |p: Progress| progress(&cname, p);
+        let refit = StepRefit {
+            problem: &problem,
+            interest: &s.interest,
+            held_ties: &s.tied_held,
+            progress: &step_progress,
+        };
         let (fit, tie_reach) = if opts.tie_reach {
-            reach_across_held_ties(&problem, &current, fit, &s.interest, &s.tied_held, &|p| {
-                progress(&cname, p)
-            })?
+            refit.reach_across_held_ties(&current, fit)?
         } else {
             (fit, None)
         };
@@ -690,9 +695,7 @@ pub fn run(
             }
         }
         let (fit, release) = if opts.release_held && !fit.statistics.above_floor.is_empty() {
-            release_held(&problem, &current, fit, &s.interest, &s.tied_held, &|p| {
-                progress(&cname, p)
-            })?
+            refit.release_held(&current, fit)?
         } else {
             (fit, None)
         };
@@ -786,303 +789,320 @@ pub fn run(
     Ok(report)
 }
 
-/// The release of held values after a step's `fit` of `problem` (joints of interest
-/// `interest`, rigid-body symbols held along ties `held_ties`) ended above the noise floor;
-/// `plant` is the plant the step started from. The values earlier steps fitted
-/// whose recorded variance exceeds the variance this step's data alone would give them
-/// (ρ > [`RELEASE_INFORMATION`], [`Statistics::held_information`]) are fitted again with
-/// the step's parameters, from the fit's values and the whole files (no warm-ups), under
-/// a Gaussian prior about their held values with their recorded standard errors
-/// ([`Problem::with_released`]): the sequential estimate with each earlier step's data
-/// summarised by its values and standard errors. Why: a value fitted within its standard
-/// error on an earlier step's data can still be off by more than a later configuration
-/// tolerates — on the Freedom 6S, k2's qeq_3 (−1.9 %, 1.4 of its standard errors) alone
-/// leaves k4 at the truth of its own parameters 2.5–5.7 σ above the noise on q2..q5.
-/// The result is kept when its cost + prior term is lower than the fit's cost.
-///
-/// # Errors
-/// The release's problem cannot be set up (a released value without bounds).
-pub fn release_held(
-    problem: &Problem,
-    plant: &Plant,
-    fit: FitResult,
-    interest: &[usize],
-    held_ties: &[String],
-    progress: &(dyn Fn(Progress) + Sync),
-) -> Result<(FitResult, Option<Release>)> {
-    let mut candidates: Vec<(String, f64)> = fit
-        .statistics
-        .held_information
-        .iter()
-        .filter(|(n, rho)| {
-            *rho > RELEASE_INFORMATION
-                && plant.bounds.contains_key(n)
-                && plant.standard_errors.contains_key(n)
-        })
-        .cloned()
-        .collect();
-    candidates.sort_by(|a, b| b.1.total_cmp(&a.1));
-    if candidates.is_empty() {
-        return Ok((fit, None));
-    }
-    let mut from = plant.clone();
-    fit.apply(&mut from);
-    let options = refit_options(problem);
-    let released: Vec<String> = candidates.iter().map(|c| c.0.clone()).collect();
-    let mut names = fit.names.clone();
-    names.extend(released.iter().cloned());
-    let release = refit_problem(problem, &from, names, interest, held_ties, options)
-        .and_then(|p| p.with_released(released))
-        .context("releasing held values")?;
-    let objective_before = fit.cost_after + fit.prior_penalty;
-    let second = release.fit(progress)?;
-    let objective_after = second.cost_after + second.prior_penalty;
-    let kept = objective_after < objective_before;
-    let values = candidates
-        .iter()
-        .map(|(n, rho)| {
-            let i = second
-                .names
-                .iter()
-                .position(|x| x == n)
-                .expect("with_released checked that every released value is fitted");
-            (
-                n.clone(),
-                *rho,
-                plant.standard_errors[n],
-                plant.parameters[n],
-                second.fitted[i],
-            )
-        })
-        .collect();
-    let summary = Release {
-        values,
-        objective_before,
-        objective_after,
-        kept,
-        status: second
-            .starts
-            .get(second.best_start)
-            .map_or_else(String::new, |s| s.status.clone()),
-        evaluations: second.evaluations,
-        jacobians: second.jacobians,
-        wall_s: second.wall_s,
-    };
-    Ok((merge_refit(fit, second, kept, plant), Some(summary)))
-}
-
-/// A refit of `problem`'s step on its files from plant `at` ([`release_held`],
-/// [`reach_across_held_ties`]): `names` fitted under `options`, joints of interest
-/// `interest`, rigid-body symbols held along ties `held_ties`.
-///
-/// # Errors
-/// As [`Problem::new`] (a fitted value without bounds, or outside them).
-fn refit_problem(
-    problem: &Problem,
-    at: &Plant,
-    names: Vec<String>,
-    interest: &[usize],
-    held_ties: &[String],
-    options: OutputErrorOptions,
-) -> Result<Problem> {
-    Ok(Problem::new(
-        at,
-        problem.configuration(),
-        names,
-        problem.records.clone(),
-        interest,
-        options,
-    )?
-    .with_held_ties(held_ties.to_vec()))
-}
-
-/// The options of a refit from a step's fitted minimum ([`release_held`],
-/// [`reach_across_held_ties`]): `problem`'s, with the whole files only (no warm-ups), one
-/// start, and no Stribeck re-seed (the first fit's minimum already had that branch).
-fn refit_options(problem: &Problem) -> OutputErrorOptions {
-    let mut options = problem.options().clone();
-    options.horizons = vec![1.0];
-    options.segments.clear();
-    options.equation_error = None;
-    options.predictor.clear();
-    options.starts = 1;
-    options.stribeck_reseed = false;
-    options
-}
-
-/// The step's result after a refit `second` of its `fit` from `plant` (the plant the step
-/// started from): the refit's values and statistics with the step's history (initial
-/// values, cost before, starts) when `kept`, else the fit; the work of both either way.
-fn merge_refit(fit: FitResult, second: FitResult, kept: bool, plant: &Plant) -> FitResult {
-    if !kept {
-        let mut fit = fit;
-        fit.evaluations += second.evaluations;
-        fit.jacobians += second.jacobians;
-        fit.wall_s += second.wall_s;
-        return fit;
-    }
-    let mut merged = second;
-    for (i, n) in merged.names.iter().enumerate() {
-        merged.initial[i] = match fit.names.iter().position(|x| x == n) {
-            Some(j) => fit.initial[j],
-            None => plant.parameters[n],
-        };
-    }
-    merged.cost_before = fit.cost_before;
-    merged.evaluations += fit.evaluations;
-    merged.jacobians += fit.jacobians;
-    merged.wall_s += fit.wall_s;
-    merged.starts = fit.starts;
-    merged.best_start = fit.best_start;
-    merged
-}
-
 /// A fitted rigid-body symbol's value within this fraction of its bound width from a
-/// bound counts as on it ([`reach_across_held_ties`]).
+/// bound counts as on it ([`StepRefit::reach_across_held_ties`]).
 const ON_BOUND: f64 = 1e-6;
 
-/// The reach across held ties after a step's `fit` of `problem` (joints of interest
-/// `interest`, rigid-body symbols held along ties `held_ties`) ended above the noise
-/// floor with a fitted rigid-body symbol on a bound; `plant` is the plant the step
-/// started from. Such a symbol stands for base parameters β that it shares with held
-/// ties ([`spanning_symbols`]), held at values an earlier step could not determine, so
-/// its bound is not β's: the held ties can carry β further within their own bounds
-/// ([`tie_reach`](super::identifiability::tie_reach)). The step is fitted again from
-/// the fit's values with each such symbol's bound moved out by that reach; the result's
-/// β is then spread back over the fitted and held symbols within their own bounds,
-/// nearest the step's initial values and the held values
-/// ([`least_change_along_ties_at`](super::identifiability::least_change_along_ties_at));
-/// and the step is fitted once more from there, on its own bounds. Kept when that
-/// last fit's cost + prior term is below the first fit's; the held ties that moved are
-/// then in [`TieReach::moved`], for the plant. On c6 of the Freedom 6S (joint 0 alone,
-/// its inertia β = I1_33 + the held links' terms) the first fit ended with I1_33 on its
-/// upper bound at 26 σ̂.
-///
-/// # Errors
-/// A refit's problem cannot be set up; the barycentric parameters cannot be formed.
-pub fn reach_across_held_ties(
-    problem: &Problem,
-    plant: &Plant,
-    fit: FitResult,
-    interest: &[usize],
-    held_ties: &[String],
-    progress: &(dyn Fn(Progress) + Sync),
-) -> Result<(FitResult, Option<TieReach>)> {
-    if held_ties.is_empty() || fit.statistics.above_floor.is_empty() {
-        return Ok((fit, None));
-    }
-    let model = plant.model;
-    let conf = problem.configuration();
-    let locked_at = problem.locked_at();
-    let mut from = plant.clone();
-    fit.apply(&mut from);
-    let mut wide = from.clone();
-    let mut representatives = Vec::new();
-    for (i, n) in fit.names.iter().enumerate() {
-        if !model.inertial_symbols.contains(&n.as_str()) {
-            continue;
-        }
-        let (lo, hi) = (fit.lower[i], fit.upper[i]);
-        if hi <= lo {
-            // Held by its bounds (lower = upper): the user's value, not a bound to reach past.
-            continue;
-        }
-        let near = ON_BOUND * (hi - lo);
-        let at_upper = fit.fitted[i] >= hi - near;
-        if !(at_upper || fit.fitted[i] <= lo + near) {
-            continue;
-        }
-        let reach = super::identifiability::tie_reach(&from, conf, &locked_at, n, held_ties)
-            .context("the reach across held ties")?;
-        if reach <= near {
-            continue;
-        }
-        let bound = if at_upper { hi } else { lo };
-        let widened = if at_upper {
-            (lo, hi + reach)
-        } else {
-            (lo - reach, hi)
-        };
-        wide.bounds.insert(n.clone(), widened);
-        representatives.push((i, bound, widened));
-    }
-    if representatives.is_empty() {
-        return Ok((fit, None));
-    }
-    let mut options = refit_options(problem);
-    // The wide fit's values are only a β to spread back: no least change on them.
-    options.least_change = false;
-    // The first fit's Stribeck branch was fitted with the rigid body held short of its
-    // β: the friction may have absorbed the missing inertia (c6 of the Freedom 6S: the
-    // dip collapsed, Fs_0 = Fc_0, and the wide fit from there ended at 1.68 σ̂).
-    options.stribeck_reseed = problem.options().stribeck_reseed;
-    let refit = |at: &Plant, options: OutputErrorOptions| -> Result<FitResult> {
-        refit_problem(problem, at, fit.names.clone(), interest, held_ties, options)
-            .context("the reach across held ties")?
-            .fit(progress)
-    };
-    let first = refit(&wide, options)?;
-    // β of the wide fit spread back over the fitted and held symbols, on their own bounds.
-    let mut reached = wide.clone();
-    first.apply(&mut reached);
-    let names: Vec<String> = fit.names.iter().chain(held_ties).cloned().collect();
-    let initial: Vec<f64> = fit
-        .initial
-        .iter()
-        .copied()
-        .chain(held_ties.iter().map(|n| plant.parameters[n]))
-        .collect();
-    let own = |n: &String| -> Result<(f64, f64)> {
-        plant
-            .bounds
-            .get(n)
-            .copied()
-            .with_context(|| format!("the reach across held ties: '{n}' has no bounds"))
-    };
-    let (lower, upper): (Vec<f64>, Vec<f64>) = names
-        .iter()
-        .map(own)
-        .collect::<Result<Vec<_>>>()?
-        .into_iter()
-        .unzip();
-    let spread = super::identifiability::least_change_along_ties_at(
-        &reached, conf, &locked_at, &names, &initial, &lower, &upper,
-    )?;
-    let mut back = from.clone();
-    back.set_values(&names, &spread);
-    let second = refit(&back, refit_options(problem))?;
-    let objective_before = fit.cost_after + fit.prior_penalty;
-    let objective_after = second.cost_after + second.prior_penalty;
-    let kept = objective_after < objective_before;
-    let k = fit.names.len();
-    let moved = held_ties
-        .iter()
-        .enumerate()
-        .filter(|&(h, n)| {
-            (spread[k + h] - plant.parameters[n]).abs() > ON_BOUND * (upper[k + h] - lower[k + h])
-        })
-        .map(|(h, n)| (n.clone(), plant.parameters[n], spread[k + h]))
-        .collect();
-    let summary = TieReach {
-        // The wide fit has the step's names in the step's order.
-        representatives: representatives
+/// A step's refits from its first fit's minimum: the release of held values
+/// ([`StepRefit::release_held`]) and the reach across held ties
+/// ([`StepRefit::reach_across_held_ties`]), on the step's files.
+pub struct StepRefit<'a> {
+    /// The step's problem (configuration, files, options).
+    pub problem: &'a Problem,
+    /// Indices of the joints of interest (weighted [`OutputErrorOptions::interest_weight`]).
+    pub interest: &'a [usize],
+    /// Rigid-body symbols held along ties ([`spanning_symbols`]).
+    pub held_ties: &'a [String],
+    /// The progress display.
+    pub progress: &'a (dyn Fn(Progress) + Sync),
+}
+
+impl StepRefit<'_> {
+    /// The release of held values after a step's `fit` of `problem` (joints of interest
+    /// `interest`, rigid-body symbols held along ties `held_ties`) ended above the noise floor;
+    /// `plant` is the plant the step started from. The values earlier steps fitted
+    /// whose recorded variance exceeds the variance this step's data alone would give them
+    /// (ρ > [`RELEASE_INFORMATION`], [`Statistics::held_information`]) are fitted again with
+    /// the step's parameters, from the fit's values and the whole files (no warm-ups), under
+    /// a Gaussian prior about their held values with their recorded standard errors
+    /// ([`Problem::with_released`]): the sequential estimate with each earlier step's data
+    /// summarised by its values and standard errors. Why: a value fitted within its standard
+    /// error on an earlier step's data can still be off by more than a later configuration
+    /// tolerates — on the Freedom 6S, k2's qeq_3 (−1.9 %, 1.4 of its standard errors) alone
+    /// leaves k4 at the truth of its own parameters 2.5–5.7 σ above the noise on q2..q5.
+    /// The result is kept when its cost + prior term is lower than the fit's cost.
+    ///
+    /// # Errors
+    /// The release's problem cannot be set up (a released value without bounds).
+    pub fn release_held(
+        &self,
+        plant: &Plant,
+        fit: FitResult,
+    ) -> Result<(FitResult, Option<Release>)> {
+        let progress = self.progress;
+        let mut candidates: Vec<(String, f64)> = fit
+            .statistics
+            .held_information
             .iter()
-            .map(|&(i, bound, widened)| (fit.names[i].clone(), bound, widened, first.fitted[i]))
-            .collect(),
-        moved,
-        cost_before: fit.cost_after,
-        cost_wide: first.cost_after,
-        cost_after: second.cost_after,
-        kept,
-        evaluations: first.evaluations + second.evaluations,
-        jacobians: first.jacobians + second.jacobians,
-        wall_s: first.wall_s + second.wall_s,
-    };
-    let mut second = second;
-    second.evaluations = summary.evaluations;
-    second.jacobians = summary.jacobians;
-    second.wall_s = summary.wall_s;
-    Ok((merge_refit(fit, second, kept, plant), Some(summary)))
+            .filter(|(n, rho)| {
+                *rho > RELEASE_INFORMATION
+                    && plant.bounds.contains_key(n)
+                    && plant.standard_errors.contains_key(n)
+            })
+            .cloned()
+            .collect();
+        candidates.sort_by(|a, b| b.1.total_cmp(&a.1));
+        if candidates.is_empty() {
+            return Ok((fit, None));
+        }
+        let mut from = plant.clone();
+        fit.apply(&mut from);
+        let options = self.refit_options();
+        let released: Vec<String> = candidates.iter().map(|c| c.0.clone()).collect();
+        let mut names = fit.names.clone();
+        names.extend(released.iter().cloned());
+        let release = self
+            .refit_problem(&from, names, options)
+            .and_then(|p| p.with_released(released))
+            .context("releasing held values")?;
+        let objective_before = fit.cost_after + fit.prior_penalty;
+        let second = release.fit(progress)?;
+        let objective_after = second.cost_after + second.prior_penalty;
+        let kept = objective_after < objective_before;
+        let values = candidates
+            .iter()
+            .map(|(n, rho)| {
+                let i = second
+                    .names
+                    .iter()
+                    .position(|x| x == n)
+                    .expect("with_released checked that every released value is fitted");
+                (
+                    n.clone(),
+                    *rho,
+                    plant.standard_errors[n],
+                    plant.parameters[n],
+                    second.fitted[i],
+                )
+            })
+            .collect();
+        let summary = Release {
+            values,
+            objective_before,
+            objective_after,
+            kept,
+            status: second
+                .starts
+                .get(second.best_start)
+                .map_or_else(String::new, |s| s.status.clone()),
+            evaluations: second.evaluations,
+            jacobians: second.jacobians,
+            wall_s: second.wall_s,
+        };
+        Ok((self.merge_refit(plant, fit, second, kept), Some(summary)))
+    }
+
+    /// A refit of the step on its files from plant `at`: `names` fitted under `options`,
+    /// with the step's joints of interest and held ties.
+    ///
+    /// # Errors
+    /// As [`Problem::new`] (a fitted value without bounds, or outside them).
+    fn refit_problem(
+        &self,
+        at: &Plant,
+        names: Vec<String>,
+        options: OutputErrorOptions,
+    ) -> Result<Problem> {
+        Ok(Problem::new(
+            at,
+            self.problem.configuration(),
+            names,
+            self.problem.records.clone(),
+            self.interest,
+            options,
+        )?
+        .with_held_ties(self.held_ties.to_vec()))
+    }
+
+    /// The options of a refit from the step's fitted minimum: the step's, with the whole
+    /// files only (no warm-ups), one start, and no Stribeck re-seed (the first fit's minimum
+    /// already had that branch).
+    fn refit_options(&self) -> OutputErrorOptions {
+        let mut options = self.problem.options().clone();
+        options.horizons = vec![1.0];
+        options.segments.clear();
+        options.equation_error = None;
+        options.predictor.clear();
+        options.starts = 1;
+        options.stribeck_reseed = false;
+        options
+    }
+
+    /// The step's result after a refit `second` of its `fit`: the refit's values and
+    /// statistics with the step's history (initial values, cost before, starts) when `kept`,
+    /// else the fit; the work of both either way.
+    fn merge_refit(
+        &self,
+        plant: &Plant,
+        fit: FitResult,
+        second: FitResult,
+        kept: bool,
+    ) -> FitResult {
+        if !kept {
+            let mut fit = fit;
+            fit.evaluations += second.evaluations;
+            fit.jacobians += second.jacobians;
+            fit.wall_s += second.wall_s;
+            return fit;
+        }
+        let mut merged = second;
+        for (i, n) in merged.names.iter().enumerate() {
+            merged.initial[i] = match fit.names.iter().position(|x| x == n) {
+                Some(j) => fit.initial[j],
+                None => plant.parameters[n],
+            };
+        }
+        merged.cost_before = fit.cost_before;
+        merged.evaluations += fit.evaluations;
+        merged.jacobians += fit.jacobians;
+        merged.wall_s += fit.wall_s;
+        merged.starts = fit.starts;
+        merged.best_start = fit.best_start;
+        merged
+    }
+
+    /// The reach across held ties after a step's `fit` of `problem` (joints of interest
+    /// `interest`, rigid-body symbols held along ties `held_ties`) ended above the noise
+    /// floor with a fitted rigid-body symbol on a bound; `plant` is the plant the step
+    /// started from. Such a symbol stands for base parameters β that it shares with held
+    /// ties ([`spanning_symbols`]), held at values an earlier step could not determine, so
+    /// its bound is not β's: the held ties can carry β further within their own bounds
+    /// ([`tie_reach`](super::identifiability::tie_reach)). The step is fitted again from
+    /// the fit's values with each such symbol's bound moved out by that reach; the result's
+    /// β is then spread back over the fitted and held symbols within their own bounds,
+    /// nearest the step's initial values and the held values
+    /// ([`least_change_along_ties_at`](super::identifiability::least_change_along_ties_at));
+    /// and the step is fitted once more from there, on its own bounds. Kept when that
+    /// last fit's cost + prior term is below the first fit's; the held ties that moved are
+    /// then in [`TieReach::moved`], for the plant. On c6 of the Freedom 6S (joint 0 alone,
+    /// its inertia β = I1_33 + the held links' terms) the first fit ended with I1_33 on its
+    /// upper bound at 26 σ̂.
+    ///
+    /// # Errors
+    /// A refit's problem cannot be set up; the barycentric parameters cannot be formed.
+    pub fn reach_across_held_ties(
+        &self,
+        plant: &Plant,
+        fit: FitResult,
+    ) -> Result<(FitResult, Option<TieReach>)> {
+        let (problem, held_ties) = (self.problem, self.held_ties);
+        if held_ties.is_empty() || fit.statistics.above_floor.is_empty() {
+            return Ok((fit, None));
+        }
+        let model = plant.model;
+        let conf = problem.configuration();
+        let locked_at = problem.locked_at();
+        let mut from = plant.clone();
+        fit.apply(&mut from);
+        let mut wide = from.clone();
+        let mut representatives = Vec::new();
+        for (i, n) in fit.names.iter().enumerate() {
+            if !model.inertial_symbols.contains(&n.as_str()) {
+                continue;
+            }
+            let (lo, hi) = (fit.lower[i], fit.upper[i]);
+            if hi <= lo {
+                // Held by its bounds (lower = upper): the user's value, not a bound to reach past.
+                continue;
+            }
+            let near = ON_BOUND * (hi - lo);
+            let at_upper = fit.fitted[i] >= hi - near;
+            if !(at_upper || fit.fitted[i] <= lo + near) {
+                continue;
+            }
+            let reach = super::identifiability::tie_reach(&from, conf, &locked_at, n, held_ties)
+                .context("the reach across held ties")?;
+            if reach <= near {
+                continue;
+            }
+            let bound = if at_upper { hi } else { lo };
+            let widened = if at_upper {
+                (lo, hi + reach)
+            } else {
+                (lo - reach, hi)
+            };
+            wide.bounds.insert(n.clone(), widened);
+            representatives.push((i, bound, widened));
+        }
+        if representatives.is_empty() {
+            return Ok((fit, None));
+        }
+        let mut options = self.refit_options();
+        // The wide fit's values are only a β to spread back: no least change on them.
+        options.least_change = false;
+        // The first fit's Stribeck branch was fitted with the rigid body held short of its
+        // β: the friction may have absorbed the missing inertia (c6 of the Freedom 6S: the
+        // dip collapsed, Fs_0 = Fc_0, and the wide fit from there ended at 1.68 σ̂).
+        options.stribeck_reseed = problem.options().stribeck_reseed;
+        let refit = |at: &Plant, options: OutputErrorOptions| -> Result<FitResult> {
+            self.refit_problem(at, fit.names.clone(), options)
+                .context("the reach across held ties")?
+                .fit(self.progress)
+        };
+        let first = refit(&wide, options)?;
+        // β of the wide fit spread back over the fitted and held symbols, on their own bounds.
+        let mut reached = wide.clone();
+        first.apply(&mut reached);
+        let names: Vec<String> = fit.names.iter().chain(held_ties).cloned().collect();
+        let initial: Vec<f64> = fit
+            .initial
+            .iter()
+            .copied()
+            .chain(held_ties.iter().map(|n| plant.parameters[n]))
+            .collect();
+        let own = |n: &String| -> Result<(f64, f64)> {
+            plant
+                .bounds
+                .get(n)
+                .copied()
+                .with_context(|| format!("the reach across held ties: '{n}' has no bounds"))
+        };
+        let (lower, upper): (Vec<f64>, Vec<f64>) = names
+            .iter()
+            .map(own)
+            .collect::<Result<Vec<_>>>()?
+            .into_iter()
+            .unzip();
+        let spread = super::identifiability::least_change_along_ties_at(
+            &reached, conf, &locked_at, &names, &initial, &lower, &upper,
+        )?;
+        let mut back = from.clone();
+        back.set_values(&names, &spread);
+        let second = refit(&back, self.refit_options())?;
+        let objective_before = fit.cost_after + fit.prior_penalty;
+        let objective_after = second.cost_after + second.prior_penalty;
+        let kept = objective_after < objective_before;
+        let k = fit.names.len();
+        let moved = held_ties
+            .iter()
+            .enumerate()
+            .filter(|&(h, n)| {
+                (spread[k + h] - plant.parameters[n]).abs()
+                    > ON_BOUND * (upper[k + h] - lower[k + h])
+            })
+            .map(|(h, n)| (n.clone(), plant.parameters[n], spread[k + h]))
+            .collect();
+        let summary = TieReach {
+            // The wide fit has the step's names in the step's order.
+            representatives: representatives
+                .iter()
+                .map(|&(i, bound, widened)| (fit.names[i].clone(), bound, widened, first.fitted[i]))
+                .collect(),
+            moved,
+            cost_before: fit.cost_after,
+            cost_wide: first.cost_after,
+            cost_after: second.cost_after,
+            kept,
+            evaluations: first.evaluations + second.evaluations,
+            jacobians: first.jacobians + second.jacobians,
+            wall_s: first.wall_s + second.wall_s,
+        };
+        let mut second = second;
+        second.evaluations = summary.evaluations;
+        second.jacobians = summary.jacobians;
+        second.wall_s = summary.wall_s;
+        Ok((self.merge_refit(plant, fit, second, kept), Some(summary)))
+    }
 }
 
 /// Write the plant and the report (Markdown and JSON) into `out`, each atomically.
