@@ -287,8 +287,9 @@ pub enum StageOptimiser {
     LevenbergMarquardt,
     /// basin's trust-region-reflective method (Coleman & Li, *SIAM J. Optim.* 6, 1996;
     /// SciPy's `least_squares(method='trf')`): bounds by an affine scaling that shrinks
-    /// the steps toward a bound only along that bound's coordinate, a finite-difference
-    /// Jacobian at every iteration. On k3 of the Freedom 6S, from the point where the
+    /// the steps toward a bound only along that bound's coordinate, a Jacobian at every
+    /// accepted step (finite differences, or [`OutputErrorOptions::jacobian_refresh`]'s
+    /// Broyden updates between them). On k3 of the Freedom 6S, from the point where the
     /// Levenberg–Marquardt's predictor stage at ω = 100 rad/s stopped (cost 0.14810,
     /// "convergence in chi-square value" with a projected gradient still pointing down a
     /// straight descent to 0.11032), it reached 0.11032 in 23 iterations; rmpfit restarted
