@@ -485,9 +485,11 @@ impl MPFitter for Fitter<'_> {
 /// [`minimise`] by basin's trust-region-reflective method
 /// ([`StageOptimiser::TrustRegionReflective`]) instead of rmpfit's Levenberg–Marquardt:
 /// `problem` from scaled parameters `u` ∈ [0, 1]ⁿ, updated in place; parameters where
-/// `frozen` is true stay. A finite-difference Jacobian (columns in parallel, step
-/// [`OutputErrorOptions::fd_step`] of the bound width) at every iteration; it stops on
-/// `config`'s relative cost change (ftol), relative step (xtol) or iteration limit, as
+/// `frozen` is true stay. A Jacobian at every accepted step: finite differences (columns in
+/// parallel, step [`OutputErrorOptions::fd_step`] of the bound width), or Broyden's update
+/// between them as [`OutputErrorOptions::jacobian_refresh`] allows (a run that stopped on an
+/// updated one goes on from finite differences, at most 3 times, as [`minimise`]); it stops
+/// on `config`'s relative cost change (ftol), relative step (xtol) or iteration limit, as
 /// [`stage_rules`] set them for the stage; the prior's rows as in [`minimise`]. A trial point whose
 /// simulation fails returns residuals 1e3 × the start's root mean square, so the step is
 /// rejected and the trust region shrinks; `start_cost` (the cost at `u`) sets that level.
