@@ -600,7 +600,8 @@ pub struct OutputErrorArgs {
     /// injection keeps an early error from growing along the file, so the stages that move
     /// the parameters most of the way run far coarser than the whole files need. `none`:
     /// the predictor's stages on --step and --integrator. Default: 1/2000 for the coupled
-    /// method, none for the isolated.
+    /// method, none for the isolated. With `--predictor-optimiser lm`, k1 of the Freedom 6S
+    /// stalls on the coarse step (whole files 4.19, the identification record): pass none.
     #[arg(long, value_name = "STEP")]
     pub predictor_step: Option<String>,
     /// Optimiser of the predictor's stages: `lm`, rmpfit's bounded Levenberg–Marquardt
