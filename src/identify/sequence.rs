@@ -889,7 +889,7 @@ impl StepRefit<'_> {
             jacobians: second.jacobians,
             wall_s: second.wall_s,
         };
-        Ok((self.merge_refit(plant, fit, second, kept), Some(summary)))
+        Ok((merge_refit(plant, fit, second, kept), Some(summary)))
     }
 
     /// A refit of the step on its files from plant `at`: `names` fitted under `options`,
@@ -926,39 +926,6 @@ impl StepRefit<'_> {
         options.starts = 1;
         options.stribeck_reseed = false;
         options
-    }
-
-    /// The step's result after a refit `second` of its `fit`: the refit's values and
-    /// statistics with the step's history (initial values, cost before, starts) when `kept`,
-    /// else the fit; the work of both either way.
-    fn merge_refit(
-        &self,
-        plant: &Plant,
-        fit: FitResult,
-        second: FitResult,
-        kept: bool,
-    ) -> FitResult {
-        if !kept {
-            let mut fit = fit;
-            fit.evaluations += second.evaluations;
-            fit.jacobians += second.jacobians;
-            fit.wall_s += second.wall_s;
-            return fit;
-        }
-        let mut merged = second;
-        for (i, n) in merged.names.iter().enumerate() {
-            merged.initial[i] = match fit.names.iter().position(|x| x == n) {
-                Some(j) => fit.initial[j],
-                None => plant.parameters[n],
-            };
-        }
-        merged.cost_before = fit.cost_before;
-        merged.evaluations += fit.evaluations;
-        merged.jacobians += fit.jacobians;
-        merged.wall_s += fit.wall_s;
-        merged.starts = fit.starts;
-        merged.best_start = fit.best_start;
-        merged
     }
 
     /// The reach across held ties after a step's `fit` of `problem` (joints of interest
@@ -1101,8 +1068,36 @@ impl StepRefit<'_> {
         second.evaluations = summary.evaluations;
         second.jacobians = summary.jacobians;
         second.wall_s = summary.wall_s;
-        Ok((self.merge_refit(plant, fit, second, kept), Some(summary)))
+        Ok((merge_refit(plant, fit, second, kept), Some(summary)))
     }
+}
+
+/// The step's result after a refit `second` of its `fit` from `plant` (the plant the step
+/// started from): the refit's values and statistics with the step's history (initial
+/// values, cost before, starts) when `kept`, else the fit; the work of both either way
+/// ([`StepRefit`]).
+fn merge_refit(plant: &Plant, fit: FitResult, second: FitResult, kept: bool) -> FitResult {
+    if !kept {
+        let mut fit = fit;
+        fit.evaluations += second.evaluations;
+        fit.jacobians += second.jacobians;
+        fit.wall_s += second.wall_s;
+        return fit;
+    }
+    let mut merged = second;
+    for (i, n) in merged.names.iter().enumerate() {
+        merged.initial[i] = match fit.names.iter().position(|x| x == n) {
+            Some(j) => fit.initial[j],
+            None => plant.parameters[n],
+        };
+    }
+    merged.cost_before = fit.cost_before;
+    merged.evaluations += fit.evaluations;
+    merged.jacobians += fit.jacobians;
+    merged.wall_s += fit.wall_s;
+    merged.starts = fit.starts;
+    merged.best_start = fit.best_start;
+    merged
 }
 
 /// Write the plant and the report (Markdown and JSON) into `out`, each atomically.

@@ -5,6 +5,11 @@
 use super::*;
 use std::sync::Mutex;
 
+/// How many times a stage that stopped on a Broyden-updated Jacobian goes on from a
+/// finite-difference one ([`minimise`], [`minimise_trf`]), so that it ends on stopping
+/// rules that hold for the true Jacobian.
+const BROYDEN_RERUNS: usize = 3;
+
 /// The stopping rules of a fit's `stage` under `options` ([`Problem::run_stage`]).
 /// Segment and short-horizon stages stop on looser rules: relative step 1e-4 (or the
 /// user's xtol if looser) and the user's relative cost decrease (at least
@@ -57,7 +62,7 @@ pub(super) fn stage_rules(options: &OutputErrorOptions, stage: Stage) -> MPConfi
 /// updated in place (a value within [`BOUND_SNAP`] of a bound put on it first), on the
 /// stopping rules of `config`; parameters where `frozen` is true
 /// stay. A run that stopped on a Broyden-updated Jacobian goes on from a finite-difference
-/// one (at most 3 times), so it ends on rules that hold for the true Jacobian. `stage` and
+/// one (at most [`BROYDEN_RERUNS`] times), so it ends on rules that hold for the true Jacobian. `stage` and
 /// `context` feed the progress display; `start_cost` (the cost at `u`) scales the residuals
 /// a failed simulation returns.
 pub(crate) fn minimise(
@@ -104,7 +109,10 @@ pub(crate) fn minimise(
     // A stage that stopped on a Broyden-updated Jacobian goes on from a
     // finite-difference one (its stopping rules then hold for the true Jacobian).
     let mut reruns = 0;
-    while result.is_ok() && fitter.jacobian.as_ref().is_some_and(|j| j.updates > 0) && reruns < 3 {
+    while result.is_ok()
+        && fitter.jacobian.as_ref().is_some_and(|j| j.updates > 0)
+        && reruns < BROYDEN_RERUNS
+    {
         fitter.jacobian = None;
         result = fitter.mpfit(u);
         iterations += result.as_ref().map_or(0, |st| st.n_iter);
@@ -488,7 +496,7 @@ impl MPFitter for Fitter<'_> {
 /// `frozen` is true stay. A Jacobian at every accepted step: finite differences (columns in
 /// parallel, step [`OutputErrorOptions::fd_step`] of the bound width), or Broyden's update
 /// between them as [`OutputErrorOptions::jacobian_refresh`] allows (a run that stopped on an
-/// updated one goes on from finite differences, at most 3 times, as [`minimise`]); it stops
+/// updated one goes on from finite differences, at most [`BROYDEN_RERUNS`] times, as [`minimise`]); it stops
 /// on `config`'s relative cost change (ftol), relative step (xtol) or iteration limit, as
 /// [`stage_rules`] set them for the stage; the prior's rows as in [`minimise`]. A trial point whose
 /// simulation fails returns residuals 1e3 × the start's root mean square, so the step is
@@ -640,9 +648,9 @@ pub(crate) fn minimise_trf(
     };
     let mut outcome = run(x0);
     // A stage that stopped on a Broyden-updated Jacobian goes on from a finite-difference
-    // one (its stopping rules then hold for the true Jacobian), at most 3 times.
+    // one (its stopping rules then hold for the true Jacobian).
     let mut iterations = 0;
-    for _ in 0..3 {
+    for _ in 0..BROYDEN_RERUNS {
         let updated = || {
             jacobian
                 .lock()
