@@ -517,7 +517,8 @@ pub struct OutputErrorArgs {
     /// a step that did not lower the cost, and the end of every stage, take a fresh one.
     /// Both optimisers (--predictor-optimiser, --whole-files-optimiser). 1: finite
     /// differences at every iteration. Default: 4 for the coupled method (the Freedom 6S's
-    /// k1 and k2 at 20 % and 50 % fewer simulations, the identification record), 1 for the isolated.
+    /// k1 and k2 at 20 % and 50 % fewer simulations, the identification record), 1 for the
+    /// isolated.
     #[arg(long, value_name = "N")]
     pub jacobian_refresh: Option<usize>,
     /// Multiple-shooting warm-up, e.g. `--segments 1,4`: one more start from the plant's

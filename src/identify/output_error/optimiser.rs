@@ -62,9 +62,9 @@ pub(super) fn stage_rules(options: &OutputErrorOptions, stage: Stage) -> MPConfi
 /// updated in place (a value within [`BOUND_SNAP`] of a bound put on it first), on the
 /// stopping rules of `config`; parameters where `frozen` is true
 /// stay. A run that stopped on a Broyden-updated Jacobian goes on from a finite-difference
-/// one (at most [`BROYDEN_RERUNS`] times), so it ends on rules that hold for the true Jacobian. `stage` and
-/// `context` feed the progress display; `start_cost` (the cost at `u`) scales the residuals
-/// a failed simulation returns.
+/// one (at most [`BROYDEN_RERUNS`] times), so it ends on rules that hold for the true
+/// Jacobian. `stage` and `context` feed the progress display; `start_cost` (the cost at
+/// `u`) scales the residuals a failed simulation returns.
 pub(crate) fn minimise(
     problem: &dyn LeastSquares,
     stage: Stage,
@@ -496,11 +496,12 @@ impl MPFitter for Fitter<'_> {
 /// `frozen` is true stay. A Jacobian at every accepted step: finite differences (columns in
 /// parallel, step [`OutputErrorOptions::fd_step`] of the bound width), or Broyden's update
 /// between them as [`OutputErrorOptions::jacobian_refresh`] allows (a run that stopped on an
-/// updated one goes on from finite differences, at most [`BROYDEN_RERUNS`] times, as [`minimise`]); it stops
-/// on `config`'s relative cost change (ftol), relative step (xtol) or iteration limit, as
-/// [`stage_rules`] set them for the stage; the prior's rows as in [`minimise`]. A trial point whose
-/// simulation fails returns residuals 1e3 × the start's root mean square, so the step is
-/// rejected and the trust region shrinks; `start_cost` (the cost at `u`) sets that level.
+/// updated one goes on from finite differences, at most [`BROYDEN_RERUNS`] times, as
+/// [`minimise`]); it stops on `config`'s relative cost change (ftol), relative step (xtol)
+/// or iteration limit, as [`stage_rules`] set them for the stage; the prior's rows as in
+/// [`minimise`]. A trial point whose simulation fails returns residuals 1e3 × the start's
+/// root mean square, so the step is rejected and the trust region shrinks; `start_cost`
+/// (the cost at `u`) sets that level.
 pub(crate) fn minimise_trf(
     problem: &dyn LeastSquares,
     stage: Stage,
