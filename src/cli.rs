@@ -576,6 +576,13 @@ pub struct OutputErrorArgs {
     /// ties stay where they are (c6 of the Freedom 6S then ends at 26 σ̂).
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub tie_reach: String,
+    /// Balanced refit after each step whose joints of interest are weighted apart (--weight):
+    /// the whole files once more with every free joint weighted 1, from the step's result;
+    /// kept when the worst free joint's RMS / σ̂ falls. The thesis's weight 50 lets a step
+    /// leave a misfit on the other joints that costs it 1/2500 of the same on a joint of
+    /// interest (k3 of the Freedom 6S: q4 at 1.55 σ; balanced 1.11 σ, the record).
+    #[arg(long, default_value = "off", value_parser = ["on", "off"])]
+    pub balance: String,
     /// Equation-error warm start: one more start from the plant's values first fits the
     /// torque balance at every sample (positions low-passed and differentiated, LuGre
     /// bristles driven by the estimated velocities; no simulation, so no drift), then the
@@ -832,6 +839,7 @@ fn identify_sequence(
         },
         release_held: oe.release_held == "on",
         tie_reach: oe.tie_reach == "on",
+        balance: oe.balance == "on",
     };
     let bar = indicatif::ProgressBar::new_spinner();
     bar.enable_steady_tick(std::time::Duration::from_millis(250));
