@@ -2088,6 +2088,44 @@ fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
     assert!(stats.identifiable[0], "{:?}", stats.correlated);
 }
 
+/// k2 of the Freedom 6S (free q3, q4, q5; 30 s of Table 4.7 made from the truth in `dir`)
+/// from the truth with `moved` values scaled, fitted on the whole files at 1/12000 s with
+/// the initial positions estimated: the truth, the start, the options, and the file's
+/// record (read afresh by each call).
+struct K2Case {
+    truth: Plant,
+    start: Plant,
+    options: OutputErrorOptions,
+    file: PathBuf,
+}
+
+impl K2Case {
+    fn new(dir: &Path, moved: &[(&str, f64)]) -> K2Case {
+        let truth_file = truth(dir);
+        make_data(dir, &truth_file, "4.7", None, "k2", "30");
+        let start_file = truth_within_bounds(dir, &truth_file, moved);
+        K2Case {
+            truth: Plant::load(&truth_file).unwrap(),
+            start: Plant::load(&start_file).unwrap(),
+            options: OutputErrorOptions {
+                h: 1.0 / 12000.0,
+                horizons: vec![1.0],
+                estimate_initial_positions: true,
+                ..OutputErrorOptions::default()
+            },
+            file: dir.join("data/k2_run.csv"),
+        }
+    }
+
+    fn k2(&self) -> &'static generated::Configuration {
+        self.truth.model.configuration("k2").unwrap()
+    }
+
+    fn record(&self) -> Vec<lockstep::identify::output_error::Record> {
+        vec![read_record(&self.file, self.truth.model, self.k2(), 0.01).unwrap()]
+    }
+}
+
 /// The release of held values (`--release-held`, `StepRefit::release_held`): joint 4's Coulomb
 /// level, which k1 fits, is held 2 % off with a recorded standard error of 1 % while k2
 /// fits joint 3's friction (30 s of Table 4.7); k2's fit ends above the noise floor. Its
@@ -2101,22 +2139,12 @@ fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
 fn a_held_value_the_step_sees_better_is_released_and_the_floor_reached() {
     use lockstep::identify::sequence::StepRefit;
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    let truth = Plant::load(&truth_file).unwrap();
-    make_data(d.path(), &truth_file, "4.7", None, "k2", "30");
-    let start_file = truth_within_bounds(d.path(), &truth_file, &[("Fc_4", 1.02)]);
-    let mut start = Plant::load(&start_file).unwrap();
+    let case = K2Case::new(d.path(), &[("Fc_4", 1.02)]);
+    let (truth, mut start, options, k2) =
+        (&case.truth, case.start.clone(), &case.options, case.k2());
     let fc4 = truth.parameters["Fc_4"];
     start.standard_errors.insert("Fc_4".into(), 0.01 * fc4);
-    let options = OutputErrorOptions {
-        h: 1.0 / 12000.0,
-        horizons: vec![1.0],
-        estimate_initial_positions: true,
-        ..OutputErrorOptions::default()
-    };
-    let k2 = truth.model.configuration("k2").unwrap();
-    let record =
-        || vec![read_record(&d.path().join("data/k2_run.csv"), truth.model, k2, 0.01).unwrap()];
+    let record = || case.record();
     let names: Vec<String> = ["Fc_3", "sigma2_3"].map(String::from).to_vec();
     let problem = Problem::new(&start, k2, names.clone(), record(), &[3], options.clone()).unwrap();
     // σ̂ from the data (robust 5th differences) is near the sensor's 2.02e-4 rad; a known
@@ -2604,22 +2632,11 @@ fn the_plant_gain_scale_family_is_undetermined_and_a_held_gain_determines_it() {
 fn the_balanced_refit_spreads_a_held_values_misfit_over_the_joints() {
     use lockstep::identify::sequence::StepRefit;
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    let truth = Plant::load(&truth_file).unwrap();
-    make_data(d.path(), &truth_file, "4.7", None, "k2", "30");
-    let start_file = truth_within_bounds(d.path(), &truth_file, &[("Fc_4", 1.0001)]);
-    let start = Plant::load(&start_file).unwrap();
-    let options = OutputErrorOptions {
-        h: 1.0 / 12000.0,
-        horizons: vec![1.0],
-        estimate_initial_positions: true,
-        ..OutputErrorOptions::default()
-    };
-    let k2 = truth.model.configuration("k2").unwrap();
-    let record =
-        || vec![read_record(&d.path().join("data/k2_run.csv"), truth.model, k2, 0.01).unwrap()];
+    let case = K2Case::new(d.path(), &[("Fc_4", 1.0001)]);
+    let (start, options, k2) = (&case.start, &case.options, case.k2());
+    let record = || case.record();
     let names: Vec<String> = ["x7", "y7", "Fc_3", "sigma2_3"].map(String::from).to_vec();
-    let problem = Problem::new(&start, k2, names.clone(), record(), &[3], options.clone()).unwrap();
+    let problem = Problem::new(start, k2, names.clone(), record(), &[3], options.clone()).unwrap();
     let fit = problem.fit(&|_| {}).unwrap();
     let refit = StepRefit {
         problem: &problem,
@@ -2627,7 +2644,7 @@ fn the_balanced_refit_spreads_a_held_values_misfit_over_the_joints() {
         held_ties: &[],
         progress: &|_| {},
     };
-    let (balanced, summary) = refit.balance(&start, fit.clone(), &[]).unwrap();
+    let (balanced, summary) = refit.balance(start, fit.clone(), &[]).unwrap();
     let b = summary.expect("q3 is weighted apart from q4 and q5");
     eprintln!("{b:?}");
     let (before, after) = b.worst();
@@ -2671,7 +2688,7 @@ fn the_balanced_refit_spreads_a_held_values_misfit_over_the_joints() {
         held_ties: &[],
         progress: &|_| {},
     };
-    let (same, none) = all.balance(&start, fit.clone(), &[]).unwrap();
+    let (same, none) = all.balance(start, fit.clone(), &[]).unwrap();
     assert!(none.is_none());
     assert_eq!(same.fitted, fit.fitted);
 }

@@ -382,14 +382,38 @@ pub struct Release {
     pub objective_after: f64,
     /// Whether the release's fit was kept (its objective lower).
     pub kept: bool,
-    /// How the release's fit ended.
+    /// How the release's fit ended and what it cost.
+    #[serde(flatten)]
+    pub work: RefitWork,
+}
+
+/// How a refit of a step ended and its work, included in the step's ([`Release`],
+/// [`Balance`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct RefitWork {
+    /// How the refit's kept start ended.
     pub status: String,
-    /// Its cost evaluations, Jacobians and wall time (s), included in the step's.
+    /// Cost evaluations.
     pub evaluations: usize,
     /// Jacobians.
     pub jacobians: usize,
     /// Wall time (s).
     pub wall_s: f64,
+}
+
+impl RefitWork {
+    /// The work of `fit`.
+    fn of(fit: &FitResult) -> RefitWork {
+        RefitWork {
+            status: fit
+                .starts
+                .get(fit.best_start)
+                .map_or_else(String::new, |s| s.status.clone()),
+            evaluations: fit.evaluations,
+            jacobians: fit.jacobians,
+            wall_s: fit.wall_s,
+        }
+    }
 }
 
 /// The balanced refit after a step's fit ([`StepRefit::balance`]).
@@ -405,14 +429,9 @@ pub struct Balance {
     pub cost_balanced: (f64, f64),
     /// Whether the refit was kept (its worst joint's RMS / σ̂ lower).
     pub kept: bool,
-    /// How the refit ended.
-    pub status: String,
-    /// Its cost evaluations, included in the step's.
-    pub evaluations: usize,
-    /// Jacobians.
-    pub jacobians: usize,
-    /// Wall time (s).
-    pub wall_s: f64,
+    /// How the refit ended and what it cost.
+    #[serde(flatten)]
+    pub work: RefitWork,
 }
 
 impl Balance {
@@ -925,13 +944,7 @@ impl StepRefit<'_> {
             objective_before,
             objective_after,
             kept,
-            status: second
-                .starts
-                .get(second.best_start)
-                .map_or_else(String::new, |s| s.status.clone()),
-            evaluations: second.evaluations,
-            jacobians: second.jacobians,
-            wall_s: second.wall_s,
+            work: RefitWork::of(&second),
         };
         Ok((merge_refit(plant, fit, second, kept), Some(summary)))
     }
@@ -1015,13 +1028,7 @@ impl StepRefit<'_> {
             cost_weighted,
             cost_balanced,
             kept: false,
-            status: second
-                .starts
-                .get(second.best_start)
-                .map_or_else(String::new, |s| s.status.clone()),
-            evaluations: second.evaluations,
-            jacobians: second.jacobians,
-            wall_s: second.wall_s,
+            work: RefitWork::of(&second),
         };
         let (before, after) = summary.worst();
         summary.kept = after < before;
@@ -1636,10 +1643,10 @@ fn step_markdown(
             fmt_g(r.objective_before),
             fmt_g(r.objective_after),
             if r.kept { "kept: the values and statistics below are the release's" } else { "not lower: not kept" },
-            r.evaluations,
-            r.jacobians,
-            r.wall_s,
-            r.status
+            r.work.evaluations,
+            r.work.jacobians,
+            r.work.wall_s,
+            r.work.status
         );
     }
     if let Some(b) = &st.balance {
@@ -1661,10 +1668,10 @@ fn step_markdown(
             fmt_g(b.cost_balanced.1),
             fmt_g(b.cost_weighted.0),
             fmt_g(b.cost_weighted.1),
-            b.evaluations,
-            b.jacobians,
-            b.wall_s,
-            b.status
+            b.work.evaluations,
+            b.work.jacobians,
+            b.work.wall_s,
+            b.work.status
         );
     }
     if let Some(lc) = f.least_change.as_ref().filter(|lc| !lc.moved.is_empty()) {
