@@ -2662,22 +2662,25 @@ fn the_balanced_refit_spreads_a_held_values_misfit_over_the_joints() {
     assert_eq!(b.cost_weighted.0, fit.cost_after);
     assert_eq!(balanced.cost_after, b.cost_weighted.1);
     // Each reported cost afresh: the problem at the values, initial positions settled.
-    let cost = |weight: f64, values: &[f64]| {
+    // Each reported cost afresh: a new problem at the values, on the initial positions that
+    // fit settled on; the fits' own costs are repeated the same way.
+    let cost = |weight: f64, of: &lockstep::identify::output_error::FitResult| {
         let mut at = start.clone();
-        at.set_values(&names, values);
+        at.set_values(&names, &of.fitted);
         let o = OutputErrorOptions {
             interest_weight: weight,
             ..options.clone()
         };
-        let p = Problem::new(&at, k2, names.clone(), record(), &[3], o)
+        Problem::new(&at, k2, names.clone(), record(), &[3], o)
             .unwrap()
-            .with_initial_positions_of(&at)
-            .unwrap();
-        p.cost(values)
+            .with_initial_offsets(of.initial_positions.as_ref().unwrap())
+            .cost(&of.fitted)
     };
     let close = |a: f64, b: f64| (a / b - 1.0).abs() < 1e-9;
-    assert!(close(cost(50.0, &balanced.fitted), b.cost_weighted.1));
-    assert!(close(cost(1.0, &fit.fitted), b.cost_balanced.0));
+    assert!(close(cost(50.0, &fit), fit.cost_after));
+    assert!(close(cost(1.0, &balanced), b.cost_balanced.1));
+    assert!(close(cost(50.0, &balanced), b.cost_weighted.1));
+    assert!(close(cost(1.0, &fit), b.cost_balanced.0));
     // With λ ≥ 1 on q3 the weighted cost bounds the balanced one at the same values.
     assert!(b.cost_balanced.0 < b.cost_weighted.0);
     assert!(b.cost_balanced.1 < b.cost_weighted.1);

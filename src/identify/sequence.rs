@@ -995,20 +995,18 @@ impl StepRefit<'_> {
         let mut to = from.clone();
         second.apply(&mut to);
         // The thesis-weighted cost at the result, and the balanced one at the fit's values,
-        // each on the initial positions its values fit best (as the fits' own costs).
-        let cost_at = |p: &Problem, at: &Plant, values: &[f64]| -> f64 {
-            let settled = if p.options().estimate_initial_positions {
-                p.with_initial_positions_of(at).ok()
-            } else {
-                Some(p.clone())
-            };
-            settled.map_or(f64::INFINITY, |p| p.cost(values))
+        // each on the initial positions that fit settled on (as the fits' own costs).
+        let cost_at = |p: &Problem, of: &FitResult| -> f64 {
+            match &of.initial_positions {
+                Some(offsets) => p.with_initial_offsets(offsets).cost(&of.fitted),
+                None => p.cost(&of.fitted),
+            }
         };
         let weighted = self
             .refit_problem(&to, second.names.clone(), self.refit_options())
             .context("the balanced refit")?;
-        let cost_weighted = (fit.cost_after, cost_at(&weighted, &to, &second.fitted));
-        let cost_balanced = (cost_at(&balanced, &from, &fit.fitted), second.cost_after);
+        let cost_weighted = (fit.cost_after, cost_at(&weighted, &second));
+        let cost_balanced = (cost_at(&balanced, &fit), second.cost_after);
         let ratio = |j: &super::output_error::JointFit| {
             if j.noise > 0.0 {
                 j.rms_fitted / j.noise

@@ -1257,6 +1257,28 @@ impl Problem {
         Ok(self.with_records(self.estimate_initial_positions(plant)?, self.sqrt_w.clone()))
     }
 
+    /// The same problem with every file's free-joint initial positions moved by `offsets`
+    /// (per file, per free joint, rad; [`FitResult::initial_positions`]: the starts a fit
+    /// settled on, so that [`Problem::cost`] there repeats that fit's cost). Files without
+    /// an offset keep their measured first samples.
+    pub fn with_initial_offsets(&self, offsets: &[Vec<f64>]) -> Problem {
+        let records = self
+            .records
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let mut r = r.clone();
+                if let Some(d) = offsets.get(i) {
+                    for (&j, dj) in self.conf.free.iter().zip(d) {
+                        r.q_all[j] += dj;
+                    }
+                }
+                r
+            })
+            .collect();
+        self.with_records(records, self.sqrt_w.clone())
+    }
+
     /// Residual vector (length [`Problem::residual_count`]) of the files' trajectories.
     pub(crate) fn residuals_of(&self, trajectories: &[Trajectory]) -> Vec<f64> {
         let mut r = vec![0.0; self.m];
