@@ -151,7 +151,7 @@ fn sequence(dir: &Path, data: &Path) {
         joint: JointFitMode::Off,
         release_held: true,
         tie_reach: true,
-        balance: false,
+        balance: true,
     };
     let report = run(&start, &[data.to_path_buf()], &opts, &|_, _| {}).unwrap();
     println!(

@@ -580,8 +580,10 @@ pub struct OutputErrorArgs {
     /// the whole files once more with every free joint weighted 1, from the step's result;
     /// kept when the worst free joint's RMS / σ̂ falls. The thesis's weight 50 lets a step
     /// leave a misfit on the other joints that costs it 1/2500 of the same on a joint of
-    /// interest (k3 of the Freedom 6S: q4 at 1.55 σ; balanced 1.11 σ, the record).
-    #[arg(long, default_value = "off", value_parser = ["on", "off"])]
+    /// interest (the Freedom 6S's seed-7 sequence: k3's q4 at 1.55 σ, k5's at 1.75 σ;
+    /// balanced, every joint of every step within 1.01 σ, the record). `off`: the thesis's
+    /// weights to the end
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub balance: String,
     /// Equation-error warm start: one more start from the plant's values first fits the
     /// torque balance at every sample (positions low-passed and differentiated, LuGre
