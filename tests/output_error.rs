@@ -2652,6 +2652,7 @@ fn the_balanced_refit_spreads_a_held_values_misfit_over_the_joints() {
     assert!(after < 0.7 * before, "worst {before:.2} → {after:.2} σ̂");
     assert!(b.kept);
     for (j, x, y) in &b.joints {
+        let (x, y) = (x.expect("σ̂ of noisy data"), y.expect("σ̂ of noisy data"));
         assert!(y < x, "{j}: {x:.2} → {y:.2} σ̂");
     }
     // The step's result: the balanced values and statistics (every joint weighted 1), its
@@ -2661,7 +2662,6 @@ fn the_balanced_refit_spreads_a_held_values_misfit_over_the_joints() {
     assert!(balanced.evaluations > fit.evaluations);
     assert_eq!(b.cost_weighted.0, fit.cost_after);
     assert_eq!(balanced.cost_after, b.cost_weighted.1);
-    // Each reported cost afresh: the problem at the values, initial positions settled.
     // Each reported cost afresh: a new problem at the values, on the initial positions that
     // fit settled on; the fits' own costs are repeated the same way.
     let cost = |weight: f64, of: &lockstep::identify::output_error::FitResult| {

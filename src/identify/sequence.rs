@@ -420,8 +420,9 @@ impl RefitWork {
 #[derive(Debug, Clone, Serialize)]
 pub struct Balance {
     /// Per free joint: name, RMS error over the fitted samples over its noise σ̂ before
-    /// and after the balanced refit.
-    pub joints: Vec<(String, f64, f64)>,
+    /// and after the balanced refit; None where the files give no σ̂
+    /// ([`JointFit::floor_ratio`](super::output_error::JointFit::floor_ratio)).
+    pub joints: Vec<(String, Option<f64>, Option<f64>)>,
     /// The cost (4.2)/(4.3) with the step's joint weights (the thesis's) at the step's fit
     /// and at the balanced refit's result.
     pub cost_weighted: (f64, f64),
@@ -435,11 +436,13 @@ pub struct Balance {
 }
 
 impl Balance {
-    /// The worst free joint's RMS / σ̂ before and after.
+    /// The worst free joint's RMS / σ̂ before and after, over the joints whose σ̂ the files
+    /// give ([`JointFit::floor_ratio`](super::output_error::JointFit::floor_ratio)); 0 when
+    /// none does.
     pub fn worst(&self) -> (f64, f64) {
-        self.joints
-            .iter()
-            .fold((0.0_f64, 0.0_f64), |(a, b), j| (a.max(j.1), b.max(j.2)))
+        self.joints.iter().fold((0.0_f64, 0.0_f64), |(a, b), j| {
+            (a.max(j.1.unwrap_or(0.0)), b.max(j.2.unwrap_or(0.0)))
+        })
     }
 }
 
@@ -1007,19 +1010,12 @@ impl StepRefit<'_> {
             .context("the balanced refit")?;
         let cost_weighted = (fit.cost_after, cost_at(&weighted, &second));
         let cost_balanced = (cost_at(&balanced, &fit), second.cost_after);
-        let ratio = |j: &super::output_error::JointFit| {
-            if j.noise > 0.0 {
-                j.rms_fitted / j.noise
-            } else {
-                f64::INFINITY
-            }
-        };
-        let joints: Vec<(String, f64, f64)> = fit
+        let joints: Vec<(String, Option<f64>, Option<f64>)> = fit
             .statistics
             .joints
             .iter()
             .zip(&second.statistics.joints)
-            .map(|(a, b)| (a.joint.clone(), ratio(a), ratio(b)))
+            .map(|(a, b)| (a.joint.clone(), a.floor_ratio(), b.floor_ratio()))
             .collect();
         let mut summary = Balance {
             joints,
@@ -1381,6 +1377,11 @@ fn plus_minus(values: &[(String, f64)]) -> String {
         .join(", ")
 }
 
+/// An RMS / σ̂ ratio to two decimals, "—" where the files give no σ̂.
+fn fmt_ratio(r: Option<f64>) -> String {
+    r.map_or_else(|| "—".into(), |r| format!("{r:.2}"))
+}
+
 fn fmt_g(x: f64) -> String {
     if x == 0.0 {
         "0".into()
@@ -1654,7 +1655,7 @@ fn step_markdown(
             "Balanced refit (`--balance on`): the whole files once more with every free joint weighted 1, from the step's fit: RMS / σ̂ {}; worst {worst_before:.2} → {worst_after:.2} ({}). Cost with every joint weighted 1 {} → {}; the cost with the step's weights {} → {} ({} cost evaluations, {} Jacobians, {:.1} s; {}).\n",
             b.joints
                 .iter()
-                .map(|(j, a, c)| format!("{j} {a:.2} → {c:.2}"))
+                .map(|(j, a, c)| format!("{j} {} → {}", fmt_ratio(*a), fmt_ratio(*c)))
                 .collect::<Vec<_>>()
                 .join(", "),
             if b.kept {
@@ -1877,13 +1878,13 @@ fn step_markdown(
     for j in &stats.joints {
         let _ = writeln!(
             s,
-            "| {} | {} | {:.4e} | {:.4e} | {:.2} | {:.2} | {:.4e} | {:.2} |",
+            "| {} | {} | {:.4e} | {:.4e} | {} | {} | {:.4e} | {:.2} |",
             j.joint,
             j.weight,
             j.rms_fitted,
             j.noise,
-            j.rms_fitted / j.noise.max(1e-300),
-            j.rms / j.noise.max(1e-300),
+            fmt_ratio(j.floor_ratio()),
+            fmt_ratio(j.rms_ratio()),
             j.max_abs,
             j.nrmse_fit
         );

@@ -870,8 +870,11 @@ pub(crate) fn covariance_statistics(
         .collect();
     let above_floor: Vec<String> = joints
         .iter()
-        .filter(|j| j.noise > 0.0 && j.rms_fitted > FLOOR_FACTOR * j.noise)
-        .map(|j| format!("{} RMS {:.3} σ̂", j.joint, j.rms_fitted / j.noise))
+        .filter_map(|j| {
+            j.floor_ratio()
+                .filter(|&r| r > FLOOR_FACTOR)
+                .map(|r| format!("{} RMS {r:.3} σ̂", j.joint))
+        })
         .collect();
     let identifiable: Vec<bool> = (0..n)
         .map(|i| {
@@ -901,6 +904,23 @@ pub(crate) fn covariance_statistics(
         condition,
         joints,
     })
+}
+
+impl JointFit {
+    /// RMS position error over the samples the cost weighs in units of the joint's noise σ̂
+    /// (`rms_fitted / noise`): 1 at the noise floor, above [`FLOOR_FACTOR`] above it. None
+    /// when the files give no noise estimate (σ̂ = 0: noise-free or quantised-only data),
+    /// where the floor cannot be judged; every report and test of the floor uses this one
+    /// ratio.
+    pub fn floor_ratio(&self) -> Option<f64> {
+        (self.noise > 0.0).then(|| self.rms_fitted / self.noise)
+    }
+
+    /// `rms / noise` over all samples (MATLAB `compare`'s RMS), None as
+    /// [`JointFit::floor_ratio`].
+    pub fn rms_ratio(&self) -> Option<f64> {
+        (self.noise > 0.0).then(|| self.rms / self.noise)
+    }
 }
 
 impl Statistics {
@@ -1407,5 +1427,26 @@ mod tests {
             "θ₃: {} vs {expected}",
             stats.std_err[3]
         );
+    }
+
+    /// The floor ratio is RMS over the weighed samples / σ̂, and undefined (None) where
+    /// the files give no σ̂: such a joint is not called above the floor, whatever its RMS.
+    #[test]
+    fn the_floor_ratio_is_undefined_without_a_noise_estimate() {
+        let noisy = JointFit {
+            joint: "q3".into(),
+            rms: 4.0e-4,
+            rms_fitted: 3.1e-4,
+            noise: 2.0e-4,
+            ..Default::default()
+        };
+        assert!((noisy.floor_ratio().unwrap() - 1.55).abs() < 1e-12);
+        assert!((noisy.rms_ratio().unwrap() - 2.0).abs() < 1e-12);
+        let noiseless = JointFit {
+            noise: 0.0,
+            ..noisy.clone()
+        };
+        assert_eq!(noiseless.floor_ratio(), None);
+        assert_eq!(noiseless.rms_ratio(), None);
     }
 }
