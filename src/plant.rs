@@ -89,6 +89,15 @@ pub struct PlantFile {
     /// ([`crate::identify::output_error::OutputErrorOptions::carried_prior`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub standard_errors: BTreeMap<String, f64>,
+    /// Correlations of values with recorded standard errors that one step fitted together
+    /// (`[correlations.a] b = ρ`, each pair once, a < b; absent pairs 0): the estimates of
+    /// one fit are correlated (a value and what it trades with), and a later step that
+    /// holds both propagates their joint uncertainty Σ_h = D R D, D the standard errors,
+    /// R these correlations (the two-stage estimator needs the first stage's covariance,
+    /// not its diagonal; Murphy and Topel 1985). A step that fits a value again drops its
+    /// pairs.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub correlations: BTreeMap<String, BTreeMap<String, f64>>,
 }
 
 /// One step of a plant's history: a change (an effect added, parameters refitted), the
@@ -138,6 +147,9 @@ pub struct Plant {
     /// Standard errors of fitted values from the step that last fitted them
     /// ([`PlantFile::standard_errors`]).
     pub standard_errors: BTreeMap<String, f64>,
+    /// Correlations of recorded values one step fitted together, each pair once with the
+    /// lexically smaller name first ([`PlantFile::correlations`], [`Plant::correlation`]).
+    pub correlations: BTreeMap<String, BTreeMap<String, f64>>,
 }
 
 /// One physical-consistency finding of a link of a plant.
@@ -209,6 +221,7 @@ impl Plant {
             history: Vec::new(),
             undetermined: Vec::new(),
             standard_errors: BTreeMap::new(),
+            correlations: BTreeMap::new(),
         })
     }
 
@@ -253,6 +266,7 @@ impl Plant {
         plant.history = spec.history.clone();
         plant.undetermined = spec.undetermined.clone();
         plant.standard_errors = spec.standard_errors.clone();
+        plant.correlations = spec.correlations.clone();
         for (i, e) in spec.effects.iter().enumerate() {
             let item = format!("effect {} ({})", i + 1, e.kind);
             let mut effects = Vec::new();
@@ -331,6 +345,28 @@ impl Plant {
             }
             if !(se.is_finite() && se > 0.0) {
                 bail!("[standard_errors] '{k}': expected a positive finite standard error, found {se}");
+            }
+        }
+        for (a, row) in &spec.correlations {
+            for (b, &r) in row {
+                let item = format!("[correlations.{a}] '{b}'");
+                for n in [a, b] {
+                    if !spec.standard_errors.contains_key(n) {
+                        bail!(
+                            "{item}: '{n}' has no entry in [standard_errors] (correlations are \
+                             kept between values with recorded standard errors)"
+                        );
+                    }
+                }
+                if a >= b {
+                    bail!(
+                        "{item}: expected each pair once with the lexically smaller name first \
+                         ([correlations.{b}] {a} = ...)"
+                    );
+                }
+                if !(r.is_finite() && r.abs() <= 1.0) {
+                    bail!("{item}: expected a correlation in [-1, 1], found {r}");
+                }
             }
         }
         plant.parameters = spec.parameters;
@@ -608,6 +644,47 @@ impl Plant {
         })
     }
 
+    /// Correlation of the recorded estimates of `a` and `b` ([`Plant::correlations`]): 1
+    /// when `a` = `b`, 0 for a pair not recorded (values fitted by different steps, or
+    /// not fitted).
+    pub fn correlation(&self, a: &str, b: &str) -> f64 {
+        if a == b {
+            return 1.0;
+        }
+        let (a, b) = if a < b { (a, b) } else { (b, a) };
+        self.correlations
+            .get(a)
+            .and_then(|row| row.get(b))
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// Record correlation `r` ∈ [−1, 1] of the estimates of `a` ≠ `b`
+    /// ([`Plant::correlations`]); `r` = 0 removes the pair.
+    pub fn set_correlation(&mut self, a: &str, b: &str, r: f64) {
+        let (a, b) = if a < b { (a, b) } else { (b, a) };
+        if r == 0.0 {
+            if let Some(row) = self.correlations.get_mut(a) {
+                row.remove(b);
+            }
+        } else {
+            self.correlations
+                .entry(a.to_string())
+                .or_default()
+                .insert(b.to_string(), r.clamp(-1.0, 1.0));
+        }
+        self.correlations.retain(|_, row| !row.is_empty());
+    }
+
+    /// Drop every recorded correlation of a value for which `drop` is true.
+    pub fn forget_correlations(&mut self, drop: impl Fn(&str) -> bool) {
+        self.correlations.retain(|a, _| !drop(a));
+        for row in self.correlations.values_mut() {
+            row.retain(|b, _| !drop(b));
+        }
+        self.correlations.retain(|_, row| !row.is_empty());
+    }
+
     /// Set parameters `names` to `values` (SI, in the same order; a name without a value
     /// gets one).
     pub fn set_values(&mut self, names: &[String], values: &[f64]) {
@@ -820,6 +897,7 @@ impl Plant {
             history: self.history.clone(),
             undetermined: self.undetermined.clone(),
             standard_errors: self.standard_errors.clone(),
+            correlations: self.correlations.clone(),
         }
     }
 

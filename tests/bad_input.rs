@@ -194,6 +194,17 @@ fn plant_file_errors_name_file_and_item() {
             "model = \"emps\"\n[parameters]\nM = 95.0\n[standard_errors]\nM = -0.1\n",
             "[standard_errors] 'M': expected a positive finite standard error, found -0.1",
         ),
+        // Correlations only between values with standard errors, each pair once, in [−1, 1].
+        (
+            "p8.toml",
+            "model = \"emps\"\n[[effect]]\nkind = \"viscous\"\njoints = [\"q0\"]\n[parameters]\nM = 95.0\nFv_0 = 20.0\n[standard_errors]\nM = 0.1\n[correlations.Fv_0]\nM = 0.5\n",
+            "[correlations.Fv_0] 'M': 'Fv_0' has no entry in [standard_errors]",
+        ),
+        (
+            "p9.toml",
+            "model = \"emps\"\n[[effect]]\nkind = \"viscous\"\njoints = [\"q0\"]\n[parameters]\nM = 95.0\nFv_0 = 20.0\n[standard_errors]\nM = 0.1\nFv_0 = 0.2\n[correlations.Fv_0]\nM = -1.2\n",
+            "[correlations.Fv_0] 'M': expected a correlation in [-1, 1], found -1.2",
+        ),
     ] {
         let p = write(d.path(), file, text);
         let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();

@@ -191,6 +191,26 @@ pub struct DataFile {
     pub config: String,
 }
 
+/// Configuration `config` of `model` and the records of those `files` measured in it
+/// ([`read_record`], locked joints within `locked_tolerance`); empty when none is.
+///
+/// # Errors
+/// An unknown configuration; a file that cannot be read or does not match it.
+fn records_of(
+    files: &[DataFile],
+    model: &'static Model,
+    config: &str,
+    locked_tolerance: f64,
+) -> Result<(&'static Configuration, Vec<Record>)> {
+    let conf = crate::util::configuration(model, config)?;
+    let recs = files
+        .iter()
+        .filter(|f| f.config == config)
+        .map(|f| read_record(&f.path, model, conf, locked_tolerance))
+        .collect::<Result<Vec<_>>>()?;
+    Ok((conf, recs))
+}
+
 /// Measurement files (`*.csv`, `*.mat`) given directly or found in directories, with
 /// their configurations; files that cannot be used are returned with the reason.
 ///
@@ -605,12 +625,7 @@ pub fn run(
     // Everything checked before the first fit.
     let mut checked: Vec<Problem> = Vec::new();
     for s in &steps {
-        let conf = crate::util::configuration(model, &s.config)?;
-        let recs = files
-            .iter()
-            .filter(|f| f.config == s.config)
-            .map(|f| read_record(&f.path, model, conf, opts.locked_tolerance))
-            .collect::<Result<Vec<_>>>()?;
+        let (conf, recs) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
         if recs.is_empty() {
             bail!(
                 "step '{}': no measurement file of configuration '{}' in {} (files found: {})",
@@ -648,12 +663,7 @@ pub fn run(
     // The joint fit's files, checked before any fit too.
     let mut joint_files: Vec<(&'static Configuration, Vec<Record>)> = Vec::new();
     for s in &joint_steps {
-        let conf = crate::util::configuration(model, &s.config)?;
-        let recs = files
-            .iter()
-            .filter(|f| f.config == s.config)
-            .map(|f| read_record(&f.path, model, conf, opts.locked_tolerance))
-            .collect::<Result<Vec<_>>>()?;
+        let (conf, recs) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
         if recs.is_empty() {
             bail!(
                 "joint fit: step '{}' has no measurement file of its configuration in {} (the joint fit covers the steps up to {})",
@@ -1350,9 +1360,14 @@ fn joint_fit(
 /// nothing), have a finite one and are not at a bound (there the Jacobian's one-sided
 /// information is no Gaussian), widened to the value's distance to an equally good minimum
 /// of another start ([`Statistics::other_minima`]); drop the records of those this fit did
-/// not qualify and of names the plant no longer has.
+/// not qualify and of names the plant no longer has. The correlations of the recorded
+/// values with each other (the held values' share included,
+/// [`Statistics::correlation_with_held`]) replace every pair this fit's values had
+/// ([`Plant::correlations`]).
 fn record_standard_errors(plant: &mut Plant, names: &[String], stats: &Statistics) {
     let at_floor = stats.above_floor.is_empty();
+    plant.forget_correlations(|n| names.iter().any(|m| m == n));
+    let mut recorded = Vec::new();
     for (i, n) in names.iter().enumerate() {
         // A value that differs between equally good minima is known to no better than
         // that difference.
@@ -1360,12 +1375,24 @@ fn record_standard_errors(plant: &mut Plant, names: &[String], stats: &Statistic
         let se = stats.std_err[i].max(spread);
         if at_floor && se.is_finite() && se > 0.0 && !stats.at_bound[i] {
             plant.standard_errors.insert(n.clone(), se);
+            recorded.push(i);
         } else {
             plant.standard_errors.remove(n);
         }
     }
+    let correlation = &stats.correlation_with_held;
+    for (a, &i) in recorded.iter().enumerate() {
+        for &j in &recorded[a + 1..] {
+            let r = correlation.get(i).and_then(|row| row.get(j)).copied();
+            if let Some(r) = r.filter(|r| *r != 0.0 && r.is_finite()) {
+                plant.set_correlation(&names[i], &names[j], r);
+            }
+        }
+    }
     let known = plant.parameters.clone();
     plant.standard_errors.retain(|n, _| known.contains_key(n));
+    let recorded_names = plant.standard_errors.clone();
+    plant.forget_correlations(|n| !recorded_names.contains_key(n));
 }
 
 /// "name ± σ" for every (name, σ) of `values`, comma-separated.
@@ -1923,5 +1950,59 @@ mod tests {
         stats.above_floor = vec!["q0 RMS 3.1 σ̂".into()];
         record_standard_errors(&mut plant, &names, &stats);
         assert!(plant.standard_errors.is_empty());
+    }
+
+    /// The correlations of the recorded values are kept pairwise (each pair once), those
+    /// of a value not recorded (infinite standard error) are not, and a fit of a value
+    /// again replaces its pairs; the plant file keeps them and rejects a malformed pair.
+    #[test]
+    fn correlations_of_recorded_values_are_kept_and_replaced_by_a_refit() {
+        let mut plant = Plant::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("model/plants/freedom6s_appendix_d_initial_widened.toml"),
+        )
+        .unwrap();
+        let names: Vec<String> = ["m7", "z7", "x7"].map(String::from).to_vec();
+        let stats = Statistics {
+            std_err: vec![0.1, 0.2, f64::INFINITY],
+            at_bound: vec![false; 3],
+            correlation_with_held: vec![
+                vec![1.0, -0.97, 0.3],
+                vec![-0.97, 1.0, 0.5],
+                vec![0.3, 0.5, 1.0],
+            ],
+            ..Statistics::default()
+        };
+        record_standard_errors(&mut plant, &names, &stats);
+        assert_eq!(plant.correlation("z7", "m7"), -0.97);
+        assert_eq!(plant.correlation("m7", "z7"), -0.97);
+        assert_eq!(plant.correlation("m7", "x7"), 0.0);
+        assert_eq!(plant.correlation("x7", "x7"), 1.0);
+        assert_eq!(plant.correlations.len(), 1);
+        // Through the plant file and back.
+        let text = toml::to_string(&plant.to_file()).unwrap();
+        assert!(text.contains("[correlations.m7]\nz7 = -0.97"), "{text}");
+        let back = Plant::from_file(toml::from_str(&text).unwrap(), None).unwrap();
+        assert_eq!(back.correlations, plant.correlations);
+        let mut bad: crate::plant::PlantFile = toml::from_str(&text).unwrap();
+        bad.correlations = [("z7".to_string(), [("m7".to_string(), 0.5)].into())].into();
+        let e = Plant::from_file(bad.clone(), None).unwrap_err().to_string();
+        assert!(
+            e.contains("[correlations.z7] 'm7'") && e.contains("once"),
+            "{e}"
+        );
+        bad.correlations = [("m7".to_string(), [("z7".to_string(), 1.5)].into())].into();
+        let e = Plant::from_file(bad, None).unwrap_err().to_string();
+        assert!(e.contains("[-1, 1], found 1.5"), "{e}");
+        // A refit of m7 alone drops its pair with z7 and records none (nothing else fitted).
+        let refit = Statistics {
+            std_err: vec![0.05],
+            at_bound: vec![false],
+            correlation_with_held: vec![vec![1.0]],
+            ..Statistics::default()
+        };
+        record_standard_errors(&mut plant, &names[..1], &refit);
+        assert!(plant.correlations.is_empty());
+        assert_eq!(plant.standard_errors["m7"], 0.05);
     }
 }

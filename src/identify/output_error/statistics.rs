@@ -108,6 +108,11 @@ pub struct Statistics {
     /// it); 0 off the diagonal for a parameter the data do not determine (infinite
     /// standard error: its covariance is amplified rounding).
     pub correlation: Vec<Vec<f64>>,
+    /// Correlation matrix (n × n) of the estimates with the held values' share: that of
+    /// `std_err`'s covariance, what a later step that holds these values propagates
+    /// ([`crate::plant::Plant::correlations`]); 0 off the diagonal as in `correlation`.
+    #[serde(skip)]
+    pub correlation_with_held: Vec<Vec<f64>>,
     /// Pairs with |correlation| > [`CORRELATION_LIMIT`].
     pub correlated: Vec<(String, String, f64)>,
     /// At (within 1e-4 of the width of) a bound.
@@ -324,8 +329,12 @@ pub(crate) struct HeldColumns {
     pub names: Vec<String>,
     /// Standard error of each (SI), as recorded by the step that fitted it
     /// ([`crate::plant::Plant::standard_errors`]), or for a held tie without one its
-    /// bounds' uniform spread (upper − lower)/√12; taken as independent.
+    /// bounds' uniform spread (upper − lower)/√12.
     pub std_err: Vec<f64>,
+    /// Correlations (k, l, ρ), k < l, of held values that one step fitted together
+    /// ([`crate::plant::Plant::correlations`]); every other pair, and every held tie's
+    /// spread, is independent. The held share is G D R D Gᵀ with D = diag(`std_err`).
+    pub correlation: Vec<(usize, usize, f64)>,
     /// Per held value: a held tie whose `std_err` is its bounds' spread (not recorded).
     pub tie: Vec<bool>,
     /// ∂r/∂h of the fit's residuals per held value (length m each).
@@ -652,6 +661,15 @@ pub(crate) fn held_in(
         held.std_err.push(se);
         held.tie.push(tie);
     }
+    let recorded = |k: usize| !held.tie[k];
+    for k in 0..held.names.len() {
+        for l in k + 1..held.names.len() {
+            let r = plant.correlation(&held.names[k], &held.names[l]);
+            if recorded(k) && recorded(l) && r != 0.0 {
+                held.correlation.push((k, l, r));
+            }
+        }
+    }
     held
 }
 
@@ -803,9 +821,10 @@ pub(crate) fn covariance_statistics(
     // halves differ.
     let given_held = &ainv * b * &ainv;
     let given_held = (&given_held + given_held.transpose()) * 0.5;
-    // The held values' share: column k of G (scaled parameters per unit of held value k)
-    // is −A⁺ J̃ᵀ J_h,k.
+    // The held values' share G Σ_h Gᵀ: column k of G (scaled parameters per unit of held
+    // value k) is −A⁺ J̃ᵀ J_h,k; Σ_h = D R D.
     let mut cov_scaled = given_held.clone();
+    let mut g_columns = Vec::with_capacity(held.cols.len());
     for (k, (col, se)) in held.cols.iter().zip(&held.std_err).enumerate() {
         let g = match held.make_up.get(k).and_then(|d| d.as_ref()) {
             // Scaled parameter i is p_i times its column's norm.
@@ -822,6 +841,14 @@ pub(crate) fn covariance_statistics(
             }
         };
         cov_scaled += &g * g.transpose() * (se * se);
+        g_columns.push(g * *se);
+    }
+    for &(k, l, r) in &held.correlation {
+        if let (Some(gk), Some(gl)) = (g_columns.get(k), g_columns.get(l)) {
+            // Both orders of the pair: ρ (g_k σ_k)(g_l σ_l)ᵀ + its transpose.
+            let cross = gk * gl.transpose() * r;
+            cov_scaled += &cross + cross.transpose();
+        }
     }
     if !cov_scaled.iter().all(|x| x.is_finite()) {
         bail!("the Jacobian of the held values at the fitted values is not finite");
@@ -837,23 +864,28 @@ pub(crate) fn covariance_statistics(
     let std_err_given_held: Vec<f64> = (0..n).map(|i| standard_error(&given_held, i)).collect();
     let held_information = held_information(&cols, &held, sigma);
     let mut correlation = vec![vec![0.0; n]; n];
+    // An undetermined parameter's covariance is rounding amplified by the pseudo-inverse
+    // (k1 of the Freedom 6S: Fs_5 with vs_5 → 0 showed "correlation −1" with the
+    // well-determined qeq_5 one way and none the other): it has no correlation.
+    let correlation_of = |cov: &DMatrix<f64>, i: usize, j: usize| {
+        let d = (cov[(i, i)] * cov[(j, j)]).sqrt();
+        if i == j {
+            1.0
+        } else if undetermined[i] || undetermined[j] {
+            0.0
+        } else if d > 0.0 && d.is_finite() {
+            (cov[(i, j)] / d).clamp(-1.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    let correlation_with_held: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..n).map(|j| correlation_of(&cov_scaled, i, j)).collect())
+        .collect();
     let mut correlated = Vec::new();
     for i in 0..n {
         for j in 0..n {
-            let d = (given_held[(i, i)] * given_held[(j, j)]).sqrt();
-            // An undetermined parameter's covariance is rounding amplified by the
-            // pseudo-inverse (k1 of the Freedom 6S: Fs_5 with vs_5 → 0 showed
-            // "correlation −1" with the well-determined qeq_5 one way and none the
-            // other): it has no correlation.
-            correlation[i][j] = if i == j {
-                1.0
-            } else if undetermined[i] || undetermined[j] {
-                0.0
-            } else if d > 0.0 && d.is_finite() {
-                (given_held[(i, j)] / d).clamp(-1.0, 1.0)
-            } else {
-                0.0
-            };
+            correlation[i][j] = correlation_of(&given_held, i, j);
             if j > i && correlation[i][j].abs() > CORRELATION_LIMIT {
                 correlated.push((names[i].clone(), names[j].clone(), correlation[i][j]));
             }
@@ -895,6 +927,7 @@ pub(crate) fn covariance_statistics(
         held_exact: held.exact,
         relative_std_err: relative,
         correlation,
+        correlation_with_held,
         correlated,
         at_bound,
         identifiable,
@@ -1233,6 +1266,7 @@ mod tests {
             cols: vec![b.iter().map(|x| -x).collect()],
             make_up: Vec::new(),
             exact: vec!["c".into()],
+            correlation: Vec::new(),
         };
         let names = vec!["theta0".to_string(), "theta1".to_string()];
         let stats = covariance_statistics(
@@ -1266,6 +1300,103 @@ mod tests {
         );
         assert_eq!(stats.held, [("h".to_string(), sigma_h)]);
         assert_eq!(stats.held_exact, ["c"]);
+    }
+
+    /// Two held values estimated together by an earlier step, their errors correlated
+    /// (ρ = −0.95, as a value and what it trades with), entering this fit through nearly
+    /// the same column (it sees h₁ + h₂, which the earlier step knew well): a Monte Carlo of
+    /// the two-stage estimator with (ĥ₁, ĥ₂) drawn jointly matches `std_err` within 5 %
+    /// with the recorded correlation, while taking them as independent overstates θ₀'s
+    /// standard error more than twofold (k5 of the Freedom 6S held such pairs from k1..k4).
+    #[test]
+    fn correlated_held_values_propagate_their_joint_uncertainty() {
+        let m = 200;
+        let (s, sigma, rho) = (0.01, [0.05, 0.04], -0.95);
+        let t: Vec<f64> = (0..m).map(|k| k as f64 / m as f64).collect();
+        let a = DMatrix::from_fn(m, 2, |k, i| if i == 0 { 1.0 } else { (6.0 * t[k]).sin() });
+        let b = DMatrix::from_fn(m, 2, |k, l| 1.0 + 0.1 * l as f64 * t[k]);
+        let (theta, h) = ([0.7, -1.2], [0.4, 0.1]);
+        let pinv = (a.transpose() * &a).try_inverse().unwrap() * a.transpose();
+        let mut rng = generated::inertia::Xorshift(7);
+        let draws = 4000;
+        let (mut sum, mut sq) = ([0.0; 2], [0.0; 2]);
+        for _ in 0..draws {
+            let (z1, z2) = (
+                crate::synthetic::gaussian(&mut rng),
+                crate::synthetic::gaussian(&mut rng),
+            );
+            let h_hat = [
+                h[0] + sigma[0] * z1,
+                h[1] + sigma[1] * (rho * z1 + (1.0 - rho * rho).sqrt() * z2),
+            ];
+            let y = nalgebra::DVector::from_fn(m, |k, _| {
+                a[(k, 0)] * theta[0]
+                    + a[(k, 1)] * theta[1]
+                    + b[(k, 0)] * (h[0] - h_hat[0])
+                    + b[(k, 1)] * (h[1] - h_hat[1])
+                    + s * crate::synthetic::gaussian(&mut rng)
+            });
+            let est = &pinv * y;
+            for i in 0..2 {
+                sum[i] += est[i];
+                sq[i] += est[i] * est[i];
+            }
+        }
+        let monte_carlo = [0, 1].map(|i| {
+            let mean = sum[i] / draws as f64;
+            (sq[i] / draws as f64 - mean * mean).sqrt()
+        });
+        let stats_with = |correlation: Vec<(usize, usize, f64)>| {
+            let cols: Vec<Vec<f64>> = (0..2)
+                .map(|i| a.column(i).iter().map(|x| -x).collect())
+                .collect();
+            let held = HeldColumns {
+                names: vec!["h1".into(), "h2".into()],
+                std_err: sigma.to_vec(),
+                correlation,
+                tie: vec![false; 2],
+                cols: (0..2)
+                    .map(|l| b.column(l).iter().map(|x| -x).collect())
+                    .collect(),
+                ..Default::default()
+            };
+            covariance_statistics(
+                &["theta0".to_string(), "theta1".to_string()],
+                &theta,
+                (&[-10.0, -10.0], &[10.0, 10.0]),
+                (cols, held),
+                &vec![s * s; m],
+                vec![Vec::new(); 2],
+                Vec::new(),
+            )
+            .unwrap()
+        };
+        let correlated = stats_with(vec![(0, 1, rho)]);
+        let independent = stats_with(Vec::new());
+        eprintln!(
+            "Monte Carlo {monte_carlo:?}, correlated {:?}, independent {:?}",
+            correlated.std_err, independent.std_err
+        );
+        for i in 0..2 {
+            let rel = correlated.std_err[i] / monte_carlo[i] - 1.0;
+            assert!(
+                rel.abs() < 0.05,
+                "θ{i}: {} vs Monte Carlo {}",
+                correlated.std_err[i],
+                monte_carlo[i]
+            );
+        }
+        assert!(
+            independent.std_err[0] > 2.0 * monte_carlo[0],
+            "independent {} vs Monte Carlo {}",
+            independent.std_err[0],
+            monte_carlo[0]
+        );
+        // What a later step would record: the total correlation, symmetric, within [−1, 1].
+        let r = &correlated.correlation_with_held;
+        assert_eq!(r[0][0], 1.0);
+        assert_eq!(r[0][1], r[1][0]);
+        assert!(r[0][1].abs() < 1.0);
     }
 
     /// What a fit of k1 holds, on the Freedom 6S's Appendix D start: a held tie without a
@@ -1344,6 +1475,7 @@ mod tests {
             cols: vec![c.clone(), spanned],
             make_up: vec![None, None],
             exact: Vec::new(),
+            correlation: Vec::new(),
         };
         let stats = covariance_statistics(
             &names,
