@@ -1188,6 +1188,27 @@ mod tests {
         assert_eq!(again.identifiable, [true; 3]);
     }
 
+    /// The statistics of a linear fit of θ₀, θ₁ (bounds ±10) with Jacobian columns `cols`,
+    /// the `held` values, and noise σ = `s` on every residual.
+    fn linear_statistics(
+        theta: &[f64],
+        cols: Vec<Vec<f64>>,
+        held: HeldColumns,
+        s: f64,
+    ) -> Statistics {
+        let m = cols[0].len();
+        covariance_statistics(
+            &["theta0".to_string(), "theta1".to_string()],
+            theta,
+            (&[-10.0, -10.0], &[10.0, 10.0]),
+            (cols, held),
+            &vec![s * s; m],
+            vec![Vec::new(); 2],
+            Vec::new(),
+        )
+        .unwrap()
+    }
+
     /// The two-stage standard errors against a Monte Carlo of the two-stage estimator
     /// itself: y = A θ + b h + e (m = 200, e ~ N(0, s²)), h estimated before with error
     /// N(0, σ_h²) and held, θ̂ = (AᵀA)⁻¹ Aᵀ (y − b ĥ); over 4000 draws the spread of θ̂
@@ -1268,17 +1289,7 @@ mod tests {
             exact: vec!["c".into()],
             correlation: Vec::new(),
         };
-        let names = vec!["theta0".to_string(), "theta1".to_string()];
-        let stats = covariance_statistics(
-            &names,
-            &theta,
-            (&[-10.0, -10.0], &[10.0, 10.0]),
-            (cols, held),
-            &vec![s * s; m],
-            vec![Vec::new(); 2],
-            Vec::new(),
-        )
-        .unwrap();
+        let stats = linear_statistics(&theta, cols, held, s);
         for i in 0..2 {
             let rel = |x: f64, reference: f64| (x / reference - 1.0).abs();
             assert!(
@@ -1360,16 +1371,7 @@ mod tests {
                     .collect(),
                 ..Default::default()
             };
-            covariance_statistics(
-                &["theta0".to_string(), "theta1".to_string()],
-                &theta,
-                (&[-10.0, -10.0], &[10.0, 10.0]),
-                (cols, held),
-                &vec![s * s; m],
-                vec![Vec::new(); 2],
-                Vec::new(),
-            )
-            .unwrap()
+            linear_statistics(&theta, cols, held, s)
         };
         let correlated = stats_with(vec![(0, 1, rho)]);
         let independent = stats_with(Vec::new());
