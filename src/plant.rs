@@ -660,20 +660,13 @@ impl Plant {
     }
 
     /// Record correlation `r` ∈ [−1, 1] of the estimates of `a` ≠ `b`
-    /// ([`Plant::correlations`]); `r` = 0 removes the pair.
+    /// ([`Plant::correlations`]), in the file's order (the lexically smaller name first).
     pub fn set_correlation(&mut self, a: &str, b: &str, r: f64) {
         let (a, b) = if a < b { (a, b) } else { (b, a) };
-        if r == 0.0 {
-            if let Some(row) = self.correlations.get_mut(a) {
-                row.remove(b);
-            }
-        } else {
-            self.correlations
-                .entry(a.to_string())
-                .or_default()
-                .insert(b.to_string(), r.clamp(-1.0, 1.0));
-        }
-        self.correlations.retain(|_, row| !row.is_empty());
+        self.correlations
+            .entry(a.to_string())
+            .or_default()
+            .insert(b.to_string(), r.clamp(-1.0, 1.0));
     }
 
     /// Drop every recorded correlation of a value for which `drop` is true.
