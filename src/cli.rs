@@ -180,9 +180,11 @@ pub enum Command {
         /// Integrator: rk4 or etdrk4 (exponential RK4 taking the friction damping exactly).
         #[arg(long, default_value = "rk4")]
         integrator: Integrator,
-        /// Hold of the torques between samples.
-        #[arg(long, default_value = "zoh", value_parser = ["zoh", "linear"])]
-        hold: String,
+        /// How the torques are applied between samples: zoh, linear, cubic or bandlimited
+        /// (default: the input's side file's `hold`, else zoh). Recorded in the output's side
+        /// file.
+        #[arg(long)]
+        hold: Option<Hold>,
         /// Gaussian position noise σ (rad or m).
         #[arg(long, default_value_t = 0.0)]
         noise: f64,
@@ -318,6 +320,11 @@ pub struct SpaceArgs {
     /// the first `measured` sample.
     #[arg(long, default_value = "estimate", value_parser = ["estimate", "measured"])]
     pub initial: String,
+    /// Output space: how the torques were applied between samples: zoh (a digital
+    /// controller's hold), linear, cubic or bandlimited (a continuous signal sampled for
+    /// the file). Default: each file's side file's `hold`, else zoh.
+    #[arg(long)]
+    pub hold: Option<Hold>,
 }
 
 fn parse_bound(s: &str) -> Result<(String, f64, f64), String> {
@@ -355,6 +362,7 @@ impl Common {
                 skip: space.skip,
                 locked_tolerance: space.locked_tolerance,
                 estimate_initial: space.initial == "estimate",
+                hold: space.hold,
             },
         ))
     }
@@ -493,9 +501,10 @@ pub struct OutputErrorArgs {
     /// the Freedom 6S's wrist runs at 1/2000 s, where RK4 needs below 1/9600 s).
     #[arg(long, default_value = "rk4")]
     pub integrator: Integrator,
-    /// Torque hold between samples: zoh or linear.
-    #[arg(long, default_value = "zoh")]
-    pub hold: String,
+    /// How the torques were applied between samples: zoh, linear, cubic or bandlimited
+    /// (default: each file's side file's `hold`, else zoh).
+    #[arg(long)]
+    pub hold: Option<Hold>,
     /// Starts per step: the plant's values, then random points inside the bounds (run in
     /// parallel).
     #[arg(long, default_value_t = 1)]
@@ -733,11 +742,7 @@ impl OutputErrorArgs {
             predictor_arg,
             "bandwidths in rad/s such as 3,1",
         )?;
-        let hold = match self.hold.as_str() {
-            "zoh" => Hold::Zoh,
-            "linear" => Hold::Linear,
-            other => bail!("--hold: expected zoh or linear, got '{other}'"),
-        };
+        let hold = self.hold;
         let options = OutputErrorOptions {
             weighting,
             interest_weight: self.weight,
@@ -967,7 +972,7 @@ pub fn run(cli: Cli) -> Result<()> {
             let data = inputs.load(&plant)?;
             let results = diagnose(&plant, &inputs, &data)?;
             for (title, findings) in &results {
-                println!("{title}, plant {}:", plant.name());
+                println!("plant {}, {title}:", plant.name());
                 print!("{}", crate::diagnose::table(findings, top));
             }
             if let (Some(k), Some(out)) = (apply, out) {
@@ -1101,11 +1106,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 initial: initial.0,
                 h: step,
                 integrator,
-                hold: if hold == "linear" {
-                    crate::simulation::Hold::Linear
-                } else {
-                    crate::simulation::Hold::Zoh
-                },
+                hold,
                 noise,
                 quantisation,
                 seed,

@@ -12,7 +12,9 @@
 //! and the other joints' torques, the spectrum and both correlations.
 
 use crate::identify::idim::{observation, predict, IdimOptions, Observation};
-use crate::identify::output_error::{OutputErrorOptions, Problem, Record, TimeWeighting};
+use crate::identify::output_error::{Problem, Record};
+use crate::identify::refit::RefitOptions;
+use crate::simulation::Hold;
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::plot::{figure, Panel, Series, Style};
@@ -360,28 +362,63 @@ fn comparison(file: &Path, joint: &str, s: Signals, unit: &'static str) -> Compa
     }
 }
 
+/// Output-space comparison of a plant with position records ([`compare_output`]).
+#[derive(Debug, Clone)]
+pub struct OutputComparison {
+    /// One per free joint and record.
+    pub comparisons: Vec<Comparison>,
+    /// The integration step's check against the data's noise, and the step used.
+    pub step: crate::accuracy::StepCheck,
+    /// The hold each record was simulated with (the option's or the side file's).
+    pub holds: Vec<crate::simulation::Hold>,
+    /// The RMS position error over every free joint and record (rad or m) with the holds
+    /// used, and with each other hold applied to every record, best first: `(hold, RMS)`.
+    pub hold_errors: Vec<(Option<crate::simulation::Hold>, f64)>,
+}
+
+/// A markedly better fit: another hold whose RMS error is below this fraction of the RMS
+/// error with the holds used.
+pub const MARKEDLY_BETTER: f64 = 0.8;
+
+impl OutputComparison {
+    /// The hold that fits markedly better than the ones used, with its RMS error and the
+    /// RMS error with the holds used.
+    pub fn better_hold(&self) -> Option<(crate::simulation::Hold, f64, f64)> {
+        let used = self.hold_errors.iter().find(|h| h.0.is_none())?.1;
+        self.hold_errors
+            .iter()
+            .filter_map(|&(h, e)| h.map(|h| (h, e)))
+            .filter(|&(_, e)| e < MARKEDLY_BETTER * used)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(h, e)| (h, e, used))
+    }
+}
+
 /// Compare the plant simulated on each record's measured torques with its measured
 /// positions (output space), one [`Comparison`] per free joint and record; the simulation
-/// starts at rest (z = 0) at the first measured position, or, with `estimate_initial`, at
-/// the initial position that fits the file best
-/// ([`Problem::estimate_initial_positions`], as MATLAB `compare`); step `h` of `integrator`. The
-/// first `skip` samples of each file are simulated but left out of every figure of merit
-/// (0: the whole file, as MATLAB `compare`); the initial-position fit uses every sample
-/// (the start is seen best before the trajectory amplifies it).
+/// starts at rest (z = 0) at the first measured position, or, with
+/// `options.estimate_initial`, at the initial position that fits the file best
+/// ([`Problem::estimate_initial_positions`], as MATLAB `compare`). The step `options.h` is
+/// first checked against the data's noise and refined where it is not accurate
+/// ([`crate::accuracy::check_step`]); each record's input is held by `options.hold`, else
+/// by its side file's hold, and each other hold is tried too so that a markedly better one
+/// is reported ([`OutputComparison::better_hold`]). The first `options.skip` samples of
+/// each file are simulated but left out of every figure of merit (0: the whole file, as
+/// MATLAB `compare`); the initial-position fit uses every sample (the start is seen best
+/// before the trajectory amplifies it).
 ///
 /// # Errors
 /// Unknown configuration, a parameter without value, a file with no more than `skip`
-/// samples (named), a simulation that diverges (file, time and joint named).
+/// samples (named), a simulation that diverges (file, time and joint named), a step that
+/// stays inaccurate after refinement (joint named).
 pub fn compare_output(
     plant: &Plant,
     conf_name: &str,
     records: &[Record],
-    h: f64,
-    integrator: crate::simulation::Integrator,
-    estimate_initial: bool,
-    skip: usize,
-) -> Result<Vec<Comparison>> {
+    options: &RefitOptions,
+) -> Result<OutputComparison> {
     let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    let skip = options.skip;
     if let Some(r) = records.iter().find(|r| r.t.len() <= skip) {
         bail!(
             "{}: --skip {skip} leaves no samples to compare (the file has {})",
@@ -389,22 +426,46 @@ pub fn compare_output(
             r.t.len()
         );
     }
-    let options = OutputErrorOptions {
-        h,
-        integrator,
-        weighting: TimeWeighting::SkipTransient(skip),
-        ..OutputErrorOptions::default()
-    };
-    let problem = Problem::new(plant, conf, vec![], records.to_vec(), &[], options)?;
-    let records = if estimate_initial {
+    let joints: Vec<&str> = conf.free.iter().map(|&j| plant.model.joints[j]).collect();
+    let problem = Problem::new(
+        plant,
+        conf,
+        vec![],
+        records.to_vec(),
+        &[],
+        options.output_error(vec![1.0]),
+    )?;
+    let step = crate::accuracy::check_step(&problem, plant, &joints, skip)?;
+    let problem = problem.with_step(step.h, options.integrator);
+    let problem = if options.estimate_initial {
         problem
-            .estimate_initial_positions(plant)
+            .with_initial_positions_of(plant)
             .map_err(|e| anyhow!(e.0))?
     } else {
-        records.to_vec()
+        problem
+    };
+    let holds: Vec<Hold> = problem
+        .records
+        .iter()
+        .map(|r| options.hold.unwrap_or(r.hold))
+        .collect();
+    let rms_of = |p: &Problem| -> Result<f64> {
+        let mut sum = 0.0;
+        let mut n = 0usize;
+        for r in &p.records {
+            let traj = p.simulate(plant, r).map_err(|e| anyhow!(e.0))?;
+            for (y, yhat) in r.q.iter().zip(&traj.q) {
+                for (a, b) in y[skip..].iter().zip(&yhat[skip..]) {
+                    sum += (a - b).powi(2);
+                    n += 1;
+                }
+            }
+        }
+        Ok((sum / n.max(1) as f64).sqrt())
     };
     let mut out = Vec::new();
-    for r in &records {
+    let mut used = (0.0, 0usize);
+    for r in &problem.records {
         let traj = problem.simulate(plant, r).map_err(|e| anyhow!(e.0))?;
         let inputs: Vec<(String, Vec<f64>)> = conf
             .free
@@ -413,6 +474,10 @@ pub fn compare_output(
             .map(|(k, u)| (format!("tau{k}"), u.clone()))
             .collect();
         for (a, &j) in conf.free.iter().enumerate() {
+            for (x, y) in r.q[a][skip..].iter().zip(&traj.q[a][skip..]) {
+                used.0 += (x - y).powi(2);
+                used.1 += 1;
+            }
             out.push(comparison(
                 &r.file,
                 plant.model.joints[j],
@@ -432,7 +497,23 @@ pub fn compare_output(
             ));
         }
     }
-    Ok(out)
+    let mut hold_errors = vec![(None, (used.0 / used.1.max(1) as f64).sqrt())];
+    for hold in Hold::ALL {
+        if holds.iter().all(|&h| h == hold) {
+            continue;
+        }
+        // A hold that cannot simulate the data (a diverging reconstruction) is no candidate.
+        if let Ok(e) = rms_of(&problem.with_hold(Some(hold))) {
+            hold_errors.push((Some(hold), e));
+        }
+    }
+    hold_errors.sort_by(|a, b| a.1.total_cmp(&b.1));
+    Ok(OutputComparison {
+        comparisons: out,
+        step,
+        holds,
+        hold_errors,
+    })
 }
 
 /// Least squares e ≈ a·sign(q̇) + b + c·q̇, returning (a, b). The velocity term lets a step

@@ -5,6 +5,7 @@
 // Index loops mirror the equations they implement.
 #![allow(clippy::needless_range_loop)]
 
+pub mod accuracy;
 pub mod cli;
 pub mod compare;
 pub mod control;

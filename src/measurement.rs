@@ -85,6 +85,12 @@ pub struct SideFile {
     /// Standard name → column name in the file.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub columns: BTreeMap<String, String>,
+    /// How the commanded torques were applied between their samples: `zoh` (a digital
+    /// controller held each command), `linear`, `cubic` or `bandlimited` (a continuous
+    /// signal sampled for the file). The simulating commands use it unless `--hold` is
+    /// given; absent, `zoh`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hold: Option<crate::simulation::Hold>,
 }
 
 /// Named numeric columns of a CSV or MAT file, with the side file's mapping applied

@@ -129,8 +129,9 @@ pub struct SimulateOptions {
     pub h: f64,
     /// Integration scheme.
     pub integrator: crate::simulation::Integrator,
-    /// Hold of the input torques between samples.
-    pub hold: Hold,
+    /// How the input torques are applied between samples; `None`: the input's side
+    /// file's `hold`, else zero-order. Recorded in the output's side file.
+    pub hold: Option<Hold>,
     /// Standard deviation of Gaussian position noise (rad or m), 0 for none.
     pub noise: f64,
     /// Position quantisation step (rad or m), 0 for none.
@@ -151,7 +152,7 @@ impl Default for SimulateOptions {
             initial: BTreeMap::new(),
             h: 1.0 / 6000.0,
             integrator: crate::simulation::Integrator::Rk4,
-            hold: Hold::Zoh,
+            hold: None,
             noise: 0.0,
             quantisation: 0.0,
             seed: 1,
@@ -294,11 +295,12 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
     }
     let dt = check_sampling(input, &t)?;
     let tau_free: Vec<Vec<f64>> = conf.free.iter().map(|&j| tau_all[j].clone()).collect();
+    let hold = opts.hold.or(table.side.hold).unwrap_or_default();
     let signal = InputSignal {
         t0: t[0],
         dt,
         tau: &tau_free,
-        hold: opts.hold,
+        hold,
     };
     let x0 = State::at_rest(conf.free.iter().map(|&j| q_all[j]).collect());
     let mut sim = configured.model;
@@ -348,10 +350,11 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
             conf.name
         ),
         source: format!(
-            "lockstep simulate on {}: RK4 step {} s, {:?} hold, position noise σ = {}, quantisation {}, seed {}; qd columns are noise-free",
+            "lockstep simulate on {}: {} step {} s, {} hold, position noise σ = {}, quantisation {}, seed {}; qd columns are noise-free",
             input.display(),
+            opts.integrator,
             opts.h,
-            opts.hold,
+            hold,
             opts.noise,
             opts.quantisation,
             opts.seed
@@ -362,6 +365,7 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
             .map(|j| (model.joints[j].to_string(), q_all[j]))
             .collect(),
         columns: BTreeMap::new(),
+        hold: Some(hold),
     };
     Ok(Simulated {
         measurement: Measurement {

@@ -74,6 +74,12 @@ pub struct Finding {
     /// Confirmed by a nonlinear fit (output space): the figures are those of the fitted
     /// plant, not of the linearisation.
     pub confirmed: bool,
+    /// Other candidates whose signatures the data cannot tell apart from this one's
+    /// (output space: sensitivities with |cos| ≥ [`output::ALIKE_COSINE`]), as
+    /// `name on joint`.
+    pub alike: Vec<String>,
+    /// What to do instead of a plant edit (a finding about how the input was applied).
+    pub advice: Option<String>,
 }
 
 impl Finding {
@@ -103,6 +109,8 @@ impl Finding {
             values: Vec::new(),
             bounds: Vec::new(),
             confirmed: false,
+            alike: Vec::new(),
+            advice: None,
         }
     }
 
@@ -113,6 +121,12 @@ impl Finding {
     /// The finding is not a plant edit ("refit existing parameters"), or the plant refuses
     /// the effect (a conflicting effect on that joint, named).
     pub fn apply(&self, plant: &Plant) -> Result<Plant> {
+        if let (true, Some(advice)) = (self.values.is_empty(), &self.advice) {
+            bail!(
+                "'{}' is not a plant edit: it is about the data's input: {advice}",
+                self.name
+            );
+        }
         if self.values.is_empty() {
             bail!(
                 "'{}' on {} is not a plant edit: refit (identify) the plant's parameters instead",
@@ -200,6 +214,15 @@ pub fn table(findings: &[Finding], k: usize) -> String {
             },
             f.meaning
         );
+        if !f.alike.is_empty() && f.significant {
+            s += &format!(
+                "       indistinguishable in these data from: {} (a record that excites them differently would tell them apart)\n",
+                f.alike.join(", ")
+            );
+        }
+        if let Some(a) = &f.advice {
+            s += &format!("       {a}\n");
+        }
     }
     match findings.first() {
         Some(f) if f.significant => s += &format!("most likely missing: {} on {}\n", f.name, f.joint),

@@ -33,7 +33,7 @@ use crate::effects::{Effect, EffectKind};
 use crate::identify::output_error::{JointFit, Problem, Record};
 use crate::identify::refit::RefitOptions;
 use crate::plant::Plant;
-use crate::simulation::Trajectory;
+use crate::simulation::{Hold, Trajectory};
 use anyhow::{anyhow, bail, Result};
 use rayon::prelude::*;
 
@@ -73,6 +73,12 @@ pub struct OutputDiagnosis {
     pub samples: usize,
     /// Simulations run.
     pub simulations: usize,
+    /// The integration step's check against the noise (the step used, and the floor).
+    pub step: crate::accuracy::StepCheck,
+    /// The numerical floor's share of the residual energy: what the step and the input's
+    /// reconstruction can account for ([`crate::accuracy`]); no candidate that explains
+    /// less is significant.
+    pub floor_share: f64,
 }
 
 /// The size a candidate changes: a plant parameter, its no-effect value β₀, the
@@ -191,8 +197,19 @@ pub fn diagnose_output(
     if records.is_empty() {
         bail!("configuration '{conf_name}': no measurement files");
     }
-    let oe = options.fit.output_error(vec![1.0]);
-    let mut problem = Problem::new(plant, conf, vec![], records.to_vec(), &[], oe.clone())?;
+    let joint_names: Vec<&str> = conf.free.iter().map(|&j| m.joints[j]).collect();
+    let problem = Problem::new(
+        plant,
+        conf,
+        vec![],
+        records.to_vec(),
+        &[],
+        options.fit.output_error(vec![1.0]),
+    )?;
+    let step = crate::accuracy::check_step(&problem, plant, &joint_names, options.fit.skip)
+        .map_err(|e| anyhow!("the plant itself cannot be simulated accurately: {e:#}"))?;
+    let mut problem = problem.with_step(step.h, options.fit.integrator);
+    let oe = problem.options().clone();
     if options.fit.estimate_initial {
         problem = problem
             .with_initial_positions_of(plant)
@@ -243,6 +260,7 @@ pub fn diagnose_output(
         beta: f64,
         sse: f64,
         p: usize,
+        column: Vec<f64>,
     }
     let mut best: Vec<Linear> = Vec::new();
     for (c, col) in cands.into_iter().zip(columns) {
@@ -267,6 +285,7 @@ pub fn diagnose_output(
                     beta,
                     sse,
                     p,
+                    column: s,
                 }
             }
             None => best.push(Linear {
@@ -274,6 +293,7 @@ pub fn diagnose_output(
                 beta,
                 sse,
                 p,
+                column: s,
             }),
         }
     }
@@ -361,6 +381,25 @@ pub fn diagnose_output(
         f.confirmed = true;
         findings[i] = f;
     }
+    // Candidates the data cannot tell apart: sensitivities nearly collinear.
+    let columns: Vec<&[f64]> = best.iter().map(|l| l.column.as_slice()).collect();
+    for i in 0..findings.len() {
+        findings[i].alike = (0..findings.len())
+            .filter(|&k| k != i && findings[k].explained > 0.0)
+            .filter(|&k| cosine(columns[i], columns[k]).abs() >= ALIKE_COSINE)
+            .map(|k| format!("{} on {}", findings[k].name, findings[k].joint))
+            .collect();
+    }
+    // How the input was applied: the other holds, and a delay.
+    let timing = timing_candidates(plant, &out, (&y, &r), sst, n, records)?;
+    simulations += timing.1;
+    findings.extend(timing.0);
+    // The numerics' floor: nothing that explains less than it is significant.
+    for f in &mut findings {
+        if f.explained * sst <= step.floor_energy {
+            f.significant = false;
+        }
+    }
     findings.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     Ok(OutputDiagnosis {
         configuration: conf.name.to_string(),
@@ -368,7 +407,128 @@ pub fn diagnose_output(
         joints,
         samples: n,
         simulations,
+        floor_share: if sst > 0.0 {
+            step.floor_energy / sst
+        } else {
+            0.0
+        },
+        step,
     })
+}
+
+/// Candidates whose sensitivities have |cos| at least this are reported together
+/// ([`Finding::alike`]): the data cannot tell them apart.
+pub const ALIKE_COSINE: f64 = 0.95;
+
+fn cosine(a: &[f64], b: &[f64]) -> f64 {
+    let ab: f64 = a.iter().zip(b).map(|(x, y)| x * y).sum();
+    let aa: f64 = a.iter().map(|x| x * x).sum();
+    let bb: f64 = b.iter().map(|x| x * x).sum();
+    if aa > 0.0 && bb > 0.0 {
+        ab / (aa * bb).sqrt()
+    } else {
+        0.0
+    }
+}
+
+/// The input-timing candidates: every record's input held by each other [`Hold`] (no
+/// fitted number), and a pure delay δ of the input (one number: linearised at δ = 0 by
+/// central differences of ±dt/4, then simulated at δ̂ for its figures). Returns the
+/// findings and the simulations run; `y` the stacked measurement, `r` the residual.
+fn timing_candidates(
+    plant: &Plant,
+    out: &Outputs,
+    (y, r): (&[f64], &[f64]),
+    sst: f64,
+    n: usize,
+    records: &[Record],
+) -> Result<(Vec<Finding>, usize)> {
+    let with = |problem: Problem| Outputs {
+        problem,
+        skip: out.skip,
+    };
+    let sse_of = |p: Problem| -> Option<f64> {
+        let yhat = with(p).simulate(plant).ok()?;
+        Some(y.iter().zip(&yhat).map(|(a, b)| (a - b).powi(2)).sum())
+    };
+    let mut findings = Vec::new();
+    let mut simulations = 0;
+    let used: Vec<Hold> = records
+        .iter()
+        .map(|r| out.problem.options().hold.unwrap_or(r.hold))
+        .collect();
+    for hold in Hold::ALL {
+        if used.iter().all(|&h| h == hold) {
+            continue;
+        }
+        simulations += 1;
+        let Some(sse) = sse_of(out.problem.with_hold(Some(hold))) else {
+            continue;
+        };
+        let mut f = Finding::new(
+            "all",
+            format!("input hold {hold}"),
+            None,
+            None,
+            vec![],
+            (sse, sst, n, 0),
+        );
+        f.meaning = format!(
+            "the torques were applied as {} between samples, not as the hold used ({}): {}",
+            hold,
+            used.iter().map(|h| h.to_string()).collect::<Vec<_>>().join(", "),
+            hold_meaning(hold)
+        );
+        f.advice = Some(format!(
+            "rerun with --hold {hold}, or write hold = \"{hold}\" in the files' side files"
+        ));
+        findings.push(f);
+    }
+    let dt = records.iter().map(|r| r.dt).fold(f64::INFINITY, f64::min);
+    let delta = dt / 4.0;
+    simulations += 2;
+    if let (Ok(plus), Ok(minus)) = (
+        with(out.problem.with_input_delay(delta)).simulate(plant),
+        with(out.problem.with_input_delay(-delta)).simulate(plant),
+    ) {
+        let sens: Vec<f64> = plus
+            .iter()
+            .zip(&minus)
+            .map(|(a, b)| (a - b) / (2.0 * delta))
+            .collect();
+        let ss: f64 = sens.iter().map(|x| x * x).sum();
+        if ss > 0.0 {
+            let d = (sens.iter().zip(r).map(|(a, b)| a * b).sum::<f64>() / ss)
+                .clamp(-2.0 * dt, 2.0 * dt);
+            simulations += 1;
+            if let Some(sse) = sse_of(out.problem.with_input_delay(d)) {
+                let mut f = Finding::new(
+                    "all",
+                    "input delay".into(),
+                    None,
+                    None,
+                    vec![("delay".into(), d)],
+                    (sse, sst, n, 1),
+                );
+                f.meaning = "the torques reached the joints later (delay > 0) than their time stamps: a transport delay, or a continuous signal reconstructed by a hold that lags it (a zero-order hold lags by half a sample)".into();
+                f.advice = Some(
+                    "check how the input was applied (--hold) and the time stamps of the torque and position columns".into(),
+                );
+                findings.push(f);
+            }
+        }
+    }
+    Ok((findings, simulations))
+}
+
+fn hold_meaning(hold: Hold) -> &'static str {
+    match hold {
+        Hold::Zoh => "each command held until the next, as a digital controller's output",
+        Hold::Linear => "straight lines between the samples",
+        Hold::Cubic | Hold::Bandlimited => {
+            "a continuous signal sampled for the file (give the side file hold = \"bandlimited\")"
+        }
+    }
 }
 
 /// The candidates for the free joints of `conf` (grid points as separate candidates with

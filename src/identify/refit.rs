@@ -17,8 +17,9 @@ pub struct RefitOptions {
     pub h: f64,
     /// Integration scheme.
     pub integrator: Integrator,
-    /// Hold of the measured torques.
-    pub hold: Hold,
+    /// Hold of the measured torques for every record; `None`: each record's own (its
+    /// side file's, else zero-order).
+    pub hold: Option<Hold>,
     /// Divergence bound on |q̇| (rad/s or m/s).
     pub max_speed: f64,
     /// Samples skipped at the start of every file.
@@ -38,7 +39,7 @@ impl Default for RefitOptions {
         RefitOptions {
             h: 1.0 / 6000.0,
             integrator: Integrator::Rk4,
-            hold: Hold::Zoh,
+            hold: None,
             max_speed: 100.0,
             skip: 0,
             max_iter: 50,
@@ -70,6 +71,8 @@ impl RefitOptions {
 /// Result of [`refit`].
 #[derive(Debug, Clone)]
 pub struct Refit {
+    /// The integration step's check against the data's noise (the step used).
+    pub step: crate::accuracy::StepCheck,
     /// The plant with the fitted values.
     pub plant: Plant,
     /// RMS position error per free joint before (joint name, rad or m).
@@ -120,6 +123,11 @@ pub fn refit(
     let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
     let oe = options.output_error(vec![0.25, 1.0]);
     let problem = Problem::new(plant, conf, names.to_vec(), records.to_vec(), &[], oe)?;
+    // The step, checked against the data's noise on the plant before the change.
+    let joints: Vec<&str> = conf.free.iter().map(|&j| plant.model.joints[j]).collect();
+    let step = crate::accuracy::check_step(&problem, before, &joints, options.skip)
+        .map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
+    let problem = problem.with_step(step.h, options.integrator);
     // The initial positions are a nuisance of each model: estimated for the plant before
     // the change (its figures) and for the changed plant (the fit).
     let (before_problem, problem) = if options.estimate_initial {
@@ -146,6 +154,7 @@ pub fn refit(
     fit.apply(&mut fitted);
     let rms = |j: &[JointFit]| j.iter().map(|x| (x.joint.clone(), x.rms)).collect();
     Ok(Refit {
+        step,
         plant: fitted,
         before: rms(&joints_before),
         after: rms(&fit.statistics.joints),

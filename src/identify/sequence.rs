@@ -339,6 +339,7 @@ pub fn read_record(
         q,
         q_all,
         qd0: None,
+        hold: table.side.hold.unwrap_or_default(),
     })
 }
 

@@ -67,6 +67,9 @@ pub struct Inputs {
     pub locked_tolerance: f64,
     /// Output space: estimate the initial positions (else the first samples).
     pub estimate_initial: bool,
+    /// Output space: how the torques were applied between samples for every file (`None`:
+    /// each file's side file's, else zero-order).
+    pub hold: Option<crate::simulation::Hold>,
 }
 
 /// Position records of one configuration: `config` or the files' own (side file or file
@@ -189,15 +192,15 @@ pub fn compare_command(
     let cmps = match data {
         Data::Output { config, records } => {
             println!("output space (simulated positions), configuration {config}");
-            compare_output(
-                plant,
-                config,
-                records,
-                inputs.h,
-                inputs.integrator,
-                inputs.estimate_initial,
-                inputs.skip,
-            )?
+            let c = compare_output(plant, config, records, &refit_options(inputs))?;
+            println!("{}", c.step.summary());
+            println!("{}", hold_text(records, &c.holds, inputs.hold.is_some()));
+            if let Some((better, e, used)) = c.better_hold() {
+                println!(
+                    "note: --hold {better} fits markedly better (RMS {e:.3e} against {used:.3e} with the hold used): was the input applied that way?"
+                );
+            }
+            c.comparisons
         }
         Data::Torque { config, records } => {
             println!("torque space (inverse model), configuration {config}");
@@ -269,10 +272,12 @@ pub fn diagnose(
             let files: Vec<String> = records.iter().map(|r| stem(&r.file)).collect();
             Ok(vec![(
                 format!(
-                    "configuration {config}, {} ({} residual samples, {} simulations)",
+                    "configuration {config}, {} ({} residual samples, {} simulations)\n{}; numerical floor (step and input reconstruction) {:.2} % of the residual energy",
                     files.join(", "),
                     d.samples,
-                    d.simulations
+                    d.simulations,
+                    d.step.summary(),
+                    100.0 * d.floor_share
                 ),
                 d.findings,
             )])
@@ -287,10 +292,34 @@ pub fn diagnose(
     }
 }
 
+/// Which hold each record's input was simulated with, and where it came from.
+fn hold_text(records: &[Record], holds: &[crate::simulation::Hold], given: bool) -> String {
+    let mut distinct: Vec<String> = Vec::new();
+    for (r, h) in records.iter().zip(holds) {
+        let from = if given {
+            "--hold"
+        } else if crate::measurement::read_side_file(&r.file)
+            .ok()
+            .and_then(|s| s.hold)
+            .is_some()
+        {
+            "side file"
+        } else {
+            "default"
+        };
+        let t = format!("{h} ({from})");
+        if !distinct.contains(&t) {
+            distinct.push(t);
+        }
+    }
+    format!("input hold: {}", distinct.join(", "))
+}
+
 fn refit_options(inputs: &Inputs) -> RefitOptions {
     RefitOptions {
         h: inputs.h,
         integrator: inputs.integrator,
+        hold: inputs.hold,
         skip: inputs.skip,
         estimate_initial: inputs.estimate_initial,
         ..RefitOptions::default()
@@ -300,7 +329,8 @@ fn refit_options(inputs: &Inputs) -> RefitOptions {
 /// The before/after table of a refit.
 pub fn refit_table(r: &Refit) -> String {
     let mut s = format!(
-        "{:<6} {:>13} {:>13} {:>8}\n",
+        "{}\n{:<6} {:>13} {:>13} {:>8}\n",
+        r.step.summary(),
         "joint", "RMS before", "RMS after", "fall %"
     );
     for ((j, b), (_, a)) in r.before.iter().zip(&r.after) {
@@ -349,7 +379,7 @@ pub fn apply_finding(
         &refit_options(inputs),
     )?;
     let what = match (&f.effect, &f.from) {
-        (Some(_), Some(from)) => format!("added {} from {from} to {}", f.name, f.joint),
+        (Some(e), Some(from)) => format!("added {} from {from} to {}", e.kind, f.joint),
         (Some(_), None) => format!("added {} on {}", f.name, f.joint),
         (None, _) => format!("refitted {} on {}", f.name, f.joint),
     };

@@ -137,9 +137,13 @@ pub struct OutputErrorOptions {
     pub h: f64,
     /// Integration scheme ([`crate::simulation::Integrator`]).
     pub integrator: Integrator,
-    /// Hold of the measured torques between samples.
+    /// Hold of the measured torques between samples for every record; `None`: each
+    /// record's own ([`Record::hold`], from its side file).
     #[serde(skip)]
-    pub hold: Hold,
+    pub hold: Option<Hold>,
+    /// Delay (s) between a torque's time stamp and its application to the joints (a
+    /// transport delay; 0 for none).
+    pub input_delay: f64,
     /// Divergence bound on |q̇| (rad/s).
     pub max_speed: f64,
     /// Stop when the relative step in the scaled parameters is below this (thesis: 2e-6).
@@ -334,7 +338,8 @@ impl Default for OutputErrorOptions {
             interest_weight: 50.0,
             h: 1.0 / 6000.0,
             integrator: Integrator::Rk4,
-            hold: Hold::Zoh,
+            hold: None,
+            input_delay: 0.0,
             max_speed: 100.0,
             xtol: 2e-6,
             ftol: 1e-6,
@@ -381,6 +386,9 @@ pub struct Record {
     /// moving with the bristles in steady sliding (a segment cut from a file,
     /// [`Problem::segmented`]).
     pub qd0: Option<Vec<f64>>,
+    /// How the torques were applied between samples (the side file's `hold`, else
+    /// zero-order); [`OutputErrorOptions::hold`] overrides it.
+    pub hold: Hold,
 }
 
 /// A stage of a fit: multiple-shooting segments, or a growing horizon of the files.
@@ -963,6 +971,7 @@ impl Problem {
                     q: r.q.iter().map(|c| c[k0..k1].to_vec()).collect(),
                     q_all: r.q_all.clone(),
                     qd0: r.qd0.clone(),
+                    hold: r.hold,
                 };
                 if k0 > 0 {
                     for (a, &j) in self.conf.free.iter().enumerate() {
@@ -1088,6 +1097,22 @@ impl Problem {
         &self.options
     }
 
+    /// The same problem with every record's input held by `hold` (`None`: each record's
+    /// own, [`Record::hold`]).
+    pub fn with_hold(&self, hold: Option<Hold>) -> Problem {
+        let mut p = self.clone();
+        p.options.hold = hold;
+        p
+    }
+
+    /// The same problem with every record's input applied `delay` seconds after its time
+    /// stamps ([`OutputErrorOptions::input_delay`]).
+    pub fn with_input_delay(&self, delay: f64) -> Problem {
+        let mut p = self.clone();
+        p.options.input_delay = delay;
+        p
+    }
+
     /// The same problem simulated at step `h` (s) by `integrator`.
     pub fn with_step(&self, h: f64, integrator: Integrator) -> Problem {
         let mut p = self.clone();
@@ -1145,10 +1170,10 @@ impl Problem {
             }
         }
         let input = InputSignal {
-            t0: r.t[0],
+            t0: r.t[0] + self.options.input_delay,
             dt: r.dt,
             tau: &r.tau,
-            hold: self.options.hold,
+            hold: self.options.hold.unwrap_or(r.hold),
         };
         sim.model
             .predict_at(

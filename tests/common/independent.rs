@@ -1,0 +1,203 @@
+//! Measurement files made without lockstep's simulator: the data a hidden-effect test must
+//! also pass on, so that a capability is not shown by data the code under test made.
+//!
+//! What it shares with `lockstep simulate` is only the plant's equations
+//! ([`lockstep::simulation::PlantModel::derivative`]: rigid body, friction, springs,
+//! couplings). Everything else is its own:
+//! - the integrator: `ode_solvers`' Dop853 (Dormand–Prince 8(5,3), dense output of order
+//!   7) instead of lockstep's RK4, at [`STEP`]: the steps are fixed (tolerances left wide,
+//!   the step capped), because an error-controlled run at rtol 1e-10 resolves the LuGre
+//!   bristles' presliding oscillation (ω ≈ 3e4 rad/s on the wrist) to 1e-10 and took 1.2
+//!   million steps per simulated second; 8th order at ωh ≈ 1.3 leaves it far below the
+//!   sensor, and the test that compares the two simulators bounds the difference;
+//! - the input: the excitation's continuous formula (`Signal::value`) evaluated at every
+//!   stage of every step, not a sampled torque held between samples; the file gets the
+//!   samples at 100 Hz, with a side file that declares `hold = "bandlimited"`;
+//! - the noise: its own generator (SplitMix64, Box–Muller), not lockstep's Xorshift.
+
+use lockstep::excitation::{Excitations, Test};
+use lockstep::plant::{ConsistencyPolicy, Plant};
+use lockstep::simulation::{PlantModel, State};
+use ode_solvers::{DVector, Dop853, System};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The plant's state equation driven by the continuous excitation.
+struct Driven<'a> {
+    model: &'a PlantModel,
+    test: &'a Test,
+    /// Model joint index of each free joint.
+    free: &'a [usize],
+}
+
+impl Driven<'_> {
+    fn tau(&self, t: f64) -> Vec<f64> {
+        self.free
+            .iter()
+            .map(|&j| {
+                self.test
+                    .signals
+                    .iter()
+                    .filter(|s| s.joint == j)
+                    .map(|s| s.value(t))
+                    .sum()
+            })
+            .collect()
+    }
+}
+
+impl System<f64, DVector<f64>> for Driven<'_> {
+    fn system(&self, t: f64, y: &DVector<f64>, dy: &mut DVector<f64>) {
+        let nf = self.free.len();
+        let x = State {
+            q: y.rows(0, nf).iter().copied().collect(),
+            qd: y.rows(nf, nf).iter().copied().collect(),
+            z: y.rows(2 * nf, nf).iter().copied().collect(),
+        };
+        let d = self.model.derivative(&x, &self.tau(t));
+        for a in 0..nf {
+            dy[a] = d.q[a];
+            dy[nf + a] = d.qd[a];
+            dy[2 * nf + a] = d.z[a];
+        }
+    }
+}
+
+/// The fixed step of the Dop853 run (s): 240 steps per 100 Hz sample.
+pub const STEP: f64 = 1.0 / 24000.0;
+
+/// Gaussian deviates from SplitMix64 by Box–Muller.
+struct Noise(u64);
+
+impl Noise {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+
+    fn gaussian(&mut self) -> f64 {
+        let (u1, u2) = (self.uniform(), self.uniform());
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+/// What to make: the excitation table and test, its length, the sensor.
+pub struct Spec<'a> {
+    pub config: &'a str,
+    pub table: &'a str,
+    pub test: Option<&'a str>,
+    pub duration: f64,
+    /// Position noise σ (rad) and quantisation step (rad).
+    pub noise: f64,
+    pub quantisation: f64,
+    pub seed: u64,
+}
+
+/// Simulate `plant` in `spec.config` (locked joints at 0, free joints from rest at 0) on
+/// the continuous excitation, sample at 100 Hz and write `path` (CSV: `t`, `tau{j}`,
+/// `q{j}` of every joint) and its side file (configuration, `hold = "bandlimited"`).
+pub fn write(plant: &Plant, spec: &Spec, path: &Path) {
+    const RATE: f64 = 100.0;
+    let m = plant.model;
+    let nj = m.joints.len();
+    let conf = m.configuration(spec.config).expect("configuration");
+    let free: Vec<usize> = conf.free.to_vec();
+    let nf = free.len();
+    let model = plant
+        .simulator(spec.config, &vec![0.0; nj], ConsistencyPolicy::Warn)
+        .expect("plant")
+        .model;
+    let tables = Excitations::bundled(m).expect("bundled excitation");
+    let test = tables
+        .table(spec.table)
+        .expect("table")
+        .test(spec.test)
+        .expect("test")
+        .clone();
+    let system = Driven {
+        model: &model,
+        test: &test,
+        free: &free,
+    };
+    let y0 = DVector::zeros(3 * nf);
+    let mut solver = Dop853::from_param(
+        system,
+        0.0,
+        // Past the end: ode_solvers' dense output at x_end itself is not trustworthy (a
+        // 15 s k1 run gave −8e7 rad there, the sample before it 4.7 rad).
+        spec.duration + 2.0 / RATE,
+        1.0 / RATE,
+        y0,
+        1e3,
+        1e3,
+        0.9,
+        0.0,
+        0.333,
+        6.0,
+        STEP,
+        STEP,
+        50_000_000,
+        u32::MAX,
+        ode_solvers::OutputType::Dense,
+    );
+    let stats = solver.integrate().expect("Dop853 integration");
+    if std::env::var_os("LOCKSTEP_INDEPENDENT_STATS").is_some() {
+        eprintln!("Dop853 {}: {stats:?}", spec.config);
+    }
+    let (ts, ys) = (solver.x_out(), solver.y_out());
+    let n = (spec.duration * RATE).round() as usize + 1;
+    assert!(ts.len() >= n, "dense output has {} of {n} samples", ts.len());
+    let mut noise = Noise(spec.seed);
+    let mut measure = |x: f64| {
+        let y = x + spec.noise * noise.gaussian();
+        if spec.quantisation > 0.0 {
+            (y / spec.quantisation).round() * spec.quantisation
+        } else {
+            y
+        }
+    };
+    let mut csv = String::from("t");
+    for j in 0..nj {
+        write!(csv, ",tau{j}").unwrap();
+    }
+    for j in 0..nj {
+        write!(csv, ",q{j}").unwrap();
+    }
+    csv.push('\n');
+    let driven = Driven {
+        model: &model,
+        test: &test,
+        free: &free,
+    };
+    for k in 0..n {
+        let t = k as f64 / RATE;
+        assert!((ts[k] - t).abs() < 1e-9, "output time {} for sample {k}", ts[k]);
+        let tau = driven.tau(t);
+        let mut row = format!("{t:e}");
+        for j in 0..nj {
+            let v = free.iter().position(|&f| f == j).map_or(0.0, |a| tau[a]);
+            write!(row, ",{v:e}").unwrap();
+        }
+        for j in 0..nj {
+            let v = free.iter().position(|&f| f == j).map_or(0.0, |a| ys[k][a]);
+            write!(row, ",{:e}", measure(v)).unwrap();
+        }
+        csv.push_str(&row);
+        csv.push('\n');
+    }
+    std::fs::write(path, csv).unwrap();
+    std::fs::write(
+        path.with_extension("toml"),
+        format!(
+            "description = \"independent: Dop853 at a fixed {STEP:e} s on the continuous excitation of table {}, test {}\"\nconfiguration = \"{}\"\nhold = \"bandlimited\"\n",
+            spec.table,
+            spec.test.unwrap_or("(the first)"),
+            spec.config
+        ),
+    )
+    .unwrap();
+}
