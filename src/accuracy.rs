@@ -209,9 +209,10 @@ pub fn check_step(
                         noise: problem.noise.get(j).copied().unwrap_or(0.0),
                     })
                     .collect();
-                let accurate = joints.iter().zip(&scales).all(|(j, scale)| {
-                    j.difference <= (STEP_TOLERANCE * j.noise).max(1e-9 * scale)
-                });
+                let accurate = joints
+                    .iter()
+                    .zip(&scales)
+                    .all(|(j, scale)| j.difference <= (STEP_TOLERANCE * j.noise).max(1e-9 * scale));
                 if accurate {
                     tried.push(StepTrial {
                         h,
@@ -288,7 +289,8 @@ fn cubic_reconstruction_energy(
         return Ok(0.0);
     }
     let band = trajectories(&problem.with_hold(Some(Hold::Bandlimited)), plant)?;
-    let pick = |t: &[Trajectory]| -> Vec<Trajectory> { cubic.iter().map(|&i| t[i].clone()).collect() };
+    let pick =
+        |t: &[Trajectory]| -> Vec<Trajectory> { cubic.iter().map(|&i| t[i].clone()).collect() };
     let (sum, _) = squared_differences(&pick(at_h), &pick(&band), nf, skip);
     Ok(sum.iter().sum())
 }

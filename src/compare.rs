@@ -14,10 +14,10 @@
 use crate::identify::idim::{observation, predict, IdimOptions, Observation};
 use crate::identify::output_error::{Problem, Record};
 use crate::identify::refit::RefitOptions;
-use crate::simulation::Hold;
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::plot::{figure, Panel, Series, Style};
+use crate::simulation::Hold;
 use crate::util::write_atomic_with;
 use anyhow::{anyhow, bail, Result};
 use std::io::Write;

@@ -748,7 +748,8 @@ impl InputSignal<'_> {
                     }
                     return;
                 }
-                let at = |col: &[f64], i: isize| col[(k as isize + i).clamp(0, n as isize - 1) as usize];
+                let at =
+                    |col: &[f64], i: isize| col[(k as isize + i).clamp(0, n as isize - 1) as usize];
                 if self.hold == Hold::Cubic {
                     // Catmull–Rom: p0 + f/2 (p1 − p₋₁) + f² (p₋₁ − 5/2 p0 + 2 p1 − p2/2)
                     // + f³ (−p₋₁/2 + 3/2 p0 − 3/2 p1 + p2/2).

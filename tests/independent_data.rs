@@ -21,7 +21,8 @@ use std::sync::Mutex;
 fn record(spec: &Spec) -> Record {
     static MADE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
     let truth = common::appendix_d_coupled();
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("independent-{}", std::process::id()));
+    let dir =
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("independent-{}", std::process::id()));
     let path = dir.join(format!(
         "{}_{}_{}.csv",
         spec.config,
@@ -72,8 +73,8 @@ const CASES: [(&str, &str, Option<&str>, f64); 5] = [
 fn the_simulator_reproduces_an_independent_integrator_on_a_continuous_input() {
     let truth = common::appendix_d_coupled();
     let rec = record(&Spec {
-            noise: 0.0,
-            quantisation: 0.0,
+        noise: 0.0,
+        quantisation: 0.0,
         ..spec("k1", "4.7", None)
     });
     let deviation = |hold, h| {
@@ -130,7 +131,11 @@ fn the_truth_sits_at_the_noise_floor_on_independent_data() {
         for j in &c.comparisons {
             let ratio = j.rmse / sigma;
             eprintln!("{config} {}: RMS {:.4e} = {ratio:.3} σ", j.joint, j.rmse);
-            assert!(ratio <= bound, "{config} {}: {ratio:.3} σ > {bound}", j.joint);
+            assert!(
+                ratio <= bound,
+                "{config} {}: {ratio:.3} σ > {bound}",
+                j.joint
+            );
             worst.push(ratio);
         }
         if config == "c3" {

@@ -179,7 +179,11 @@ fn continuous_holds_reconstruct_a_sampled_sinusoid() {
     };
     let mut o = [0.0];
     s.at(20.37, &mut o);
-    assert!((o[0] - (2.037f64).powi(2)).abs() < 1e-12, "cubic on a quadratic {}", o[0]);
+    assert!(
+        (o[0] - (2.037f64).powi(2)).abs() < 1e-12,
+        "cubic on a quadratic {}",
+        o[0]
+    );
 }
 
 /// k1 of the coupled plant with linear friction (viscous) so the response is a sum of

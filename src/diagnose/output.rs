@@ -476,7 +476,10 @@ fn timing_candidates(
         f.meaning = format!(
             "the torques were applied as {} between samples, not as the hold used ({}): {}",
             hold,
-            used.iter().map(|h| h.to_string()).collect::<Vec<_>>().join(", "),
+            used.iter()
+                .map(|h| h.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
             hold_meaning(hold)
         );
         f.advice = Some(format!(

@@ -331,7 +331,10 @@ pub fn refit_table(r: &Refit) -> String {
     let mut s = format!(
         "{}\n{:<6} {:>13} {:>13} {:>8}\n",
         r.step.summary(),
-        "joint", "RMS before", "RMS after", "fall %"
+        "joint",
+        "RMS before",
+        "RMS after",
+        "fall %"
     );
     for ((j, b), (_, a)) in r.before.iter().zip(&r.after) {
         s += &format!(

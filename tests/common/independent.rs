@@ -150,7 +150,11 @@ pub fn write(plant: &Plant, spec: &Spec, path: &Path) {
     }
     let (ts, ys) = (solver.x_out(), solver.y_out());
     let n = (spec.duration * RATE).round() as usize + 1;
-    assert!(ts.len() >= n, "dense output has {} of {n} samples", ts.len());
+    assert!(
+        ts.len() >= n,
+        "dense output has {} of {n} samples",
+        ts.len()
+    );
     let mut noise = Noise(spec.seed);
     let mut measure = |x: f64| {
         let y = x + spec.noise * noise.gaussian();
@@ -175,7 +179,11 @@ pub fn write(plant: &Plant, spec: &Spec, path: &Path) {
     };
     for k in 0..n {
         let t = k as f64 / RATE;
-        assert!((ts[k] - t).abs() < 1e-9, "output time {} for sample {k}", ts[k]);
+        assert!(
+            (ts[k] - t).abs() < 1e-9,
+            "output time {} for sample {k}",
+            ts[k]
+        );
         let tau = driven.tau(t);
         let mut row = format!("{t:e}");
         for j in 0..nj {
