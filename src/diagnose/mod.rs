@@ -220,7 +220,7 @@ pub fn table(findings: &[Finding], k: usize) -> String {
                 f.alike.join(", ")
             );
         }
-        if let Some(a) = &f.advice {
+        if let (Some(a), true) = (&f.advice, f.significant) {
             s += &format!("       {a}\n");
         }
     }

@@ -462,7 +462,8 @@ fn timing_candidates(
             continue;
         }
         simulations += 1;
-        let Some(sse) = sse_of(out.problem.with_hold(Some(hold))) else {
+        // A hold that fits no better than the one used is no candidate.
+        let Some(sse) = sse_of(out.problem.with_hold(Some(hold))).filter(|&e| e < sst) else {
             continue;
         };
         let mut f = Finding::new(
@@ -504,7 +505,7 @@ fn timing_candidates(
             let d = (sens.iter().zip(r).map(|(a, b)| a * b).sum::<f64>() / ss)
                 .clamp(-2.0 * dt, 2.0 * dt);
             simulations += 1;
-            if let Some(sse) = sse_of(out.problem.with_input_delay(d)) {
+            if let Some(sse) = sse_of(out.problem.with_input_delay(d)).filter(|&e| e < sst) {
                 let mut f = Finding::new(
                     "all",
                     "input delay".into(),

@@ -94,9 +94,25 @@ where
             .y_label_area_size(62)
             .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(|e| anyhow!("{e:?}"))?;
-        chart
-            .configure_mesh()
-            .x_desc(&panel.x_label)
+        // A panel whose x values are all whole numbers (steps, indices) labels only whole
+        // numbers: "1.5" is no step.
+        let whole_x = panel
+            .series
+            .iter()
+            .flat_map(|s| s.x.iter())
+            .all(|v| !v.is_finite() || v.fract() == 0.0);
+        let whole = |v: &f64| -> String {
+            if (v - v.round()).abs() < 1e-9 {
+                format!("{}", v.round())
+            } else {
+                String::new()
+            }
+        };
+        let mut mesh = chart.configure_mesh();
+        if whole_x {
+            mesh.x_label_formatter(&whole);
+        }
+        mesh.x_desc(&panel.x_label)
             .y_desc(&panel.y_label)
             .label_style(("sans-serif", 13))
             .light_line_style(RGBColor(235, 235, 235))
