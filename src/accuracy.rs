@@ -167,19 +167,34 @@ fn squared_differences(
     (sum, count)
 }
 
+/// `problem` at the step [`check_step`] accepts for `plant`, with the check.
+///
+/// # Errors
+/// As [`check_step`].
+pub fn with_checked_step(
+    problem: Problem,
+    plant: &Plant,
+    skip: usize,
+) -> Result<(Problem, StepCheck)> {
+    let step = check_step(&problem, plant, skip)?;
+    let checked = problem.with_step(step.h, problem.options().integrator);
+    Ok((checked, step))
+}
+
 /// Check `problem`'s step (its options' `h` and integrator) for `plant` on its records
-/// against the records' noise, halving it until accurate (module docs); `joints` names the
-/// free joints, `skip` samples at the start of each file are left out.
+/// against the records' noise, halving it until accurate (module docs); `skip` samples at
+/// the start of each file are left out.
 ///
 /// # Errors
 /// A simulation that fails (file, time, joint), or a step still inaccurate after
 /// [`MAX_HALVINGS`] halvings (the joint, its difference and σ̂ named, with what to try).
-pub fn check_step(
-    problem: &Problem,
-    plant: &Plant,
-    joints: &[&str],
-    skip: usize,
-) -> Result<StepCheck> {
+pub fn check_step(problem: &Problem, plant: &Plant, skip: usize) -> Result<StepCheck> {
+    let joints: Vec<&str> = problem
+        .configuration()
+        .free
+        .iter()
+        .map(|&j| plant.model.joints[j])
+        .collect();
     let options = problem.options();
     let requested = options.h;
     let integrator = options.integrator;

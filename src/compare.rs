@@ -426,17 +426,18 @@ pub fn compare_output(
             r.t.len()
         );
     }
-    let joints: Vec<&str> = conf.free.iter().map(|&j| plant.model.joints[j]).collect();
-    let problem = Problem::new(
+    let (problem, step) = crate::accuracy::with_checked_step(
+        Problem::new(
+            plant,
+            conf,
+            vec![],
+            records.to_vec(),
+            &[],
+            options.output_error(vec![1.0]),
+        )?,
         plant,
-        conf,
-        vec![],
-        records.to_vec(),
-        &[],
-        options.output_error(vec![1.0]),
+        skip,
     )?;
-    let step = crate::accuracy::check_step(&problem, plant, &joints, skip)?;
-    let problem = problem.with_step(step.h, options.integrator);
     let problem = if options.estimate_initial {
         problem
             .with_initial_positions_of(plant)

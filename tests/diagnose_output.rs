@@ -26,14 +26,11 @@ fn lockstep(args: &[&str]) {
     );
 }
 
+mod common;
+
 /// The Appendix D coupled-method plant with I4_33 made positive.
 fn base() -> Plant {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants");
-    let text = std::fs::read_to_string(dir.join("freedom6s_appendix_d_coupled.toml"))
-        .unwrap()
-        .replace("I4_33 = -0.00017449", "I4_33 = 0.00017449");
-    let spec = toml::from_str(&text).unwrap();
-    Plant::from_file(spec, None).unwrap()
+    common::appendix_d_coupled()
 }
 
 /// Simulate `truth` on 15 s of an excitation of `config` (table, test) with noise

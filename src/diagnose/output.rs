@@ -197,18 +197,19 @@ pub fn diagnose_output(
     if records.is_empty() {
         bail!("configuration '{conf_name}': no measurement files");
     }
-    let joint_names: Vec<&str> = conf.free.iter().map(|&j| m.joints[j]).collect();
-    let problem = Problem::new(
+    let (mut problem, step) = crate::accuracy::with_checked_step(
+        Problem::new(
+            plant,
+            conf,
+            vec![],
+            records.to_vec(),
+            &[],
+            options.fit.output_error(vec![1.0]),
+        )?,
         plant,
-        conf,
-        vec![],
-        records.to_vec(),
-        &[],
-        options.fit.output_error(vec![1.0]),
-    )?;
-    let step = crate::accuracy::check_step(&problem, plant, &joint_names, options.fit.skip)
-        .map_err(|e| anyhow!("the plant itself cannot be simulated accurately: {e:#}"))?;
-    let mut problem = problem.with_step(step.h, options.fit.integrator);
+        options.fit.skip,
+    )
+    .map_err(|e| anyhow!("the plant itself cannot be simulated accurately: {e:#}"))?;
     let oe = problem.options().clone();
     if options.fit.estimate_initial {
         problem = problem

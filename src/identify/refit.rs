@@ -122,12 +122,13 @@ pub fn refit(
 ) -> Result<Refit> {
     let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
     let oe = options.output_error(vec![0.25, 1.0]);
-    let problem = Problem::new(plant, conf, names.to_vec(), records.to_vec(), &[], oe)?;
     // The step, checked against the data's noise on the plant before the change.
-    let joints: Vec<&str> = conf.free.iter().map(|&j| plant.model.joints[j]).collect();
-    let step = crate::accuracy::check_step(&problem, before, &joints, options.skip)
-        .map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
-    let problem = problem.with_step(step.h, options.integrator);
+    let (problem, step) = crate::accuracy::with_checked_step(
+        Problem::new(plant, conf, names.to_vec(), records.to_vec(), &[], oe)?,
+        before,
+        options.skip,
+    )
+    .map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
     // The initial positions are a nuisance of each model: estimated for the plant before
     // the change (its figures) and for the changed plant (the fit).
     let (before_problem, problem) = if options.estimate_initial {
