@@ -167,6 +167,28 @@ fn squared_differences(
     (sum, count)
 }
 
+/// The simulation problem of `plant` (nothing fitted, joints weighted 1) on `records` of
+/// configuration `conf` under `options`, at the step [`check_step`] accepts, with the check.
+///
+/// # Errors
+/// As [`Problem::new`] and [`check_step`].
+pub fn checked_simulation(
+    plant: &Plant,
+    conf: &'static generated::Configuration,
+    records: &[crate::identify::output_error::Record],
+    options: &crate::identify::refit::RefitOptions,
+) -> Result<(Problem, StepCheck)> {
+    let problem = Problem::new(
+        plant,
+        conf,
+        vec![],
+        records.to_vec(),
+        &[],
+        options.output_error(vec![1.0]),
+    )?;
+    with_checked_step(problem, plant, options.skip)
+}
+
 /// `problem` at the step [`check_step`] accepts for `plant`, with the check.
 ///
 /// # Errors

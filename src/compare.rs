@@ -426,18 +426,7 @@ pub fn compare_output(
             r.t.len()
         );
     }
-    let (problem, step) = crate::accuracy::with_checked_step(
-        Problem::new(
-            plant,
-            conf,
-            vec![],
-            records.to_vec(),
-            &[],
-            options.output_error(vec![1.0]),
-        )?,
-        plant,
-        skip,
-    )?;
+    let (problem, step) = crate::accuracy::checked_simulation(plant, conf, records, options)?;
     let problem = if options.estimate_initial {
         problem
             .with_initial_positions_of(plant)

@@ -197,19 +197,9 @@ pub fn diagnose_output(
     if records.is_empty() {
         bail!("configuration '{conf_name}': no measurement files");
     }
-    let (mut problem, step) = crate::accuracy::with_checked_step(
-        Problem::new(
-            plant,
-            conf,
-            vec![],
-            records.to_vec(),
-            &[],
-            options.fit.output_error(vec![1.0]),
-        )?,
-        plant,
-        options.fit.skip,
-    )
-    .map_err(|e| anyhow!("the plant itself cannot be simulated accurately: {e:#}"))?;
+    let (mut problem, step) =
+        crate::accuracy::checked_simulation(plant, conf, records, &options.fit)
+            .map_err(|e| anyhow!("the plant itself cannot be simulated accurately: {e:#}"))?;
     let oe = problem.options().clone();
     if options.fit.estimate_initial {
         problem = problem
