@@ -8,8 +8,8 @@ use crate::identify::sequence::{JointFitMode, RigidBodyFit, SequenceOptions};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::diagnosis::{
-    apply_finding, compare_command, diagnose, effect_add, refit_command, refit_table,
-    report_command, Inputs,
+    apply_all_command, apply_finding, compare_command, diagnose, effect_add, refit_command,
+    refit_table, report_command, Inputs,
 };
 use crate::report::fit_table;
 use crate::simulation::{Hold, Integrator};
@@ -81,10 +81,12 @@ pub enum Command {
         /// Candidates to print.
         #[arg(long, default_value_t = 5)]
         top: usize,
-        /// Add finding K (1 = the first) to the plant and refit its parameters (output
-        /// space).
+        /// Add finding K (1 = the first) to the plant and refit its parameters jointly
+        /// with the changes recorded earlier on the configuration (output space);
+        /// `all-significant`: apply the leading finding and diagnose again until nothing
+        /// significant is missing.
         #[arg(long, requires = "out")]
-        apply: Option<usize>,
+        apply: Option<Apply>,
         /// With --apply: where to write the changed plant.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -975,15 +977,30 @@ pub fn run(cli: Cli) -> Result<()> {
                 println!("plant {}, {title}:", plant.name());
                 print!("{}", crate::diagnose::table(findings, top));
             }
-            if let (Some(k), Some(out)) = (apply, out) {
-                let r = apply_finding(&plant, &inputs, &data, &results[0].1, k, &out)?;
-                println!("applied finding {k} and refitted:");
-                print!("{}", refit_table(&r));
-                println!(
-                    "wrote {} (history: {} steps)",
-                    out.display(),
-                    plant.history.len() + 1
-                );
+            match (apply, out) {
+                (Some(Apply::Finding(k)), Some(out)) => {
+                    let r = apply_finding(&plant, &inputs, &data, &results[0].1, k, &out)?;
+                    println!("applied finding {k} and refitted jointly:");
+                    print!("{}", refit_table(&r));
+                    println!(
+                        "wrote {} (history: {} steps)",
+                        out.display(),
+                        r.plant.history.len()
+                    );
+                }
+                (Some(Apply::AllSignificant), Some(out)) => {
+                    let done = apply_all_command(&plant, &inputs, &data, &out)?;
+                    println!("final diagnosis:");
+                    print!("{}", crate::diagnose::table(&done.last.findings, top));
+                    println!(
+                        "{}; wrote {} ({} steps applied, history: {} steps)",
+                        done.end,
+                        out.display(),
+                        done.steps.len(),
+                        done.plant.history.len()
+                    );
+                }
+                _ => {}
             }
         }
         Command::Refit {
@@ -1314,4 +1331,28 @@ fn bundled_path(p: &std::path::Path) -> PathBuf {
 fn bundled_wall_args(mut a: WallArgs) -> WallArgs {
     a.spec = bundled_path(&a.spec);
     a
+}
+
+/// What `diagnose --apply` applies: one finding by rank, or the loop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Apply {
+    /// Finding K (1-based).
+    Finding(usize),
+    /// Apply the leading finding until nothing significant is missing.
+    AllSignificant,
+}
+
+impl std::str::FromStr for Apply {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "all-significant" => Ok(Apply::AllSignificant),
+            _ => match s.parse::<usize>() {
+                Ok(k) if k >= 1 => Ok(Apply::Finding(k)),
+                _ => Err(format!(
+                    "expected a finding's rank (1, 2, …) or 'all-significant', got '{s}'"
+                )),
+            },
+        }
+    }
 }

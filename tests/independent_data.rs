@@ -7,10 +7,13 @@ mod common;
 
 use common::independent::{self, Spec};
 use lockstep::compare::compare_output;
-use lockstep::diagnose::{diagnose_output, OutputOptions};
+use lockstep::diagnose::apply::{change_text, MAX_APPLIED_STEPS};
+use lockstep::diagnose::{apply_all_significant, diagnose_output, Finding, LoopEnd, OutputOptions};
+use lockstep::effects::EffectKind;
 use lockstep::identify::output_error::Record;
 use lockstep::identify::refit::RefitOptions;
 use lockstep::identify::sequence::read_record;
+use lockstep::plant::Plant;
 use lockstep::simulation::Hold;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -172,4 +175,229 @@ fn nothing_is_missing_from_the_truth_on_independent_data() {
         assert!(!d.findings[0].significant, "{config}:\n{text}");
         assert!(text.contains("nothing significant is missing"), "{text}");
     }
+}
+
+/// The independent file of `spec` for `truth` (tagged `tag` in its name), read as a record.
+fn record_of(truth: &lockstep::plant::Plant, tag: &str, spec: &Spec) -> Record {
+    let dir =
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("independent-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{tag}_{}_{}.csv", spec.config, spec.seed));
+    independent::write(truth, spec, &path);
+    let m = truth.model;
+    read_record(&path, m, m.configuration(spec.config).unwrap(), 0.01)
+        .unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// How close a hidden value must come back.
+#[derive(Clone, Copy)]
+enum Within {
+    /// Relative error at most this.
+    Relative(f64),
+    /// The record cannot determine the value (a Stribeck level and velocity trade off
+    /// exactly on some records): the refit must say "not determined" and the truth must
+    /// lie within two of its standard errors.
+    Undetermined,
+}
+
+/// A hidden-effect case: `start` is `truth` without one effect (or with it changed).
+/// The first diagnosis must name `expect` (kind, joint, from) first, or list it as
+/// indistinguishable from the first; `--apply all-significant` (joint refits) must end
+/// with nothing significant missing, every joint within `bound` σ, and the hidden values
+/// as `hidden` says.
+fn hidden_case(
+    truth: &Plant,
+    start: &Plant,
+    tag: &str,
+    s: Spec,
+    expect: (EffectKind, &str, Option<&str>),
+    hidden: &[(&str, Within)],
+    bound: f64,
+) {
+    let rec = record_of(truth, tag, &s);
+    let records = std::slice::from_ref(&rec);
+    let done = apply_all_significant(
+        start,
+        s.config,
+        records,
+        &OutputOptions::default(),
+        MAX_APPLIED_STEPS,
+        &|step| {
+            eprintln!(
+                "{tag} {}: {} ({:.1} %), values {:?}, alike {:?}\n{}",
+                s.config,
+                change_text(&step.finding),
+                100.0 * step.finding.explained,
+                step.finding.values,
+                step.finding.alike,
+                lockstep::report::diagnosis::refit_table(&step.refit)
+            )
+        },
+    )
+    .unwrap();
+    eprintln!(
+        "{tag} {}: {}\n{}",
+        s.config,
+        done.end,
+        lockstep::diagnose::table(&done.last.findings, 4)
+    );
+    let first = &done.steps.first().expect("a step applied").finding;
+    let named = |f: &Finding| {
+        f.kind == Some(expect.0) && f.joint == expect.1 && f.from.as_deref() == expect.2
+    };
+    let wanted = match expect.2 {
+        Some(from) => format!("{} from {from} on {}", expect.0, expect.1),
+        None => format!("{} on {}", expect.0, expect.1),
+    };
+    assert!(
+        named(first) || first.alike.iter().any(|a| a.starts_with(&wanted)),
+        "{tag}: first finding {} on {} ({:?}), expected {wanted}",
+        first.name,
+        first.joint,
+        first.from
+    );
+    assert_eq!(done.end, LoopEnd::NothingMissing, "{tag}");
+    for (name, tol) in hidden {
+        let (fitted, true_value) = (done.plant.parameters[*name], truth.parameters[*name]);
+        let err = (fitted / true_value - 1.0).abs();
+        // What the last fit of the value says of it: standard error, determined or not.
+        let (se, determined) = done
+            .steps
+            .iter()
+            .rev()
+            .find_map(|s| {
+                let f = &s.refit.fit;
+                let i = f.names.iter().position(|n| n == name)?;
+                Some((f.statistics.std_err[i], f.statistics.identifiable[i]))
+            })
+            .expect("the hidden value was fitted");
+        eprintln!(
+            "{tag}: {name} = {fitted:.6e} ± {se:.2e} ({}), truth {true_value:.6e} ({:.2} %, {:.2} standard errors)",
+            if determined { "determined" } else { "not determined" },
+            100.0 * err,
+            (fitted - true_value).abs() / se
+        );
+        match tol {
+            Within::Relative(tol) => {
+                assert!(err <= *tol, "{tag}: {name} = {fitted}, truth {true_value}")
+            }
+            Within::Undetermined => assert!(
+                !determined && (fitted - true_value).abs() <= 2.0 * se,
+                "{tag}: {name} = {fitted} ± {se}, truth {true_value}"
+            ),
+        }
+    }
+    let c = compare_output(&done.plant, s.config, records, &RefitOptions::default()).unwrap();
+    for j in &c.comparisons {
+        let ratio = j.rmse / common::sensor_sigma();
+        eprintln!("{tag} {}: {} RMS {ratio:.3} σ", s.config, j.joint);
+        assert!(ratio <= bound, "{tag} {}: {ratio:.3} σ > {bound}", j.joint);
+    }
+}
+
+/// A cable-drag spring missing on q3 (c3).
+#[test]
+fn hidden_spring_on_independent_data_c3() {
+    let truth = common::appendix_d_coupled();
+    let mut start = truth.clone();
+    start
+        .effects
+        .retain(|e| !(e.kind == EffectKind::Spring && e.joint == 3));
+    hidden_case(
+        &truth,
+        &start,
+        "spring",
+        spec("c3", "4.3", Some("J3")),
+        (EffectKind::Spring, "q3", None),
+        &[
+            ("Ks_3", Within::Relative(0.02)),
+            ("qeq_3", Within::Relative(0.05)),
+        ],
+        1.1,
+    );
+}
+
+/// The friction position bias missing on q0 and q1 (c7): two steps.
+#[test]
+fn hidden_friction_bias_on_independent_data_c7() {
+    let truth = common::appendix_d_coupled();
+    let mut start = truth.clone();
+    start
+        .effects
+        .retain(|e| !(e.kind == EffectKind::FrictionBias && e.joint <= 1));
+    hidden_case(
+        &truth,
+        &start,
+        "bias",
+        spec("c7", "4.4", Some("J01-1")),
+        (EffectKind::FrictionBias, "q0", None),
+        &[
+            ("FrictionBias_0", Within::Relative(0.02)),
+            ("FrictionBias_1", Within::Relative(0.02)),
+        ],
+        1.1,
+    );
+}
+
+/// A plant gain 30 % above the starting plant's on q2 (c4).
+#[test]
+fn hidden_gain_error_on_independent_data_c4() {
+    let mut truth = common::appendix_d_coupled();
+    let kp = truth.parameters["Kp_2"];
+    truth.parameters.insert("Kp_2".into(), 1.3 * kp);
+    let start = common::appendix_d_coupled();
+    hidden_case(
+        &truth,
+        &start,
+        "gain",
+        spec("c4", "4.3", Some("J2")),
+        (EffectKind::Gain, "q2", None),
+        &[("Kp_2", Within::Relative(0.02))],
+        1.1,
+    );
+}
+
+/// Both directions of the tendon coupling missing on the wrist (k1): two steps, the
+/// second refitting the first's gain jointly.
+#[test]
+fn hidden_tendon_coupling_on_independent_data_k1() {
+    let truth = common::appendix_d_coupled();
+    let mut start = truth.clone();
+    start
+        .effects
+        .retain(|e| e.kind != EffectKind::InputCoupling);
+    hidden_case(
+        &truth,
+        &start,
+        "coupling",
+        spec("k1", "4.7", None),
+        (EffectKind::InputCoupling, "q5", Some("q4")),
+        &[
+            ("G_4to5", Within::Relative(0.02)),
+            ("G_5to4", Within::Relative(0.02)),
+        ],
+        1.1,
+    );
+}
+
+/// A strong Stribeck hump in q5's LuGre friction that the starting plant lacks (c2).
+#[test]
+fn hidden_stribeck_on_independent_data_c2() {
+    let mut truth = common::appendix_d_coupled();
+    truth.parameters.insert("Fs_5".into(), 0.1);
+    truth.parameters.insert("vs_5".into(), 0.1);
+    let mut start = truth.clone();
+    start.parameters.insert("Fs_5".into(), 0.02);
+    hidden_case(
+        &truth,
+        &start,
+        "stribeck",
+        spec("c2", "4.3", Some("J5")),
+        (EffectKind::Stribeck, "q5", None),
+        &[
+            ("Fs_5", Within::Undetermined),
+            ("vs_5", Within::Undetermined),
+        ],
+        1.1,
+    );
 }

@@ -21,9 +21,11 @@
 //! A [`Finding`] carries the plant edit that implements it ([`Finding::apply`]): the effect
 //! to add (or the existing parameter to change) and the estimated parameter values.
 
+pub mod apply;
 pub mod output;
 pub mod torque;
 
+pub use apply::{apply_all_significant, apply_finding, AppliedLoop, LoopEnd, LoopStep};
 pub use output::{diagnose_output, OutputDiagnosis, OutputOptions};
 pub use torque::diagnose_torque;
 

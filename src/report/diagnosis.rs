@@ -345,15 +345,28 @@ pub fn refit_table(r: &Refit) -> String {
             100.0 * (1.0 - a / b.max(1e-300))
         );
     }
-    for (n, v) in r.fit.names.iter().zip(&r.fit.fitted) {
-        s += &format!("  {n} = {v:.6e}\n");
+    let st = &r.fit.statistics;
+    for (i, (n, v)) in r.fit.names.iter().zip(&r.fit.fitted).enumerate() {
+        let se = st.std_err.get(i).copied().unwrap_or(f64::NAN);
+        let verdict = if st.identifiable.get(i).copied().unwrap_or(false) {
+            "determined"
+        } else if st.at_bound.get(i).copied().unwrap_or(false) {
+            "at a bound"
+        } else {
+            "not determined by these data"
+        };
+        s += &format!("  {n} = {v:.6e} ± {se:.2e} ({verdict})\n");
+    }
+    for (a, b, rho) in &st.correlated {
+        s += &format!("  {a} and {b} trade with each other (correlation {rho:+.3})\n");
     }
     s
 }
 
 /// `diagnose --apply k`: add finding `k` (1-based) of an output-space diagnosis to the
-/// plant, refit its parameters, record the step in the plant's history and save the plant
-/// to `out`.
+/// plant, refit it jointly with the changes recorded earlier on the configuration
+/// ([`crate::diagnose::apply_finding`]), record the step in the plant's history and save
+/// the plant to `out`.
 ///
 /// # Errors
 /// Torque-space data, no such finding, a finding that is not a plant edit, the refit
@@ -372,22 +385,51 @@ pub fn apply_finding(
     let f = findings
         .get(k.wrapping_sub(1))
         .ok_or_else(|| anyhow!("--apply {k}: there are {} findings", findings.len()))?;
-    let changed = f.apply(plant)?;
-    let r = refit(
+    let r = crate::diagnose::apply_finding(plant, f, config, records, &refit_options(inputs))?;
+    r.plant.save(out)?;
+    Ok(r)
+}
+
+/// `diagnose --apply all-significant`: apply the leading finding and diagnose again until
+/// nothing significant is missing ([`crate::diagnose::apply_all_significant`]), printing
+/// each step's table as it ends; the plant after the last kept step is saved to `out`.
+///
+/// # Errors
+/// Torque-space data; as [`crate::diagnose::apply_all_significant`]; I/O.
+pub fn apply_all_command(
+    plant: &Plant,
+    inputs: &Inputs,
+    data: &Data,
+    out: &Path,
+) -> Result<crate::diagnose::AppliedLoop> {
+    let Data::Output { config, records } = data else {
+        bail!("--apply works in output space (position data; --space output)");
+    };
+    let options = OutputOptions {
+        fit: RefitOptions {
+            max_iter: OutputOptions::default().fit.max_iter,
+            ..refit_options(inputs)
+        },
+        ..OutputOptions::default()
+    };
+    let done = crate::diagnose::apply_all_significant(
         plant,
-        &changed,
         config,
         records,
-        &f.parameter_names(),
-        &refit_options(inputs),
+        &options,
+        crate::diagnose::apply::MAX_APPLIED_STEPS,
+        &|s| {
+            println!(
+                "step: {} ({:.1} % explained, ΔBIC {:.1}); refitted jointly:",
+                crate::diagnose::apply::change_text(&s.finding),
+                100.0 * s.finding.explained,
+                s.finding.delta_bic
+            );
+            print!("{}", refit_table(&s.refit));
+        },
     )?;
-    let what = match (&f.effect, &f.from) {
-        (Some(e), Some(from)) => format!("added {} from {from} to {}", e.kind, f.joint),
-        (Some(_), None) => format!("added {} on {}", f.name, f.joint),
-        (None, _) => format!("refitted {} on {}", f.name, f.joint),
-    };
-    save_with_history(&r, &what, records, out)?;
-    Ok(r)
+    done.plant.save(out)?;
+    Ok(done)
 }
 
 fn save_with_history(r: &Refit, change: &str, records: &[Record], out: &Path) -> Result<()> {
