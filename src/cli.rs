@@ -973,9 +973,12 @@ pub fn run(cli: Cli) -> Result<()> {
             let (plant, inputs) = common.inputs(&space)?;
             let data = inputs.load(&plant)?;
             let results = diagnose(&plant, &inputs, &data)?;
-            for (title, findings) in &results {
+            for (title, findings, above_noise) in &results {
                 println!("plant {}, {title}:", plant.name());
-                print!("{}", crate::diagnose::table(findings, top));
+                print!(
+                    "{}",
+                    crate::diagnose::table_with(findings, top, above_noise)
+                );
             }
             match (apply, out) {
                 (Some(Apply::Finding(k)), Some(out)) => {
@@ -991,7 +994,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 (Some(Apply::AllSignificant), Some(out)) => {
                     let done = apply_all_command(&plant, &inputs, &data, &out)?;
                     println!("final diagnosis:");
-                    print!("{}", crate::diagnose::table(&done.last.findings, top));
+                    print!("{}", done.last.table(top));
                     println!(
                         "{}; wrote {} ({} steps applied, history: {} steps)",
                         done.end,

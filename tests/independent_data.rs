@@ -57,6 +57,15 @@ fn spec<'a>(config: &'a str, table: &'a str, test: Option<&'a str>) -> Spec<'a> 
     }
 }
 
+/// The files of the hidden-effect cases: 8 s (each case runs two to four diagnoses and
+/// their refits; the truth's files are 15 s).
+fn hidden_spec<'a>(config: &'a str, table: &'a str, test: Option<&'a str>) -> Spec<'a> {
+    Spec {
+        duration: 8.0,
+        ..spec(config, table, test)
+    }
+}
+
 /// The cases of the acceptance: single joints (c3, c2), the base pair with the friction
 /// bias (c7), the wrist (k1) and three coupled joints (k3).
 const CASES: [(&str, &str, Option<&str>, f64); 5] = [
@@ -210,7 +219,7 @@ fn hidden_case(
     start: &Plant,
     tag: &str,
     s: Spec,
-    expect: (EffectKind, &str, Option<&str>),
+    (expect, first_only): ((EffectKind, &str, Option<&str>), bool),
     hidden: &[(&str, Within)],
     bound: f64,
 ) {
@@ -249,14 +258,50 @@ fn hidden_case(
         Some(from) => format!("{} from {from} on {}", expect.0, expect.1),
         None => format!("{} on {}", expect.0, expect.1),
     };
-    assert!(
-        named(first) || first.alike.iter().any(|a| a.starts_with(&wanted)),
-        "{tag}: first finding {} on {} ({:?}), expected {wanted}",
-        first.name,
-        first.joint,
-        first.from
+    eprintln!(
+        "{tag} {}, first diagnosis:\n{}",
+        s.config,
+        lockstep::diagnose::table(&done.first.findings, 6)
     );
+    if first_only {
+        assert!(
+            named(first) || first.alike.iter().any(|a| a.starts_with(&wanted)),
+            "{tag}: first finding {} on {} ({:?}), expected {wanted}",
+            first.name,
+            first.joint,
+            first.from
+        );
+    } else {
+        // Two effects missing at once: the one expected is significant in the first
+        // diagnosis, and the joint refits sort out the rest.
+        assert!(
+            done.first
+                .findings
+                .iter()
+                .any(|f| named(f) && f.significant),
+            "{tag}: {wanted} not significant in the first diagnosis"
+        );
+    }
     assert_eq!(done.end, LoopEnd::NothingMissing, "{tag}");
+    // The loop ends with the truth's effects, no more (a stand-in taken up on the way is
+    // removed once a joint refit takes it back to no effect).
+    let kinds = |p: &Plant| {
+        let mut v: Vec<String> = p
+            .effects
+            .iter()
+            .map(|e| format!("{:?} {} {:?}", e.kind, e.joint, e.from))
+            .collect();
+        v.sort();
+        v
+    };
+    for r in &done.removed {
+        eprintln!("{tag}: {r}");
+    }
+    assert_eq!(
+        kinds(&done.plant),
+        kinds(truth),
+        "{tag}: the effects at the end"
+    );
     for (name, tol) in hidden {
         let (fitted, true_value) = (done.plant.parameters[*name], truth.parameters[*name]);
         let err = (fitted / true_value - 1.0).abs();
@@ -307,8 +352,8 @@ fn hidden_spring_on_independent_data_c3() {
         &truth,
         &start,
         "spring",
-        spec("c3", "4.3", Some("J3")),
-        (EffectKind::Spring, "q3", None),
+        hidden_spec("c3", "4.3", Some("J3")),
+        ((EffectKind::Spring, "q3", None), true),
         &[
             ("Ks_3", Within::Relative(0.02)),
             ("qeq_3", Within::Relative(0.05)),
@@ -329,8 +374,8 @@ fn hidden_friction_bias_on_independent_data_c7() {
         &truth,
         &start,
         "bias",
-        spec("c7", "4.4", Some("J01-1")),
-        (EffectKind::FrictionBias, "q0", None),
+        hidden_spec("c7", "4.4", Some("J01-1")),
+        ((EffectKind::FrictionBias, "q0", None), true),
         &[
             ("FrictionBias_0", Within::Relative(0.02)),
             ("FrictionBias_1", Within::Relative(0.02)),
@@ -350,15 +395,18 @@ fn hidden_gain_error_on_independent_data_c4() {
         &truth,
         &start,
         "gain",
-        spec("c4", "4.3", Some("J2")),
-        (EffectKind::Gain, "q2", None),
+        hidden_spec("c4", "4.3", Some("J2")),
+        ((EffectKind::Gain, "q2", None), true),
         &[("Kp_2", Within::Relative(0.02))],
         1.1,
     );
 }
 
-/// Both directions of the tendon coupling missing on the wrist (k1): two steps, the
-/// second refitting the first's gain jointly.
+/// Both directions of the tendon coupling missing on the wrist (k1): two effects missing
+/// at once, so no single candidate explains the residual and the first fitted may be a
+/// stand-in (measured: a friction bias on q4, 51 % against 45 % for the 4 → 5 coupling);
+/// the couplings must be significant from the start, and the joint refits must end with
+/// both at the truth and the stand-in removed.
 #[test]
 fn hidden_tendon_coupling_on_independent_data_k1() {
     let truth = common::appendix_d_coupled();
@@ -370,8 +418,8 @@ fn hidden_tendon_coupling_on_independent_data_k1() {
         &truth,
         &start,
         "coupling",
-        spec("k1", "4.7", None),
-        (EffectKind::InputCoupling, "q5", Some("q4")),
+        hidden_spec("k1", "4.7", None),
+        ((EffectKind::InputCoupling, "q5", Some("q4")), false),
         &[
             ("G_4to5", Within::Relative(0.02)),
             ("G_5to4", Within::Relative(0.02)),
@@ -392,12 +440,105 @@ fn hidden_stribeck_on_independent_data_c2() {
         &truth,
         &start,
         "stribeck",
-        spec("c2", "4.3", Some("J5")),
-        (EffectKind::Stribeck, "q5", None),
+        hidden_spec("c2", "4.3", Some("J5")),
+        ((EffectKind::Stribeck, "q5", None), true),
         &[
             ("Fs_5", Within::Undetermined),
             ("vs_5", Within::Undetermined),
         ],
         1.1,
     );
+}
+
+/// The starting plant a user really has: `plant` with every rigid-body value (the model's
+/// inertial symbols) and every friction value of the joints `joints` 10 % off, up or down
+/// by a seeded coin, and bounds to refit them in: the thesis's rule for the inertial
+/// symbols (mass ±50 %, centroid ±30 %, inertia ±120 %), ±50 % for the friction values.
+fn ten_percent_off(plant: &Plant, joints: &[usize], seed: u64) -> Plant {
+    let mut p = plant.clone();
+    let mut state = seed;
+    let mut coin = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        if (state >> 63) == 1 {
+            1.1
+        } else {
+            0.9
+        }
+    };
+    for s in p.model.inertial_symbols {
+        if let Some(v) = p.parameters.get_mut(*s) {
+            *v *= coin();
+        }
+    }
+    p.apply_thesis_bounds();
+    let friction: Vec<String> = p
+        .effects
+        .iter()
+        .filter(|e| joints.contains(&e.joint) && e.kind.is_friction_law())
+        .flat_map(|e| e.parameter_names())
+        .collect();
+    for name in friction {
+        let v = p.parameters[&name] * coin();
+        p.parameters.insert(name.clone(), v);
+        p.bounds.insert(name, (0.5 * v, 1.5 * v));
+    }
+    p
+}
+
+/// From a start 10 % off (every rigid-body and q3 friction value), with the spring
+/// missing on q3 (c3): the loop must either reach the noise (≤ 1.2 σ, the spring among its
+/// steps) or stop saying the error is unexplained, naming the joint: never "nothing
+/// significant is missing" above the noise. Measured: the gain is named first (64.5 %
+/// fitted, the spring 19 % from its best qeq grid point), the spring is added second and
+/// its joint refit with the configuration's values stops at qeq = −0.56 (truth 0.375),
+/// 9 σ̂: the loop stops as unexplained (issue 53's acceptance for this start is not met).
+#[test]
+fn from_a_start_ten_percent_off_the_loop_never_calls_a_misfit_complete_c3() {
+    let truth = common::appendix_d_coupled();
+    let mut start = truth.clone();
+    start
+        .effects
+        .retain(|e| !(e.kind == EffectKind::Spring && e.joint == 3));
+    let start = ten_percent_off(&start, &[3], 11);
+    let s = hidden_spec("c3", "4.3", Some("J3"));
+    let rec = record_of(&truth, "spring-off", &s);
+    let records = std::slice::from_ref(&rec);
+    let done = apply_all_significant(
+        &start,
+        "c3",
+        records,
+        &OutputOptions::default(),
+        MAX_APPLIED_STEPS,
+        &|step| {
+            eprintln!(
+                "spring-off: {}\n{}",
+                change_text(&step.finding),
+                lockstep::report::diagnosis::refit_table(&step.refit)
+            )
+        },
+    )
+    .unwrap();
+    eprintln!("first diagnosis:\n{}", done.first.table(6));
+    eprintln!("end: {}\n{}", done.end, done.last.table(4));
+    let c = compare_output(&done.plant, "c3", records, &RefitOptions::default()).unwrap();
+    let worst = c
+        .comparisons
+        .iter()
+        .map(|j| j.rmse / common::sensor_sigma())
+        .fold(0.0, f64::max);
+    eprintln!("worst joint {worst:.2} σ");
+    match &done.end {
+        LoopEnd::NothingMissing => {
+            assert!(worst <= 1.2, "nothing missing at {worst:.2} σ");
+            assert!(done.plant.has_effect(3, EffectKind::Spring));
+        }
+        LoopEnd::Unexplained(joints) => {
+            assert!(worst > 1.2, "unexplained at {worst:.2} σ");
+            assert!(joints.iter().any(|j| j.starts_with("q3")), "{joints:?}");
+            assert!(done.last.verdict().starts_with("unexplained"));
+        }
+        other => panic!("the loop ended with {other}"),
+    }
 }

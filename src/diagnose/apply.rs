@@ -13,32 +13,88 @@
 
 use super::output::{diagnose_output, OutputDiagnosis, OutputOptions};
 use super::Finding;
+use crate::effects::EffectKind;
 use crate::identify::output_error::Record;
 use crate::identify::refit::{refit, Refit, RefitOptions};
 use crate::plant::Plant;
 use anyhow::{anyhow, Result};
 
 /// The parameters a refit after adding `finding` to `plant` fits, for data of
-/// configuration `conf_name`: the finding's own, then those fitted by earlier changes on
-/// the same configuration (the plant's history, oldest first) that the plant still has,
-/// each once.
-pub fn joint_refit_names(plant: &Plant, conf_name: &str, finding: &Finding) -> Vec<String> {
+/// configuration `conf_name`, each once and only where the plant gives it bounds
+/// (lower < upper):
+/// 1. the finding's own;
+/// 2. those fitted by earlier changes on the same configuration (the plant's history,
+///    oldest first) that the plant still has;
+/// 3. the values the configuration determines: the parameters of every effect acting on
+///    its free joints (friction laws, springs, biases, couplings between free joints; not
+///    the plant gains, which set the scale the others are fitted in), and a set of the model's inertial symbols that spans its base parameters
+///    ([`crate::identify::identifiability::spanning_symbols`]; the others trade with them
+///    exactly here and stay held).
+///
+/// A plant file without bounds for 3 (the thesis's result tables) refits 1 and 2 only.
+///
+/// # Errors
+/// Unknown configuration; the plant's barycentric parameters cannot be formed.
+pub fn joint_refit_names(
+    plant: &Plant,
+    conf_name: &str,
+    finding: &Finding,
+    records: &[Record],
+) -> Result<Vec<String>> {
+    let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    let free_to_fit = |name: &String| {
+        plant.bounds.get(name).is_some_and(|&(lo, hi)| lo < hi)
+            && plant.parameters.contains_key(name)
+    };
     let mut names = finding.parameter_names();
+    let push = |n: &String, names: &mut Vec<String>| {
+        if free_to_fit(n) && !names.contains(n) {
+            names.push(n.clone());
+        }
+    };
     for entry in plant
         .history
         .iter()
         .filter(|e| e.configuration == conf_name)
     {
         for name in entry.fitted.keys() {
-            if plant.parameters.contains_key(name)
-                && plant.bounds.contains_key(name)
-                && !names.contains(name)
-            {
-                names.push(name.clone());
-            }
+            push(name, &mut names);
         }
     }
-    names
+    // The plant gain is left out: scaling every gain and every torque-side value of a
+    // joint together changes nothing, so the gains are the scale the others are fitted in.
+    for e in plant
+        .effects
+        .iter()
+        .filter(|e| e.acts_with(conf.free) && e.kind != crate::effects::EffectKind::Gain)
+    {
+        for name in e.parameter_names() {
+            push(&name, &mut names);
+        }
+    }
+    let rigid: Vec<String> = plant
+        .model
+        .inertial_symbols
+        .iter()
+        .map(|s| s.to_string())
+        .filter(|s| free_to_fit(s))
+        .collect();
+    if !rigid.is_empty() {
+        let width = |i: usize| {
+            plant
+                .bounds
+                .get(&rigid[i])
+                .map_or(1.0, |&(lo, hi)| (hi - lo).abs().max(1e-300))
+        };
+        let locked_at: Vec<Vec<f64>> = records.iter().map(|r| r.q_all.clone()).collect();
+        let keep = crate::identify::identifiability::spanning_symbols(
+            plant, conf, &rigid, &width, &locked_at,
+        )?;
+        for i in keep {
+            push(&rigid[i], &mut names);
+        }
+    }
+    Ok(names)
 }
 
 /// The history text of applying `finding`, e.g. "added spring on q3", "added
@@ -66,7 +122,7 @@ pub fn apply_finding(
     options: &RefitOptions,
 ) -> Result<Refit> {
     let changed = finding.apply(plant)?;
-    let names = joint_refit_names(&changed, conf_name, finding);
+    let names = joint_refit_names(&changed, conf_name, finding, records)?;
     let mut r = refit(plant, &changed, conf_name, records, &names, options)?;
     let files: Vec<String> = records
         .iter()
@@ -95,6 +151,9 @@ pub struct LoopStep {
 pub enum LoopEnd {
     /// The leading finding is not significant: nothing significant is missing.
     NothingMissing,
+    /// No finding is significant, yet the error is above the noise on some joint (listed):
+    /// what is missing is outside the catalogue, or the plant's values are far off.
+    Unexplained(Vec<String>),
     /// The leading finding is about the data's input, not the plant (its advice).
     InputAdvice(String),
     /// Applying the leading finding did not lower the summed squared RMS error of the free
@@ -108,6 +167,11 @@ impl std::fmt::Display for LoopEnd {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             LoopEnd::NothingMissing => write!(f, "nothing significant is missing"),
+            LoopEnd::Unexplained(j) => write!(
+                f,
+                "stopped: the error is above the noise ({}) but no candidate explains it",
+                j.join(", ")
+            ),
             LoopEnd::InputAdvice(a) => write!(f, "stopped at a finding about the input: {a}"),
             LoopEnd::NoImprovement(w) => {
                 write!(
@@ -125,10 +189,17 @@ impl std::fmt::Display for LoopEnd {
 /// The result of [`apply_all_significant`].
 #[derive(Debug, Clone)]
 pub struct AppliedLoop {
-    /// The plant after the last kept step (the starting plant when none was kept).
+    /// The plant after the last kept step (the starting plant when none was kept), less the
+    /// effects the loop added that its joint refits took back to no effect (`removed`).
     pub plant: Plant,
+    /// The diagnosis of the starting plant.
+    pub first: OutputDiagnosis,
     /// The steps kept, in order.
     pub steps: Vec<LoopStep>,
+    /// Effects the loop added and then removed, with why: a later joint refit put their
+    /// size back at its no-effect value within two standard errors (a stand-in for an
+    /// effect found later, e.g. a friction bias taken up while two couplings were missing).
+    pub removed: Vec<String>,
     /// The diagnosis of the final plant.
     pub last: OutputDiagnosis,
     /// Why the loop stopped.
@@ -153,6 +224,7 @@ pub fn apply_all_significant(
 ) -> Result<AppliedLoop> {
     let mut current = plant.clone();
     let mut steps: Vec<LoopStep> = Vec::new();
+    let mut first: Option<OutputDiagnosis> = None;
     let refit_options = RefitOptions {
         max_iter: RefitOptions::default().max_iter,
         ..options.fit.clone()
@@ -162,7 +234,9 @@ pub fn apply_all_significant(
         let top = d.findings.first().cloned().ok_or_else(|| {
             anyhow!("configuration '{conf_name}': the diagnosis has no candidates")
         })?;
-        let end = if !top.significant {
+        let end = if !top.significant && !d.above_noise.is_empty() {
+            Some(LoopEnd::Unexplained(d.above_noise.clone()))
+        } else if !top.significant {
             Some(LoopEnd::NothingMissing)
         } else if let (true, Some(a)) = (top.values.is_empty(), &top.advice) {
             Some(LoopEnd::InputAdvice(a.clone()))
@@ -172,19 +246,28 @@ pub fn apply_all_significant(
             None
         };
         if let Some(end) = end {
+            let (plant, removed) = prune(current, &steps);
             return Ok(AppliedLoop {
-                plant: current,
+                plant,
+                first: first.unwrap_or_else(|| d.clone()),
                 steps,
+                removed,
                 last: d,
                 end,
             });
         }
+        if first.is_none() {
+            first = Some(d.clone());
+        }
         let r = apply_finding(&current, &top, conf_name, records, &refit_options)?;
         let energy = |v: &[(String, f64)]| v.iter().map(|x| x.1 * x.1).sum::<f64>();
         if energy(&r.after) >= energy(&r.before) {
+            let (plant, removed) = prune(current, &steps);
             return Ok(AppliedLoop {
-                plant: current,
+                plant,
+                first: first.unwrap_or_else(|| d.clone()),
                 steps,
+                removed,
                 last: d,
                 end: LoopEnd::NoImprovement(format!("{} on {}", top.name, top.joint)),
             });
@@ -197,4 +280,80 @@ pub fn apply_all_significant(
         progress(&step);
         steps.push(step);
     }
+}
+
+/// The value at which an added effect of `kind` has no effect on the plant, for its size
+/// parameter `symbol` (None: no single such value, e.g. a friction law).
+fn no_effect_value(kind: EffectKind, symbol: &str) -> Option<f64> {
+    use EffectKind as K;
+    match (kind, symbol) {
+        (K::FrictionBias, "FrictionBias") | (K::Gain, "Kp") => Some(1.0),
+        (K::Spring, "Ks")
+        | (K::InputCoupling, "G")
+        | (K::Coulomb, "Fc")
+        | (K::Viscous, "Fv")
+        | (K::Offset, "offset") => Some(0.0),
+        _ => None,
+    }
+}
+
+/// Remove from `plant` the effects the loop's `steps` added whose size the last joint
+/// refit that fitted it put within two standard errors of its no-effect value; each
+/// removal is recorded in the plant's history and returned as text.
+fn prune(mut plant: Plant, steps: &[LoopStep]) -> (Plant, Vec<String>) {
+    let mut removed = Vec::new();
+    for step in steps {
+        let Some(effect) = step.finding.effect else {
+            continue;
+        };
+        if step.finding.replaces.is_some() {
+            continue;
+        }
+        let names = effect.parameter_names();
+        let size = names.iter().find_map(|n| {
+            let symbol = n.rsplit_once('_').map_or(n.as_str(), |(s, _)| s);
+            let symbol = if effect.from.is_some() { "G" } else { symbol };
+            no_effect_value(effect.kind, symbol).map(|v| (n.clone(), v))
+        });
+        let Some((name, neutral)) = size else {
+            continue;
+        };
+        // The last refit that fitted the size: its value and standard error.
+        let Some((value, se)) = steps.iter().rev().find_map(|s| {
+            let f = &s.refit.fit;
+            let i = f.names.iter().position(|n| *n == name)?;
+            Some((f.fitted[i], f.statistics.std_err[i]))
+        }) else {
+            continue;
+        };
+        if !(se.is_finite() && (value - neutral).abs() <= 2.0 * se) {
+            continue;
+        }
+        plant.effects.retain(|e| *e != effect);
+        let still_used: Vec<String> = plant
+            .effects
+            .iter()
+            .flat_map(|e| e.parameter_names())
+            .collect();
+        for n in &names {
+            if !still_used.contains(n) {
+                plant.parameters.remove(n);
+                plant.bounds.remove(n);
+            }
+        }
+        let why = format!(
+            "removed {} on {} (a later joint refit took it back to no effect: {name} = {value:.6e} ± {se:.1e}, no effect at {neutral})",
+            effect.kind, step.finding.joint
+        );
+        plant.history.push(crate::plant::HistoryEntry {
+            change: why.clone(),
+            configuration: step.refit.fit.configuration.clone(),
+            files: Vec::new(),
+            fitted: Default::default(),
+            rms_before: Default::default(),
+            rms_after: Default::default(),
+        });
+        removed.push(why);
+    }
+    (plant, removed)
 }

@@ -16,6 +16,8 @@
 //!
 //! ΔBIC = n ln(SSE_c / SST) + p_c ln n,   explained = 1 − SSE_c / SST,
 //!
+//! with n the number of residual samples (output space also reports the effective number
+//! of independent samples, [`effective_samples`], of what all candidates together leave);
 //! and a candidate is significant when ΔBIC < −10 (decisive evidence) and it explains at
 //! least 5 % of the residual energy. When none is, nothing significant is missing.
 //! A [`Finding`] carries the plant edit that implements it ([`Finding::apply`]): the effect
@@ -58,6 +60,8 @@ pub struct Finding {
     pub explained: f64,
     /// ΔBIC against "nothing missing" (negative: evidence for the candidate).
     pub delta_bic: f64,
+    /// The number of samples ΔBIC counts.
+    pub samples: f64,
     /// ΔBIC < −10 and explained ≥ 5 %.
     pub significant: bool,
     /// One line of physics.
@@ -93,7 +97,7 @@ impl Finding {
         kind: Option<EffectKind>,
         from: Option<String>,
         estimate: Vec<(String, f64)>,
-        (sse, sst, n, p): (f64, f64, usize, usize),
+        (sse, sst, n, p): (f64, f64, f64, usize),
     ) -> Finding {
         let (delta_bic, explained) = bic(sse, sst, n, p);
         Finding {
@@ -105,6 +109,7 @@ impl Finding {
             estimate,
             explained,
             delta_bic,
+            samples: n,
             significant: significant(delta_bic, explained),
             effect: None,
             replaces: None,
@@ -165,11 +170,55 @@ impl Finding {
     }
 }
 
-/// (ΔBIC, explained) of a fit of `p` numbers leaving `sse` of `sst` over `n` samples.
-pub fn bic(sse: f64, sst: f64, n: usize, p: usize) -> (f64, f64) {
-    let nf = n as f64;
+/// (ΔBIC, explained) of a fit of `p` numbers leaving `sse` of `sst` over `n` samples
+/// (`n` may be an effective number of independent samples, [`effective_samples`]).
+pub fn bic(sse: f64, sst: f64, n: f64, p: usize) -> (f64, f64) {
+    let n = n.max(1.0);
     let sse = sse.clamp(1e-300 * sst.max(1e-300), sst);
-    (nf * (sse / sst).ln() + p as f64 * nf.ln(), 1.0 - sse / sst)
+    (n * (sse / sst).ln() + p as f64 * n.ln(), 1.0 - sse / sst)
+}
+
+/// The number of independent samples a residual is worth: Σ over its segments of
+/// n_s / τ_s, τ_s = 1 + 2 Σ_{k≥1} ρ_k the integrated autocorrelation time of the segment
+/// (Bayley and Hammersley 1946), the sum over lags stopped at the first ρ_k ≤ 0 (Geyer's
+/// initial positive sequence, 1992) and at n_s / 4. `residual` is the segments stacked,
+/// `segments` their lengths (a file's joint each). White noise gives about Σ n_s; a
+/// residual that wanders slowly (a model error the fit left, a drift) far fewer, so that
+/// ΔBIC does not take thousands of correlated samples as thousands of observations.
+pub fn effective_samples(residual: &[f64], segments: &[usize]) -> f64 {
+    let mut total = 0.0;
+    let mut start = 0;
+    for &len in segments {
+        let end = (start + len).min(residual.len());
+        let seg = &residual[start..end];
+        start = end;
+        let n = seg.len();
+        if n < 8 {
+            total += n as f64;
+            continue;
+        }
+        let mean = seg.iter().sum::<f64>() / n as f64;
+        let c0: f64 = seg.iter().map(|x| (x - mean).powi(2)).sum();
+        if c0 <= 0.0 {
+            total += n as f64;
+            continue;
+        }
+        let mut tau = 1.0;
+        for k in 1..n / 4 {
+            let ck: f64 = seg[k..]
+                .iter()
+                .zip(seg)
+                .map(|(a, b)| (a - mean) * (b - mean))
+                .sum();
+            let rho = ck / c0;
+            if rho <= 0.0 {
+                break;
+            }
+            tau += 2.0 * rho;
+        }
+        total += n as f64 / tau;
+    }
+    total.max(1.0)
 }
 
 /// The significance rule: ΔBIC < −10 and explained ≥ 5 %.
@@ -193,8 +242,42 @@ fn fit(cols: &[Vec<f64>], e: &[f64]) -> Option<(Vec<f64>, f64)> {
     Some((x.iter().copied().collect(), sse))
 }
 
-/// The ranking as text: the top `k` candidates and the verdict.
+/// The residual e − A x̂ of the least-squares fit of e on the columns `cols` (SVD, columns
+/// that are nearly dependent dropped at 1e-10 of the largest singular value); None when
+/// there are too few samples or the problem is degenerate.
+pub fn least_squares_residual(cols: &[Vec<f64>], e: &[f64]) -> Option<Vec<f64>> {
+    let n = e.len();
+    let p = cols.len();
+    if p == 0 || n <= p + 1 {
+        return None;
+    }
+    // Columns scaled to unit norm so that the rank cut does not depend on units.
+    let norms: Vec<f64> = cols
+        .iter()
+        .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
+        .collect();
+    let a = DMatrix::from_fn(n, p, |r, c| {
+        if norms[c] > 0.0 {
+            cols[c][r] / norms[c]
+        } else {
+            0.0
+        }
+    });
+    let b = DVector::from_column_slice(e);
+    let svd = a.clone().svd(true, true);
+    let x = svd.solve(&b, 1e-10 * svd.singular_values.max()).ok()?;
+    Some((b - a * x).iter().copied().collect())
+}
+
+/// The ranking as text: the top `k` candidates and the verdict (no joint known to be
+/// above its noise: [`table_with`]).
 pub fn table(findings: &[Finding], k: usize) -> String {
+    table_with(findings, k, &[])
+}
+
+/// The ranking as text: the top `k` candidates and the [`verdict`] given the joints whose
+/// error is above their noise.
+pub fn table_with(findings: &[Finding], k: usize, above_noise: &[String]) -> String {
     let mut s = format!(
         "{:<4} {:<6} {:<36} {:>10} {:>11}  {}\n",
         "rank", "joint", "candidate", "explained", "ΔBIC", "estimate"
@@ -226,9 +309,68 @@ pub fn table(findings: &[Finding], k: usize) -> String {
             s += &format!("       {a}\n");
         }
     }
-    match findings.first() {
-        Some(f) if f.significant => s += &format!("most likely missing: {} on {}\n", f.name, f.joint),
-        _ => s += "nothing significant is missing (no candidate has ΔBIC < -10 and explains >= 5 % of the residual)\n",
-    }
+    s += &verdict(findings, above_noise);
+    s.push('\n');
     s
+}
+
+/// The verdict in one line: the leading finding when it is significant; else "nothing
+/// significant is missing" when `above_noise` (the joints whose error is above their
+/// noise, e.g. "q3 9.0 σ̂") is empty, or, when it is not, that the residual is
+/// unexplained: an effect outside the catalogue, or plant values far off that a refit
+/// would move.
+pub fn verdict(findings: &[Finding], above_noise: &[String]) -> String {
+    match findings.first() {
+        Some(f) if f.significant => format!("most likely missing: {} on {}", f.name, f.joint),
+        _ if !above_noise.is_empty() => format!(
+            "unexplained: the error is above the noise ({}) but no candidate of the catalogue explains a significant share of it; the missing effect is outside the catalogue, or the plant's values are far off (refit them: lockstep identify or lockstep refit)",
+            above_noise.join(", ")
+        ),
+        _ => "nothing significant is missing (no candidate has ΔBIC < -10 and explains >= 5 % of the residual)".to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::effective_samples;
+
+    /// SplitMix64 + Box–Muller: reproducible Gaussian samples for the tests.
+    fn gaussian(n: usize, mut state: u64) -> Vec<f64> {
+        let mut uniform = || {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let (u1, u2) = (uniform().max(1e-300), uniform());
+                (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+            })
+            .collect()
+    }
+
+    /// White noise is worth about its own length; an AR(1) process x_k = φ x_{k−1} + e_k
+    /// has τ = (1 + φ)/(1 − φ) (19 for φ = 0.9), so it is worth n/19.
+    #[test]
+    fn effective_samples_of_white_noise_and_of_an_ar1_process() {
+        let n = 20_000;
+        let white = gaussian(n, 3);
+        let w = effective_samples(&white, &[n / 2, n / 2]);
+        assert!((w / n as f64 - 1.0).abs() < 0.1, "white: {w}");
+        let phi = 0.9;
+        let mut ar = Vec::with_capacity(n);
+        let mut x = 0.0;
+        for e in gaussian(n, 5) {
+            x = phi * x + e;
+            ar.push(x);
+        }
+        let a = effective_samples(&ar, &[n]);
+        let expected = n as f64 * (1.0 - phi) / (1.0 + phi);
+        assert!(
+            (a / expected - 1.0).abs() < 0.25,
+            "AR(1): {a}, expected {expected}"
+        );
+    }
 }

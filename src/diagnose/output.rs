@@ -14,10 +14,15 @@
 //! stiffness, a friction level ≥ 0): β̂ = clamp(β₀ + sᵀr / sᵀs), SSE = ‖r − (β̂ − β₀) s‖².
 //! A second, nonlinear parameter (Stribeck velocity vs, the equilibrium position qeq of a
 //! spring or friction bias) is scanned on a grid and counts as a fitted number in ΔBIC.
-//! The leading candidates are then confirmed: the candidate is added at β̂ and its
-//! parameters refitted by output error ([`crate::identify::output_error::Problem`]), and its
-//! figures become those of the fitted plant (the linearisation understates large effects
-//! such as a 30 % gain error).
+//! The candidates that pass this first screen (significant when linearised, and the leading
+//! three whatever their figures) are then confirmed, in parallel: the candidate is added at
+//! β̂ and its parameters refitted by output error
+//! ([`crate::identify::output_error::Problem`]), and its figures become those of the fitted
+//! plant (the linearisation understates large effects such as a 30 % gain error), so the
+//! ranking is that of the fitted costs. The diagnosis also reports the effective number of
+//! independent samples ([`super::effective_samples`]) of the residual all candidates'
+//! sensitivities fitted together leave: far below n, the residual holds structure no
+//! candidate describes.
 //!
 //! Catalogue (per free joint i; an effect the joint already has is not offered again):
 //! Coulomb (Fc_i), viscous (Fv_i), offset (offset_i), Stribeck/stiction (Fs_i above Fc_i,
@@ -28,9 +33,9 @@
 //! plant-gain error (Kp_i; added as a gain when the joint has none). Rigid-body parameter
 //! errors are not candidates here: identification refits them.
 
-use super::Finding;
+use super::{effective_samples, Finding};
 use crate::effects::{Effect, EffectKind};
-use crate::identify::output_error::{JointFit, Problem, Record};
+use crate::identify::output_error::{JointFit, Problem, Record, FLOOR_FACTOR};
 use crate::identify::refit::RefitOptions;
 use crate::plant::Plant;
 use crate::simulation::{Hold, Trajectory};
@@ -43,8 +48,12 @@ pub struct OutputOptions {
     /// Simulation and fit settings (integration step and scheme, hold, transient skip, initial positions,
     /// iterations of a confirmation fit).
     pub fit: RefitOptions,
-    /// Leading candidates confirmed by a nonlinear fit (0: linearisation only).
+    /// Leading candidates confirmed by a nonlinear fit whatever their linearised figures
+    /// (0: none beyond the significant ones).
     pub confirm: usize,
+    /// Most candidates confirmed: the leading `confirm` and every candidate whose
+    /// linearised fit is significant (the first screen), best first.
+    pub confirm_max: usize,
 }
 
 impl Default for OutputOptions {
@@ -55,6 +64,7 @@ impl Default for OutputOptions {
                 ..RefitOptions::default()
             },
             confirm: 3,
+            confirm_max: 12,
         }
     }
 }
@@ -71,6 +81,15 @@ pub struct OutputDiagnosis {
     pub joints: Vec<JointFit>,
     /// Residual samples n (all files and free joints).
     pub samples: usize,
+    /// The effective number of independent samples of the residual all candidates fitted
+    /// together leave ([`super::effective_samples`]); far below `samples`: the residual
+    /// holds structure no candidate of the catalogue describes (or correlated noise).
+    pub effective_samples: f64,
+    /// Free joints whose RMS error exceeds [`FLOOR_FACTOR`] × their noise σ̂ estimated
+    /// from the data, as "q3 9.0 σ̂". With no significant finding, a non-empty list means
+    /// the residual is not noise yet nothing in the catalogue explains it
+    /// ([`OutputDiagnosis::verdict`]).
+    pub above_noise: Vec<String>,
     /// Simulations run.
     pub simulations: usize,
     /// The integration step's check against the noise (the step used, and the floor).
@@ -79,6 +98,19 @@ pub struct OutputDiagnosis {
     /// reconstruction can account for ([`crate::accuracy`]); no candidate that explains
     /// less is significant.
     pub floor_share: f64,
+}
+
+impl OutputDiagnosis {
+    /// The verdict in one line ([`super::verdict`] with this diagnosis's joints above the
+    /// noise).
+    pub fn verdict(&self) -> String {
+        super::verdict(&self.findings, &self.above_noise)
+    }
+
+    /// The ranking (top `k`) and the verdict as text.
+    pub fn table(&self, k: usize) -> String {
+        super::table_with(&self.findings, k, &self.above_noise)
+    }
 }
 
 /// The size a candidate changes: a plant parameter, its no-effect value β₀, the
@@ -153,6 +185,15 @@ impl Outputs {
         y
     }
 
+    /// Lengths of the stacked segments (each file's free joints, after `skip`).
+    fn segments(&self) -> Vec<usize> {
+        self.problem
+            .records
+            .iter()
+            .flat_map(|r| r.q.iter().map(|qa| qa.len() - self.skip.min(qa.len())))
+            .collect()
+    }
+
     fn measured(&self) -> Vec<f64> {
         let mut y = Vec::new();
         for r in &self.problem.records {
@@ -220,6 +261,7 @@ pub fn diagnose_output(
     let n = r.len();
     let sst: f64 = r.iter().map(|x| x * x).sum();
     let joints = out.problem.joint_fits(&base);
+    let segments = out.segments();
     let cands = catalogue(plant, conf, records, &base)?;
     // Sensitivity columns, all candidates in parallel.
     let columns: Vec<Option<Vec<f64>>> = cands
@@ -288,6 +330,17 @@ pub fn diagnose_output(
             }),
         }
     }
+    // The effective number of independent samples of the residual that all candidates'
+    // sensitivities fitted together leave (reported, not counted in ΔBIC: where much is
+    // missing that no candidate describes, the residual stays correlated and counting
+    // only its independent samples called a 10 %-off plant's missing spring chance;
+    // docs/independent-data.md).
+    let effective = {
+        let cols: Vec<Vec<f64>> = best.iter().map(|l| l.column.clone()).collect();
+        let left = super::least_squares_residual(&cols, &r).unwrap_or_else(|| r.clone());
+        effective_samples(&left, &segments)
+    };
+    let neff = n as f64;
     let finding = |l: &Linear, values: Vec<(String, f64)>, sse: f64, p: usize| -> Finding {
         let c = &l.cand;
         let mut f = Finding::new(
@@ -296,7 +349,7 @@ pub fn diagnose_output(
             Some(c.kind),
             c.from.map(|k| m.joints[k].to_string()),
             values.clone(),
-            (sse, sst, n, p),
+            (sse, sst, neff, p),
         );
         f.effect = c.effect;
         f.replaces = c.replaces;
@@ -319,24 +372,17 @@ pub fn diagnose_output(
         v.push((c.size.name.clone(), beta));
         v
     };
-    let mut findings: Vec<Finding> = best
-        .iter()
-        .map(|l| finding(l, values_of(&l.cand, l.beta), l.sse, l.p))
-        .collect();
-    // Confirm the leading candidates by a nonlinear output-error fit of their parameters.
-    let mut order: Vec<usize> = (0..findings.len()).collect();
-    order.sort_by(|&a, &b| findings[a].delta_bic.total_cmp(&findings[b].delta_bic));
-    for &i in order.iter().take(options.confirm) {
-        if findings[i].explained < 0.01 {
-            continue;
-        }
-        let l = &best[i];
+    // The nonlinear fit of one candidate's parameters from its linear estimate: the
+    // confirmed finding (None when the fit fails) and the simulations it ran.
+    let confirm = |l: &Linear, lin: &Finding| -> (Option<Finding>, usize) {
         let c = &l.cand;
         let mut names = vec![c.size.name.clone()];
         if let Some((g, _, _)) = &c.grid {
             names.push(g.clone());
         }
-        let start = findings[i].apply(plant)?;
+        let Ok(start) = lin.apply(plant) else {
+            return (None, 0);
+        };
         // The candidate plant's own initial positions (a nuisance of each model).
         let problem = Problem::new(
             &start,
@@ -355,11 +401,12 @@ pub fn diagnose_output(
             }
         });
         let Ok(fit) = problem.and_then(|p| p.fit(&|_| {})) else {
-            continue;
+            return (None, 0);
         };
-        simulations += fit.evaluations;
-        if fit.cost_after.is_nan() || fit.cost_after >= l.sse {
-            continue;
+        // The fitted cost replaces the linearised one even where it is higher: the
+        // linearisation only predicts what the candidate can explain.
+        if !fit.cost_after.is_finite() {
+            return (None, fit.evaluations);
         }
         let mut values = values_of(c, l.beta);
         for (nm, v) in fit.names.iter().zip(&fit.fitted) {
@@ -370,7 +417,39 @@ pub fn diagnose_output(
         }
         let mut f = finding(l, values, fit.cost_after, names.len());
         f.confirmed = true;
-        findings[i] = f;
+        (Some(f), fit.evaluations)
+    };
+    let mut findings: Vec<Finding> = best
+        .iter()
+        .map(|l| finding(l, values_of(&l.cand, l.beta), l.sse, l.p))
+        .collect();
+    // Confirm by a nonlinear output-error fit of their parameters: the leading
+    // `options.confirm` candidates and every one the linearisation calls significant (the
+    // first screen), at most `options.confirm_max`, in parallel. The ranking is then that
+    // of the fitted costs.
+    let mut order: Vec<usize> = (0..findings.len()).collect();
+    order.sort_by(|&a, &b| findings[a].delta_bic.total_cmp(&findings[b].delta_bic));
+    let screened: Vec<usize> = order
+        .iter()
+        .enumerate()
+        .filter(|&(rank, &i)| {
+            (rank < options.confirm && findings[i].explained >= 0.01) || findings[i].significant
+        })
+        .map(|(_, &i)| i)
+        .take(options.confirm_max.max(options.confirm))
+        .collect();
+    let confirmed: Vec<(usize, Option<Finding>, usize)> = screened
+        .par_iter()
+        .map(|&i| {
+            let (f, sims) = confirm(&best[i], &findings[i]);
+            (i, f, sims)
+        })
+        .collect();
+    for (i, f, sims) in confirmed {
+        simulations += sims;
+        if let Some(f) = f {
+            findings[i] = f;
+        }
     }
     // Candidates the data cannot tell apart: sensitivities nearly collinear.
     let columns: Vec<&[f64]> = best.iter().map(|l| l.column.as_slice()).collect();
@@ -382,7 +461,7 @@ pub fn diagnose_output(
             .collect();
     }
     // How the input was applied: the other holds, and a delay.
-    let timing = timing_candidates(plant, &out, (&y, &r), sst, n, records)?;
+    let timing = timing_candidates(plant, &out, (&y, &r), sst, neff, records)?;
     simulations += timing.1;
     findings.extend(timing.0);
     // The numerics' floor: nothing that explains less than it is significant.
@@ -392,11 +471,18 @@ pub fn diagnose_output(
         }
     }
     findings.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    let above_noise = joints
+        .iter()
+        .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
+        .map(|j| format!("{} {:.1} σ̂", j.joint, j.rms / j.noise))
+        .collect();
     Ok(OutputDiagnosis {
         configuration: conf.name.to_string(),
         findings,
         joints,
         samples: n,
+        effective_samples: effective,
+        above_noise,
         simulations,
         floor_share: if sst > 0.0 {
             step.floor_energy / sst
@@ -431,16 +517,20 @@ fn timing_candidates(
     out: &Outputs,
     (y, r): (&[f64], &[f64]),
     sst: f64,
-    n: usize,
+    neff: f64,
     records: &[Record],
 ) -> Result<(Vec<Finding>, usize)> {
     let with = |problem: Problem| Outputs {
         problem,
         skip: out.skip,
     };
-    let sse_of = |p: Problem| -> Option<f64> {
+    // (SSE, effective samples) with the input applied as `p` says.
+    let sse_of = |p: Problem| -> Option<(f64, f64)> {
         let yhat = with(p).simulate(plant).ok()?;
-        Some(y.iter().zip(&yhat).map(|(a, b)| (a - b).powi(2)).sum())
+        Some((
+            y.iter().zip(&yhat).map(|(a, b)| (a - b).powi(2)).sum(),
+            neff,
+        ))
     };
     let mut findings = Vec::new();
     let mut simulations = 0;
@@ -454,7 +544,8 @@ fn timing_candidates(
         }
         simulations += 1;
         // A hold that fits no better than the one used is no candidate.
-        let Some(sse) = sse_of(out.problem.with_hold(Some(hold))).filter(|&e| e < sst) else {
+        let Some((sse, neff)) = sse_of(out.problem.with_hold(Some(hold))).filter(|e| e.0 < sst)
+        else {
             continue;
         };
         let mut f = Finding::new(
@@ -463,7 +554,7 @@ fn timing_candidates(
             None,
             None,
             vec![],
-            (sse, sst, n, 0),
+            (sse, sst, neff, 0),
         );
         f.meaning = format!(
             "the torques were applied as {} between samples, not as the hold used ({}): {}",
@@ -496,14 +587,15 @@ fn timing_candidates(
             let d = (sens.iter().zip(r).map(|(a, b)| a * b).sum::<f64>() / ss)
                 .clamp(-2.0 * dt, 2.0 * dt);
             simulations += 1;
-            if let Some(sse) = sse_of(out.problem.with_input_delay(d)).filter(|&e| e < sst) {
+            if let Some((sse, neff)) = sse_of(out.problem.with_input_delay(d)).filter(|e| e.0 < sst)
+            {
                 let mut f = Finding::new(
                     "all",
                     "input delay".into(),
                     None,
                     None,
                     vec![("delay".into(), d)],
-                    (sse, sst, n, 1),
+                    (sse, sst, neff, 1),
                 );
                 f.meaning = "the torques reached the joints later (delay > 0) than their time stamps: a transport delay, or a continuous signal reconstructed by a hold that lags it (a zero-order hold lags by half a sample)".into();
                 f.advice = Some(
@@ -766,7 +858,7 @@ mod tests {
         assert_eq!(quantile(&v, 0.5), 3.0);
         assert_eq!(quantile(&v, 1.0), 5.0);
         // Halving the residual energy over 100 samples with one number: 100 ln ½ + ln 100.
-        let (d, e) = bic(50.0, 100.0, 100, 1);
+        let (d, e) = bic(50.0, 100.0, 100.0, 1);
         assert!((d - (100.0 * 0.5f64.ln() + 100f64.ln())).abs() < 1e-12);
         assert!((e - 0.5).abs() < 1e-15);
     }

@@ -88,7 +88,7 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
                 None,
                 None,
                 vec![],
-                (sst, sst0, n, pw),
+                (sst, sst0, n as f64, pw),
             );
             f.significant = f.explained >= 0.05;
             f.meaning = "the plant's own parameters are not at their least-squares values: refit (identify) before adding effects".into();
@@ -223,7 +223,7 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
                 kind,
                 from.map(|k| m.joints[k].to_string()),
                 symbols.into_iter().zip(x.iter().copied()).collect(),
-                (sse, sst, n, cols.len()),
+                (sse, sst, n as f64, cols.len()),
             );
             // The plant edit, where the inverse-model coefficients map onto the effect's
             // parameters: τ = … + Fc sign q̇ + Fv q̇ + offset + Ks (q − qeq); the command

@@ -250,11 +250,7 @@ pub fn compare_command(
 ///
 /// # Errors
 /// As [`diagnose_output`] / [`diagnose_torque`].
-pub fn diagnose(
-    plant: &Plant,
-    inputs: &Inputs,
-    data: &Data,
-) -> Result<Vec<(String, Vec<Finding>)>> {
+pub fn diagnose(plant: &Plant, inputs: &Inputs, data: &Data) -> Result<Vec<Diagnosed>> {
     match data {
         Data::Output { config, records } => {
             let d = diagnose_output(
@@ -272,25 +268,32 @@ pub fn diagnose(
             let files: Vec<String> = records.iter().map(|r| stem(&r.file)).collect();
             Ok(vec![(
                 format!(
-                    "configuration {config}, {} ({} residual samples, {} simulations)\n{}; numerical floor (step and input reconstruction) {:.2} % of the residual energy",
+                    "configuration {config}, {} ({} residual samples, {:.0} independent in what all candidates together leave; {} simulations)\n{}; numerical floor (step and input reconstruction) {:.2} % of the residual energy",
                     files.join(", "),
                     d.samples,
+                    d.effective_samples,
                     d.simulations,
                     d.step.summary(),
                     100.0 * d.floor_share
                 ),
                 d.findings,
+                d.above_noise,
             )])
         }
         Data::Torque { config, records } => records
             .iter()
             .map(|m| {
                 let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
-                Ok((stem(&m.file), diagnose_torque(plant, &obs)?))
+                Ok((stem(&m.file), diagnose_torque(plant, &obs)?, Vec::new()))
             })
             .collect(),
     }
 }
+
+/// One diagnosis of [`diagnose`]: its title, the findings best first, and the joints
+/// whose error is above their noise (output space; empty in torque space), which the
+/// verdict needs ([`crate::diagnose::verdict`]).
+pub type Diagnosed = (String, Vec<Finding>, Vec<String>);
 
 /// Which hold each record's input was simulated with, and where it came from.
 fn hold_text(records: &[Record], holds: &[crate::simulation::Hold], given: bool) -> String {
@@ -352,6 +355,8 @@ pub fn refit_table(r: &Refit) -> String {
             "determined"
         } else if st.at_bound.get(i).copied().unwrap_or(false) {
             "at a bound"
+        } else if !st.above_floor.is_empty() {
+            "no verdict: the fit is above the noise floor"
         } else {
             "not determined by these data"
         };
@@ -428,6 +433,9 @@ pub fn apply_all_command(
             print!("{}", refit_table(&s.refit));
         },
     )?;
+    for r in &done.removed {
+        println!("{r}");
+    }
     done.plant.save(out)?;
     Ok(done)
 }
@@ -581,7 +589,7 @@ fn inline_svg(path: &Path) -> Result<String> {
     ))
 }
 
-fn findings_html(title: &str, findings: &[Finding], top: usize) -> String {
+fn findings_html(title: &str, findings: &[Finding], above_noise: &[String], top: usize) -> String {
     let mut s = format!(
         "<h3>{}</h3>\n<table><tr><th>rank</th><th>joint</th><th>candidate</th><th>explained</th><th>ΔBIC</th><th>estimate</th><th>meaning</th></tr>\n",
         esc(title)
@@ -603,14 +611,11 @@ fn findings_html(title: &str, findings: &[Finding], top: usize) -> String {
         );
     }
     s += "</table>\n";
-    s += &match findings.first() {
-        Some(f) if f.significant => format!(
-            "<p class=\"verdict\">Most likely missing: <b>{}</b> on {}.</p>\n",
-            esc(&f.name),
-            esc(&f.joint)
-        ),
-        _ => "<p class=\"verdict\">Nothing significant is missing (no candidate has ΔBIC &lt; −10 and explains ≥ 5 % of the residual).</p>\n".into(),
-    };
+    let _ = writeln!(
+        s,
+        "<p class=\"verdict\">{}</p>",
+        esc(&crate::diagnose::verdict(findings, above_noise))
+    );
     s
 }
 
@@ -744,8 +749,8 @@ pub fn report_command(plant: &Plant, inputs: &Inputs, out: &Path, top: usize) ->
         h += &inline_svg(svg)?;
     }
     h += "<h2>Diagnose</h2>\n<p>Candidate effects ranked by ΔBIC = n ln(SSE/SST) + p ln n; significant when ΔBIC &lt; −10 and at least 5 % of the residual is explained.</p>\n";
-    for (title, f) in &diag {
-        h += &findings_html(title, f, top);
+    for (title, f, above) in &diag {
+        h += &findings_html(title, f, above, top);
     }
     h += "<h2>History</h2>\n";
     h += &history_html(&plant.history, out)?;
