@@ -246,15 +246,7 @@ pub fn apply_all_significant(
             None
         };
         if let Some(end) = end {
-            let (plant, removed) = prune(current, &steps);
-            return Ok(AppliedLoop {
-                plant,
-                first: first.unwrap_or_else(|| d.clone()),
-                steps,
-                removed,
-                last: d,
-                end,
-            });
+            return Ok(finish(current, steps, first, d, end));
         }
         if first.is_none() {
             first = Some(d.clone());
@@ -262,15 +254,8 @@ pub fn apply_all_significant(
         let r = apply_finding(&current, &top, conf_name, records, &refit_options)?;
         let energy = |v: &[(String, f64)]| v.iter().map(|x| x.1 * x.1).sum::<f64>();
         if energy(&r.after) >= energy(&r.before) {
-            let (plant, removed) = prune(current, &steps);
-            return Ok(AppliedLoop {
-                plant,
-                first: first.unwrap_or_else(|| d.clone()),
-                steps,
-                removed,
-                last: d,
-                end: LoopEnd::NoImprovement(format!("{} on {}", top.name, top.joint)),
-            });
+            let end = LoopEnd::NoImprovement(format!("{} on {}", top.name, top.joint));
+            return Ok(finish(current, steps, first, d, end));
         }
         current = r.plant.clone();
         let step = LoopStep {
@@ -279,6 +264,26 @@ pub fn apply_all_significant(
         };
         progress(&step);
         steps.push(step);
+    }
+}
+
+/// The loop's result when it stops with `end` after `steps`, the last diagnosis `last`
+/// (also the first when no step was kept): the stand-ins pruned ([`prune`]).
+fn finish(
+    current: Plant,
+    steps: Vec<LoopStep>,
+    first: Option<OutputDiagnosis>,
+    last: OutputDiagnosis,
+    end: LoopEnd,
+) -> AppliedLoop {
+    let (plant, removed) = prune(current, &steps);
+    AppliedLoop {
+        plant,
+        first: first.unwrap_or_else(|| last.clone()),
+        steps,
+        removed,
+        last,
+        end,
     }
 }
 
