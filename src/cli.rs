@@ -1359,3 +1359,21 @@ impl std::str::FromStr for Apply {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Apply;
+
+    #[test]
+    fn apply_takes_a_rank_or_all_significant_and_refuses_the_rest() {
+        assert_eq!("2".parse::<Apply>(), Ok(Apply::Finding(2)));
+        assert_eq!(
+            "all-significant".parse::<Apply>(),
+            Ok(Apply::AllSignificant)
+        );
+        for bad in ["0", "-1", "all", ""] {
+            let e = bad.parse::<Apply>().unwrap_err();
+            assert!(e.contains("all-significant") && e.contains(bad), "{e}");
+        }
+    }
+}
