@@ -972,6 +972,18 @@ pub fn run(cli: Cli) -> Result<()> {
         } => {
             let (plant, inputs) = common.inputs(&space)?;
             let data = inputs.load(&plant)?;
+            if let (Some(Apply::AllSignificant), Some(out)) = (apply, &out) {
+                // The loop diagnoses (and prints) the plant itself, before each step.
+                let done = apply_all_command(&plant, &inputs, &data, out, top)?;
+                println!(
+                    "{}; wrote {} ({} steps applied, history: {} steps)",
+                    done.end,
+                    out.display(),
+                    done.steps.len(),
+                    done.plant.history.len()
+                );
+                return Ok(());
+            }
             let results = diagnose(&plant, &inputs, &data)?;
             for (title, findings, above_noise) in &results {
                 println!("plant {}, {title}:", plant.name());
@@ -980,30 +992,15 @@ pub fn run(cli: Cli) -> Result<()> {
                     crate::diagnose::table_with(findings, top, above_noise)
                 );
             }
-            match (apply, out) {
-                (Some(Apply::Finding(k)), Some(out)) => {
-                    let r = apply_finding(&plant, &inputs, &data, &results[0].1, k, &out)?;
-                    println!("applied finding {k} and refitted jointly:");
-                    print!("{}", refit_table(&r));
-                    println!(
-                        "wrote {} (history: {} steps)",
-                        out.display(),
-                        r.plant.history.len()
-                    );
-                }
-                (Some(Apply::AllSignificant), Some(out)) => {
-                    let done = apply_all_command(&plant, &inputs, &data, &out)?;
-                    println!("final diagnosis:");
-                    print!("{}", done.last.table(top));
-                    println!(
-                        "{}; wrote {} ({} steps applied, history: {} steps)",
-                        done.end,
-                        out.display(),
-                        done.steps.len(),
-                        done.plant.history.len()
-                    );
-                }
-                _ => {}
+            if let (Some(Apply::Finding(k)), Some(out)) = (apply, out) {
+                let r = apply_finding(&plant, &inputs, &data, &results[0].1, k, &out)?;
+                println!("applied finding {k} and refitted jointly:");
+                print!("{}", refit_table(&r));
+                println!(
+                    "wrote {} (history: {} steps)",
+                    out.display(),
+                    r.plant.history.len()
+                );
             }
         }
         Command::Refit {

@@ -8,7 +8,9 @@ mod common;
 use common::independent::{self, Spec};
 use lockstep::compare::compare_output;
 use lockstep::diagnose::apply::{change_text, MAX_APPLIED_STEPS};
-use lockstep::diagnose::{apply_all_significant, diagnose_output, Finding, LoopEnd, OutputOptions};
+use lockstep::diagnose::{
+    apply_all_significant, diagnose_output, Finding, LoopEnd, OutputOptions, Turn,
+};
 use lockstep::effects::EffectKind;
 use lockstep::identify::output_error::Record;
 use lockstep::identify::refit::RefitOptions;
@@ -231,7 +233,8 @@ fn hidden_case(
         records,
         &OutputOptions::default(),
         MAX_APPLIED_STEPS,
-        &|step| {
+        &|turn| {
+            let Turn::Applied(step) = turn else { return };
             eprintln!(
                 "{tag} {}: {} ({:.1} %), values {:?}, alike {:?}\n{}",
                 s.config,
@@ -511,7 +514,8 @@ fn from_a_start_ten_percent_off_the_loop_never_calls_a_misfit_complete_c3() {
         records,
         &OutputOptions::default(),
         MAX_APPLIED_STEPS,
-        &|step| {
+        &|turn| {
+            let Turn::Applied(step) = turn else { return };
             eprintln!(
                 "spring-off: {}\n{}",
                 change_text(&step.finding),

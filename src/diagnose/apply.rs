@@ -137,6 +137,15 @@ pub fn apply_finding(
 /// thesis's plants carry at most four effects per joint beyond the rigid body.
 pub const MAX_APPLIED_STEPS: usize = 8;
 
+/// What [`apply_all_significant`] reports as it goes.
+#[derive(Debug, Clone, Copy)]
+pub enum Turn<'a> {
+    /// A diagnosis of the plant as it is (before each step, and the last).
+    Diagnosed(&'a OutputDiagnosis),
+    /// A step kept: the finding applied and its joint refit.
+    Applied(&'a LoopStep),
+}
+
 /// One turn of [`apply_all_significant`]: the finding applied and its refit.
 #[derive(Debug, Clone)]
 pub struct LoopStep {
@@ -210,7 +219,7 @@ pub struct AppliedLoop {
 /// `conf_name`, apply the leading finding with a joint refit ([`apply_finding`]), and
 /// repeat until nothing significant is missing, the leading finding is about the input,
 /// a step does not lower the error, or `max_steps` steps were kept. `progress` sees each
-/// kept step as it ends (a command prints the error after each).
+/// diagnosis and each kept step as they end (a command prints them).
 ///
 /// # Errors
 /// As [`diagnose_output`] and [`apply_finding`] (a refit that fails ends with the error).
@@ -220,7 +229,7 @@ pub fn apply_all_significant(
     records: &[Record],
     options: &OutputOptions,
     max_steps: usize,
-    progress: &dyn Fn(&LoopStep),
+    progress: &dyn Fn(Turn),
 ) -> Result<AppliedLoop> {
     let mut current = plant.clone();
     let mut steps: Vec<LoopStep> = Vec::new();
@@ -231,6 +240,7 @@ pub fn apply_all_significant(
     };
     loop {
         let d = diagnose_output(&current, conf_name, records, options)?;
+        progress(Turn::Diagnosed(&d));
         let top = d.findings.first().cloned().ok_or_else(|| {
             anyhow!("configuration '{conf_name}': the diagnosis has no candidates")
         })?;
@@ -262,7 +272,7 @@ pub fn apply_all_significant(
             finding: top,
             refit: r,
         };
-        progress(&step);
+        progress(Turn::Applied(&step));
         steps.push(step);
     }
 }

@@ -27,7 +27,7 @@ pub mod apply;
 pub mod output;
 pub mod torque;
 
-pub use apply::{apply_all_significant, apply_finding, AppliedLoop, LoopEnd, LoopStep};
+pub use apply::{apply_all_significant, apply_finding, AppliedLoop, LoopEnd, LoopStep, Turn};
 pub use output::{diagnose_output, OutputDiagnosis, OutputOptions};
 pub use torque::diagnose_torque;
 

@@ -397,7 +397,8 @@ pub fn apply_finding(
 
 /// `diagnose --apply all-significant`: apply the leading finding and diagnose again until
 /// nothing significant is missing ([`crate::diagnose::apply_all_significant`]), printing
-/// each step's table as it ends; the plant after the last kept step is saved to `out`.
+/// each diagnosis (its `top` findings) and each step's refit table as they end; the plant
+/// after the last kept step is saved to `out`.
 ///
 /// # Errors
 /// Torque-space data; as [`crate::diagnose::apply_all_significant`]; I/O.
@@ -406,6 +407,7 @@ pub fn apply_all_command(
     inputs: &Inputs,
     data: &Data,
     out: &Path,
+    top: usize,
 ) -> Result<crate::diagnose::AppliedLoop> {
     let Data::Output { config, records } = data else {
         bail!("--apply works in output space (position data; --space output)");
@@ -423,14 +425,27 @@ pub fn apply_all_command(
         records,
         &options,
         crate::diagnose::apply::MAX_APPLIED_STEPS,
-        &|s| {
-            println!(
-                "step: {} ({:.1} % explained, ΔBIC {:.1}); refitted jointly:",
-                crate::diagnose::apply::change_text(&s.finding),
-                100.0 * s.finding.explained,
-                s.finding.delta_bic
-            );
-            print!("{}", refit_table(&s.refit));
+        &|turn| match turn {
+            crate::diagnose::Turn::Diagnosed(d) => {
+                println!(
+                    "plant {}, configuration {config}, {} residual samples ({:.0} independent in what all candidates together leave; {} simulations)\n{}:",
+                    plant.name(),
+                    d.samples,
+                    d.effective_samples,
+                    d.simulations,
+                    d.step.summary()
+                );
+                print!("{}", d.table(top));
+            }
+            crate::diagnose::Turn::Applied(s) => {
+                println!(
+                    "step: {} ({:.1} % explained, ΔBIC {:.1}); refitted jointly:",
+                    crate::diagnose::apply::change_text(&s.finding),
+                    100.0 * s.finding.explained,
+                    s.finding.delta_bic
+                );
+                print!("{}", refit_table(&s.refit));
+            }
         },
     )?;
     for r in &done.removed {
