@@ -60,8 +60,6 @@ pub struct Finding {
     pub explained: f64,
     /// ΔBIC against "nothing missing" (negative: evidence for the candidate).
     pub delta_bic: f64,
-    /// The number of samples ΔBIC counts.
-    pub samples: f64,
     /// ΔBIC < −10 and explained ≥ 5 %.
     pub significant: bool,
     /// One line of physics.
@@ -109,7 +107,6 @@ impl Finding {
             estimate,
             explained,
             delta_bic,
-            samples: n,
             significant: significant(delta_bic, explained),
             effect: None,
             replaces: None,
