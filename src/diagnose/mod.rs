@@ -180,8 +180,8 @@ pub fn bic(sse: f64, sst: f64, n: f64, p: usize) -> (f64, f64) {
 /// (Bayley and Hammersley 1946), the sum over lags stopped at the first ρ_k ≤ 0 (Geyer's
 /// initial positive sequence, 1992) and at n_s / 4. `residual` is the segments stacked,
 /// `segments` their lengths (a file's joint each). White noise gives about Σ n_s; a
-/// residual that wanders slowly (a model error the fit left, a drift) far fewer, so that
-/// ΔBIC does not take thousands of correlated samples as thousands of observations.
+/// residual that wanders slowly (a model error the fit left, a drift) far fewer. Reported
+/// by the output-space diagnosis, not counted in its ΔBIC (module docs).
 pub fn effective_samples(residual: &[f64], segments: &[usize]) -> f64 {
     let mut total = 0.0;
     let mut start = 0;
