@@ -66,7 +66,7 @@ pub fn joint_refit_names(
     for e in plant
         .effects
         .iter()
-        .filter(|e| e.acts_with(conf.free) && e.kind != crate::effects::EffectKind::Gain)
+        .filter(|e| e.acts_with(conf.free) && e.kind != EffectKind::Gain)
     {
         for name in e.parameter_names() {
             push(&name, &mut names);
@@ -312,6 +312,18 @@ fn no_effect_value(kind: EffectKind, symbol: &str) -> Option<f64> {
     }
 }
 
+/// The parameter that sizes `effect` and the value at which it has no effect (None for a
+/// friction law); the kind's symbols name its parameters in order
+/// ([`crate::effects::Effect::parameter_names`]).
+fn no_effect_size(effect: &crate::effects::Effect) -> Option<(String, f64)> {
+    effect
+        .kind
+        .symbols()
+        .iter()
+        .zip(effect.parameter_names())
+        .find_map(|(symbol, n)| no_effect_value(effect.kind, symbol).map(|v| (n, v)))
+}
+
 /// Remove from `plant` the effects the loop's `steps` added whose size the last joint
 /// refit that fitted it put within two standard errors of its no-effect value; each
 /// removal is recorded in the plant's history and returned as text.
@@ -325,12 +337,7 @@ fn prune(mut plant: Plant, steps: &[LoopStep]) -> (Plant, Vec<String>) {
             continue;
         }
         let names = effect.parameter_names();
-        let size = names.iter().find_map(|n| {
-            let symbol = n.rsplit_once('_').map_or(n.as_str(), |(s, _)| s);
-            let symbol = if effect.from.is_some() { "G" } else { symbol };
-            no_effect_value(effect.kind, symbol).map(|v| (n.clone(), v))
-        });
-        let Some((name, neutral)) = size else {
+        let Some((name, neutral)) = no_effect_size(&effect) else {
             continue;
         };
         // The last refit that fitted the size: its value and standard error.
@@ -371,4 +378,27 @@ fn prune(mut plant: Plant, steps: &[LoopStep]) -> (Plant, Vec<String>) {
         removed.push(why);
     }
     (plant, removed)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::no_effect_size;
+    use crate::effects::{Effect, EffectKind};
+
+    /// The size an added effect is pruned on, and its no-effect value.
+    #[test]
+    fn added_effects_have_their_no_effect_size_and_friction_laws_none() {
+        let size = |e: Effect| no_effect_size(&e);
+        assert_eq!(size(Effect::coupling(5, 4)), Some(("G_5to4".into(), 0.0)));
+        assert_eq!(
+            size(Effect::on(EffectKind::FrictionBias, 4)),
+            Some(("FrictionBias_4".into(), 1.0))
+        );
+        assert_eq!(
+            size(Effect::on(EffectKind::Spring, 3)),
+            Some(("Ks_3".into(), 0.0))
+        );
+        assert_eq!(size(Effect::on(EffectKind::Stribeck, 5)), None);
+        assert_eq!(size(Effect::on(EffectKind::Lugre, 5)), None);
+    }
 }

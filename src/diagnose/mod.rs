@@ -242,7 +242,7 @@ fn fit(cols: &[Vec<f64>], e: &[f64]) -> Option<(Vec<f64>, f64)> {
 /// The residual e − A x̂ of the least-squares fit of e on the columns `cols` (SVD, columns
 /// that are nearly dependent dropped at 1e-10 of the largest singular value); None when
 /// there are too few samples or the problem is degenerate.
-pub fn least_squares_residual(cols: &[Vec<f64>], e: &[f64]) -> Option<Vec<f64>> {
+pub fn least_squares_residual(cols: &[&[f64]], e: &[f64]) -> Option<Vec<f64>> {
     let n = e.len();
     let p = cols.len();
     if p == 0 || n <= p + 1 {

@@ -335,12 +335,11 @@ pub fn diagnose_output(
     // missing that no candidate describes, the residual stays correlated and counting
     // only its independent samples called a 10 %-off plant's missing spring chance;
     // docs/independent-data.md).
+    let columns: Vec<&[f64]> = best.iter().map(|l| l.column.as_slice()).collect();
     let effective = {
-        let cols: Vec<Vec<f64>> = best.iter().map(|l| l.column.clone()).collect();
-        let left = super::least_squares_residual(&cols, &r).unwrap_or_else(|| r.clone());
+        let left = super::least_squares_residual(&columns, &r).unwrap_or_else(|| r.clone());
         effective_samples(&left, &segments)
     };
-    let neff = n as f64;
     let finding = |l: &Linear, values: Vec<(String, f64)>, sse: f64, p: usize| -> Finding {
         let c = &l.cand;
         let mut f = Finding::new(
@@ -349,7 +348,7 @@ pub fn diagnose_output(
             Some(c.kind),
             c.from.map(|k| m.joints[k].to_string()),
             values.clone(),
-            (sse, sst, neff, p),
+            (sse, sst, n as f64, p),
         );
         f.effect = c.effect;
         f.replaces = c.replaces;
@@ -452,7 +451,6 @@ pub fn diagnose_output(
         }
     }
     // Candidates the data cannot tell apart: sensitivities nearly collinear.
-    let columns: Vec<&[f64]> = best.iter().map(|l| l.column.as_slice()).collect();
     for i in 0..findings.len() {
         findings[i].alike = (0..findings.len())
             .filter(|&k| k != i && findings[k].explained > 0.0)
@@ -461,7 +459,7 @@ pub fn diagnose_output(
             .collect();
     }
     // How the input was applied: the other holds, and a delay.
-    let timing = timing_candidates(plant, &out, (&y, &r), sst, neff, records)?;
+    let timing = timing_candidates(plant, &out, (&y, &r), sst, records)?;
     simulations += timing.1;
     findings.extend(timing.0);
     // The numerics' floor: nothing that explains less than it is significant.
@@ -517,20 +515,17 @@ fn timing_candidates(
     out: &Outputs,
     (y, r): (&[f64], &[f64]),
     sst: f64,
-    neff: f64,
     records: &[Record],
 ) -> Result<(Vec<Finding>, usize)> {
     let with = |problem: Problem| Outputs {
         problem,
         skip: out.skip,
     };
-    // (SSE, effective samples) with the input applied as `p` says.
-    let sse_of = |p: Problem| -> Option<(f64, f64)> {
+    let n = y.len() as f64;
+    // SSE with the input applied as `p` says.
+    let sse_of = |p: Problem| -> Option<f64> {
         let yhat = with(p).simulate(plant).ok()?;
-        Some((
-            y.iter().zip(&yhat).map(|(a, b)| (a - b).powi(2)).sum(),
-            neff,
-        ))
+        Some(y.iter().zip(&yhat).map(|(a, b)| (a - b).powi(2)).sum())
     };
     let mut findings = Vec::new();
     let mut simulations = 0;
@@ -544,8 +539,7 @@ fn timing_candidates(
         }
         simulations += 1;
         // A hold that fits no better than the one used is no candidate.
-        let Some((sse, neff)) = sse_of(out.problem.with_hold(Some(hold))).filter(|e| e.0 < sst)
-        else {
+        let Some(sse) = sse_of(out.problem.with_hold(Some(hold))).filter(|&e| e < sst) else {
             continue;
         };
         let mut f = Finding::new(
@@ -554,7 +548,7 @@ fn timing_candidates(
             None,
             None,
             vec![],
-            (sse, sst, neff, 0),
+            (sse, sst, n, 0),
         );
         f.meaning = format!(
             "the torques were applied as {} between samples, not as the hold used ({}): {}",
@@ -587,15 +581,14 @@ fn timing_candidates(
             let d = (sens.iter().zip(r).map(|(a, b)| a * b).sum::<f64>() / ss)
                 .clamp(-2.0 * dt, 2.0 * dt);
             simulations += 1;
-            if let Some((sse, neff)) = sse_of(out.problem.with_input_delay(d)).filter(|e| e.0 < sst)
-            {
+            if let Some(sse) = sse_of(out.problem.with_input_delay(d)).filter(|&e| e < sst) {
                 let mut f = Finding::new(
                     "all",
                     "input delay".into(),
                     None,
                     None,
                     vec![("delay".into(), d)],
-                    (sse, sst, neff, 1),
+                    (sse, sst, n, 1),
                 );
                 f.meaning = "the torques reached the joints later (delay > 0) than their time stamps: a transport delay, or a continuous signal reconstructed by a hold that lags it (a zero-order hold lags by half a sample)".into();
                 f.advice = Some(

@@ -253,29 +253,9 @@ pub fn compare_command(
 pub fn diagnose(plant: &Plant, inputs: &Inputs, data: &Data) -> Result<Vec<Diagnosed>> {
     match data {
         Data::Output { config, records } => {
-            let d = diagnose_output(
-                plant,
-                config,
-                records,
-                &OutputOptions {
-                    fit: RefitOptions {
-                        max_iter: OutputOptions::default().fit.max_iter,
-                        ..refit_options(inputs)
-                    },
-                    ..OutputOptions::default()
-                },
-            )?;
-            let files: Vec<String> = records.iter().map(|r| stem(&r.file)).collect();
+            let d = diagnose_output(plant, config, records, &output_options(inputs))?;
             Ok(vec![(
-                format!(
-                    "configuration {config}, {} ({} residual samples, {:.0} independent in what all candidates together leave; {} simulations)\n{}; numerical floor (step and input reconstruction) {:.2} % of the residual energy",
-                    files.join(", "),
-                    d.samples,
-                    d.effective_samples,
-                    d.simulations,
-                    d.step.summary(),
-                    100.0 * d.floor_share
-                ),
+                output_title(config, records, &d),
                 d.findings,
                 d.above_noise,
             )])
@@ -316,6 +296,33 @@ fn hold_text(records: &[Record], holds: &[crate::simulation::Hold], given: bool)
         }
     }
     format!("input hold: {}", distinct.join(", "))
+}
+
+/// The output-space diagnosis settings of `inputs` (the diagnosis's own preset for the
+/// confirmation fits' iterations).
+fn output_options(inputs: &Inputs) -> OutputOptions {
+    OutputOptions {
+        fit: RefitOptions {
+            max_iter: OutputOptions::default().fit.max_iter,
+            ..refit_options(inputs)
+        },
+        ..OutputOptions::default()
+    }
+}
+
+/// The heading of an output-space diagnosis: configuration, files, samples, simulations,
+/// the step's check and the numerical floor.
+fn output_title(config: &str, records: &[Record], d: &crate::diagnose::OutputDiagnosis) -> String {
+    let files: Vec<String> = records.iter().map(|r| stem(&r.file)).collect();
+    format!(
+        "configuration {config}, {} ({} residual samples, {:.0} independent in what all candidates together leave; {} simulations)\n{}; numerical floor (step and input reconstruction) {:.2} % of the residual energy",
+        files.join(", "),
+        d.samples,
+        d.effective_samples,
+        d.simulations,
+        d.step.summary(),
+        100.0 * d.floor_share
+    )
 }
 
 fn refit_options(inputs: &Inputs) -> RefitOptions {
@@ -412,28 +419,18 @@ pub fn apply_all_command(
     let Data::Output { config, records } = data else {
         bail!("--apply works in output space (position data; --space output)");
     };
-    let options = OutputOptions {
-        fit: RefitOptions {
-            max_iter: OutputOptions::default().fit.max_iter,
-            ..refit_options(inputs)
-        },
-        ..OutputOptions::default()
-    };
     let done = crate::diagnose::apply_all_significant(
         plant,
         config,
         records,
-        &options,
+        &output_options(inputs),
         crate::diagnose::apply::MAX_APPLIED_STEPS,
         &|turn| match turn {
             crate::diagnose::Turn::Diagnosed(d) => {
                 println!(
-                    "plant {}, configuration {config}, {} residual samples ({:.0} independent in what all candidates together leave; {} simulations)\n{}:",
+                    "plant {}, {}:",
                     plant.name(),
-                    d.samples,
-                    d.effective_samples,
-                    d.simulations,
-                    d.step.summary()
+                    output_title(config, records, d)
                 );
                 print!("{}", d.table(top));
             }
