@@ -13,7 +13,6 @@ use crate::report::diagnosis::{
 };
 use crate::report::fit_table;
 use crate::simulation::{Hold, Integrator};
-use crate::util::write_atomic;
 use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -870,7 +869,7 @@ fn identify_sequence(
             let mut l = last.lock().unwrap_or_else(|e| e.into_inner());
             if l.0 != step || l.1 != p.iteration {
                 *l = (step.to_string(), p.iteration);
-                eprintln!("{msg}");
+                crate::errln!("{msg}");
             }
         } else {
             bar.set_message(msg);
@@ -879,15 +878,21 @@ fn identify_sequence(
     bar.finish_and_clear();
     let report = report?;
     for i in &report.ignored {
-        eprintln!("note: not used: {i}");
+        crate::errln!("note: not used: {i}");
     }
-    println!(
+    crate::outln!(
         "{:<6} {:>6} {:>12} {:>12} {:>9} {:>8} {:>6}  fit % per joint",
-        "step", "params", "cost before", "cost after", "wall s", "evals", "ident."
+        "step",
+        "params",
+        "cost before",
+        "cost after",
+        "wall s",
+        "evals",
+        "ident."
     );
     for s in report.steps.iter().chain(&report.joint) {
         let f = &s.fit;
-        println!(
+        crate::outln!(
             "{:<6} {:>6} {:>12.4e} {:>12.4e} {:>9.1} {:>8} {:>6}  {}",
             s.step.config,
             f.names.len(),
@@ -906,13 +911,13 @@ fn identify_sequence(
     }
     for s in report.steps.iter().chain(&report.joint) {
         for line in &s.impossible {
-            eprintln!(
+            crate::errln!(
                 "warning: step {}: physically impossible: {line}",
                 s.step.config
             );
         }
     }
-    println!(
+    crate::outln!(
         "wrote {}, {} and {}",
         opts.out.join("plant.toml").display(),
         opts.out.join("report.md").display(),
@@ -928,9 +933,10 @@ fn identify_sequence(
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo { out } => {
+            crate::files::check_output_dir(&out)?;
             let r = crate::demo::run(&crate::demo::bundled_data_dir(), &out)?;
-            print!("{}", r.text);
-            println!("\nOutputs (plant files, residual CSVs, plots as PNG and SVG, summary.txt) are in {}", r.out.display());
+            crate::out!("{}", r.text);
+            crate::outln!("\nOutputs (plant files, residual CSVs, plots as PNG and SVG, summary.txt) are in {}", r.out.display());
         }
         Command::Identify {
             common,
@@ -944,22 +950,26 @@ pub fn run(cli: Cli) -> Result<()> {
                 other => bail!("--method: expected idim, isolated or coupled, got '{other}'"),
             }
             let config = common.config.as_deref().unwrap_or("full");
+            if let Some(out) = &out {
+                crate::files::check_writable(&[out])?;
+            }
             let (mut plant, records, opts) = common.load()?;
             let fit = least_squares(&observation(&plant, config, &records, &opts)?)?;
-            println!(
+            crate::outln!(
                 "IDIM-LS, plant {}, configuration {}, {} record(s)",
                 common.plant.display(),
                 config,
                 records.len()
             );
-            print!("{}", fit_table(&fit));
+            crate::out!("{}", fit_table(&fit));
             if let Some(out) = out {
                 fit.apply(&mut plant);
                 plant.save(&out)?;
-                println!("wrote {}", out.display());
+                crate::outln!("wrote {}", out.display());
             }
         }
         Command::Compare { common, space, out } => {
+            crate::files::check_output_dir(&out)?;
             let (plant, inputs) = common.inputs(&space)?;
             compare_command(&plant, &inputs, &inputs.load(&plant)?, &out)?;
         }
@@ -970,12 +980,15 @@ pub fn run(cli: Cli) -> Result<()> {
             apply,
             out,
         } => {
+            if let Some(out) = &out {
+                crate::files::check_writable(&[out])?;
+            }
             let (plant, inputs) = common.inputs(&space)?;
             let data = inputs.load(&plant)?;
             if let (Some(Apply::AllSignificant), Some(out)) = (apply, &out) {
                 // The loop diagnoses (and prints) the plant itself, before each step.
                 let done = apply_all_command(&plant, &inputs, &data, out, top)?;
-                println!(
+                crate::outln!(
                     "{}; wrote {} ({} steps applied, history: {} steps)",
                     done.end,
                     out.display(),
@@ -986,17 +999,17 @@ pub fn run(cli: Cli) -> Result<()> {
             }
             let results = diagnose(&plant, &inputs, &data)?;
             for (title, findings, above_noise) in &results {
-                println!("plant {}, {title}:", plant.name());
-                print!(
+                crate::outln!("plant {}, {title}:", plant.name());
+                crate::out!(
                     "{}",
                     crate::diagnose::table_with(findings, top, above_noise)
                 );
             }
             if let (Some(Apply::Finding(k)), Some(out)) = (apply, out) {
                 let r = apply_finding(&plant, &inputs, &data, &results[0].1, k, &out)?;
-                println!("applied finding {k} and refitted jointly:");
-                print!("{}", refit_table(&r));
-                println!(
+                crate::outln!("applied finding {k} and refitted jointly:");
+                crate::out!("{}", refit_table(&r));
+                crate::outln!(
                     "wrote {} (history: {} steps)",
                     out.display(),
                     r.plant.history.len()
@@ -1010,12 +1023,13 @@ pub fn run(cli: Cli) -> Result<()> {
             change,
             out,
         } => {
-            let (plant, inputs) = common.inputs(&space)?;
             let out = out.unwrap_or_else(|| common.plant.clone());
+            crate::files::check_writable(&[&out])?;
+            let (plant, inputs) = common.inputs(&space)?;
             let change = change.unwrap_or_else(|| format!("refitted {}", params.join(", ")));
             let r = refit_command(&plant, &inputs, &params, &change, &out)?;
-            print!("{}", refit_table(&r));
-            println!("wrote {}", out.display());
+            crate::out!("{}", refit_table(&r));
+            crate::outln!("wrote {}", out.display());
         }
         Command::Effect {
             action:
@@ -1032,6 +1046,7 @@ pub fn run(cli: Cli) -> Result<()> {
         } => {
             let p = Plant::load(&plant)?;
             let out = out.unwrap_or_else(|| plant.clone());
+            crate::files::check_writable(&[&out])?;
             let kind = if kind == "coupling" {
                 "input_coupling".to_string()
             } else {
@@ -1048,7 +1063,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 &out,
             )?;
             let added = effect.parameter_names();
-            println!(
+            crate::outln!(
                 "added {kind} to {}: {}",
                 out.display(),
                 added
@@ -1064,9 +1079,10 @@ pub fn run(cli: Cli) -> Result<()> {
             top,
             out,
         } => {
+            crate::files::check_output_dir(&out)?;
             let (plant, inputs) = common.inputs(&space)?;
             let path = report_command(&plant, &inputs, &out, top)?;
-            println!("wrote {}", path.display());
+            crate::outln!("wrote {}", path.display());
         }
         Command::Excite {
             model,
@@ -1079,6 +1095,8 @@ pub fn run(cli: Cli) -> Result<()> {
             out,
         } => {
             let m = model_named(&model)?;
+            let inputs: Vec<&std::path::Path> = excitation.iter().map(|p| p.as_path()).collect();
+            crate::measurement::check_side_file_target(&out, &inputs)?;
             let ex = match &excitation {
                 Some(p) => crate::excitation::Excitations::load(p, m)?,
                 None => crate::excitation::Excitations::bundled(m)?,
@@ -1087,12 +1105,12 @@ pub fn run(cli: Cli) -> Result<()> {
                 crate::synthetic::excite(m, &ex, &table, test.as_deref(), &config, duration, rate)?;
             e.write(&out)?;
             if !e.left_out.is_empty() {
-                println!(
+                crate::errln!(
                     "note: {} locked in configuration {config}: their signals of table {table} are not applied",
                     e.left_out.join(", ")
                 );
             }
-            println!(
+            crate::outln!(
                 "wrote {} ({} samples, {}) and its side file {}",
                 out.display(),
                 e.t.len(),
@@ -1116,6 +1134,7 @@ pub fn run(cli: Cli) -> Result<()> {
             allow_inconsistent,
             out,
         } => {
+            crate::measurement::check_side_file_target(&out, &[&plant, &input])?;
             let p = Plant::load(&plant)?;
             let opts = crate::synthetic::SimulateOptions {
                 config,
@@ -1138,15 +1157,15 @@ pub fn run(cli: Cli) -> Result<()> {
             let sim = crate::synthetic::simulate_file(&p, &input, &opts)?;
             let elapsed = started.elapsed().as_secs_f64();
             for f in &sim.findings {
-                println!("warning: {}: {f}", plant.display());
+                crate::errln!("warning: {}: {f}", plant.display());
             }
             for n in &sim.notes {
-                println!("note: {n}");
+                crate::errln!("note: {n}");
             }
             sim.write(&out)?;
             let m = &sim.measurement;
             let span = m.t[m.len() - 1] - m.t[0];
-            println!(
+            crate::outln!(
                 "simulated {span:.3} s of configuration {} in {elapsed:.3} s ({:.0} RK4 steps/s); wrote {} and {}",
                 sim.side.configuration.as_deref().unwrap_or("?"),
                 span / step / elapsed.max(1e-9),
@@ -1173,7 +1192,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 }
                 None => None,
             };
-            println!(
+            crate::outln!(
                 "plant {} (model {}): {}",
                 plant.display(),
                 m.name,
@@ -1181,10 +1200,10 @@ pub fn run(cli: Cli) -> Result<()> {
             );
             let all = p.consistency(&p.barycentric(None)?, None);
             if all.is_empty() {
-                println!("every link is physically consistent");
+                crate::outln!("every link is physically consistent");
             }
             for f in &all {
-                println!(
+                crate::outln!(
                     "  {} {f}",
                     if f.is_blocking() {
                         "IMPOSSIBLE "
@@ -1198,7 +1217,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 match p.simulator(c.name, &q, crate::plant::ConsistencyPolicy::Warn) {
                     Ok(s) => {
                         let blocking = s.findings.iter().filter(|f| f.is_blocking()).count();
-                        println!(
+                        crate::outln!(
                             "  configuration {:<6} simulates{}",
                             c.name,
                             if blocking > 0 {
@@ -1208,22 +1227,22 @@ pub fn run(cli: Cli) -> Result<()> {
                             }
                         );
                     }
-                    Err(e) => println!("  configuration {:<6} cannot simulate: {e:#}", c.name),
+                    Err(e) => crate::outln!("  configuration {:<6} cannot simulate: {e:#}", c.name),
                 }
             }
             if let Some((other, o)) = reference {
                 let outside = p.outside_bounds(&o.parameters);
                 if outside.is_empty() {
-                    println!("every value of {} lies within the bounds", other.display());
+                    crate::outln!("every value of {} lies within the bounds", other.display());
                 } else {
-                    println!(
+                    crate::outln!(
                         "{} value(s) of {} outside the bounds (a fit from this plant cannot reach them):",
                         outside.len(),
                         other.display()
                     );
                 }
                 for (n, v, (lo, hi)) in &outside {
-                    println!("  {n} = {v:.5e} outside [{lo:.5e}, {hi:.5e}]");
+                    crate::outln!("  {n} = {v:.5e} outside [{lo:.5e}, {hi:.5e}]");
                 }
             }
         }
@@ -1235,36 +1254,41 @@ pub fn run(cli: Cli) -> Result<()> {
                 .iter()
                 .map(|c| base_parameters(m, c))
                 .collect();
+            // The files first: a reader that closes the pipe early loses nothing.
+            let md = markdown(&occ, &bases);
+            let json = serde_json::to_string_pretty(&serde_json::json!({
+                "occurrence": occ,
+                "base_parameters": bases,
+            }))?;
+            crate::files::check_output_dir(&out)?;
+            crate::files::write_all_atomic(&[
+                (out.join("parameters.md"), md.into_bytes()),
+                (out.join("parameters.json"), json.into_bytes()),
+            ])?;
             for seq in &occ.sequences {
-                println!(
+                crate::outln!(
                     "sequence {}: {} first identified per step",
-                    seq.name, occ.quantity
+                    seq.name,
+                    occ.quantity
                 );
                 for (c, first) in &seq.steps {
-                    println!("  {c:<6} {:>3}  {}", first.len(), first.join(", "));
+                    crate::outln!("  {c:<6} {:>3}  {}", first.len(), first.join(", "));
                 }
-                println!(
+                crate::outln!(
                     "  nowhere {:>2}  {}",
                     seq.nowhere.len(),
                     seq.nowhere.join(", ")
                 );
             }
             for b in &bases {
-                println!(
+                crate::outln!(
                     "configuration {}: {} barycentric parameters appear, {} base parameters",
-                    b.configuration, b.appearing, b.rank
+                    b.configuration,
+                    b.appearing,
+                    b.rank
                 );
             }
-            let md = markdown(&occ, &bases);
-            let json = serde_json::to_string_pretty(&serde_json::json!({
-                "occurrence": occ,
-                "base_parameters": bases,
-            }))?;
-            std::fs::create_dir_all(&out)
-                .map_err(|e| anyhow::anyhow!("{}: cannot create: {e}", out.display()))?;
-            write_atomic(&out.join("parameters.md"), md.as_bytes())?;
-            write_atomic(&out.join("parameters.json"), json.as_bytes())?;
-            println!(
+            crate::outln!(
                 "wrote {0}/parameters.md and {0}/parameters.json",
                 out.display()
             );
@@ -1292,7 +1316,7 @@ pub fn run(cli: Cli) -> Result<()> {
         },
         Command::Models => {
             for m in generated::MODELS {
-                println!(
+                crate::outln!(
                     "{}: joints {}; {} barycentric parameters ({})",
                     m.name,
                     m.joints.join(", "),
@@ -1301,7 +1325,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 );
                 for c in m.configurations {
                     let free: Vec<&str> = c.free.iter().map(|&j| m.joints[j]).collect();
-                    println!(
+                    crate::outln!(
                         "  configuration {}: free {}; parameters present {}",
                         c.name,
                         free.join(", "),

@@ -11,6 +11,7 @@
 //! vs model, the residual against time, position, velocity (by the sign of the velocity)
 //! and the other joints' torques, the spectrum and both correlations.
 
+use crate::files::write_atomic_with;
 use crate::identify::idim::{observation, predict, IdimOptions, Observation};
 use crate::identify::output_error::{Problem, Record};
 use crate::identify::refit::RefitOptions;
@@ -18,7 +19,6 @@ use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::report::plot::{figure, Panel, Series, Style};
 use crate::simulation::Hold;
-use crate::util::write_atomic_with;
 use anyhow::{anyhow, bail, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};

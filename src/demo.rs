@@ -195,7 +195,7 @@ pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
             s.label, s.train.relative_error, s.validation.relative_error
         )?;
     }
-    crate::util::write_atomic(&out.join("summary.txt"), text.as_bytes())?;
+    crate::files::write_atomic(&out.join("summary.txt"), text.as_bytes())?;
     bar.inc(1);
     bar.finish_and_clear();
     Ok(DemoResult {

@@ -13,6 +13,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod effects;
 pub mod excitation;
+pub mod files;
 pub mod identify;
 pub mod measurement;
 pub mod plant;

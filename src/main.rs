@@ -2,9 +2,15 @@
 use clap::Parser;
 
 fn main() {
+    // Ctrl-C: remove the temporary files of unfinished writes, exit as a shell expects
+    // (128 + SIGINT). Completed outputs stay as they are.
+    let _ = ctrlc::set_handler(|| {
+        lockstep::files::remove_staged_files();
+        std::process::exit(130);
+    });
     let cli = lockstep::cli::Cli::parse();
     if let Err(e) = lockstep::cli::run(cli) {
-        eprintln!("error: {e:#}");
+        lockstep::errln!("error: {e:#}");
         std::process::exit(1);
     }
 }

@@ -245,6 +245,59 @@ fn normalise_mat_header(bytes: &mut [u8]) {
     }
 }
 
+thread_local! {
+    static QUIET_PANIC: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Parse MAT bytes with `matrw`, turning its panics on corrupt or truncated files into
+/// errors (the panic message is not printed) and removing terminal colour codes from its
+/// messages.
+fn parse_mat(bytes: &[u8]) -> Result<matrw::MatFile, String> {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET_PANIC.with(|q| q.get()) {
+                previous(info);
+            }
+        }));
+    });
+    QUIET_PANIC.with(|q| q.set(true));
+    let result = std::panic::catch_unwind(|| matrw::load_matfile_from_u8(bytes));
+    QUIET_PANIC.with(|q| q.set(false));
+    let strip = |m: String| -> String {
+        let mut out = String::with_capacity(m.len());
+        let mut chars = m.chars().peekable();
+        while let Some(c) = chars.next() {
+            if c == '\u{1b}' {
+                // CSI sequence: ESC [ parameters final-byte.
+                if chars.peek() == Some(&'[') {
+                    chars.next();
+                    for c in chars.by_ref() {
+                        if ('@'..='~').contains(&c) {
+                            break;
+                        }
+                    }
+                }
+                continue;
+            }
+            out.push(c);
+        }
+        out.trim().to_string()
+    };
+    match result {
+        Ok(Ok(m)) => Ok(m),
+        Ok(Err(e)) => Err(strip(e.to_string())),
+        Err(_) => Err("the file is truncated or corrupt".into()),
+    }
+}
+
+/// Read back a MAT file lockstep wrote (see [`parse_mat`]).
+fn load_mat_caught(path: &Path) -> Result<matrw::MatFile, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    parse_mat(&bytes)
+}
+
 fn read_mat(path: &Path) -> Result<Table, DataError> {
     let file = path.to_path_buf();
     let mut bytes = std::fs::read(path).map_err(|e| DataError::Io {
@@ -258,7 +311,7 @@ fn read_mat(path: &Path) -> Result<Table, DataError> {
         });
     }
     normalise_mat_header(&mut bytes);
-    let mat = matrw::load_matfile_from_u8(&bytes).map_err(|e| DataError::Record {
+    let mat = parse_mat(&bytes).map_err(|e| DataError::Record {
         file: file.clone(),
         reason: format!("not a readable MATLAB v5/v7 MAT file ({e})"),
     })?;
@@ -399,6 +452,14 @@ impl Measurement {
     /// # Errors
     /// I/O errors, with the path.
     pub fn write(&self, path: &Path) -> anyhow::Result<()> {
+        crate::files::commit(vec![self.stage(path)?])
+    }
+
+    /// The record staged for [`crate::files::commit`] (see [`Measurement::write`]).
+    ///
+    /// # Errors
+    /// As [`Measurement::write`].
+    pub fn stage(&self, path: &Path) -> anyhow::Result<crate::files::Staged> {
         let mut names = vec!["t".to_string()];
         let mut cols: Vec<&[f64]> = vec![&self.t];
         for j in 0..self.q.len() {
@@ -415,7 +476,7 @@ impl Measurement {
                 cols.push(v);
             }
         }
-        write_columns(path, &names, &cols)
+        stage_columns(path, &names, &cols)
     }
 }
 
@@ -476,7 +537,7 @@ fn io_reason(e: &csv::Error) -> String {
 /// # Errors
 /// [`DataError::SideFile`] when it exists but is not valid.
 pub fn read_side_file(path: &Path) -> Result<SideFile, DataError> {
-    let side = path.with_extension("toml");
+    let side = side_file_path(path);
     if !side.exists() {
         return Ok(SideFile::default());
     }
@@ -491,11 +552,25 @@ pub fn read_side_file(path: &Path) -> Result<SideFile, DataError> {
 }
 
 /// Write named columns of equal length as CSV (17 significant digits, exact round trip) or,
-/// for a `.mat` extension, as a MATLAB v7 MAT file, atomically.
+/// for a `.mat` extension, as a MATLAB v7 MAT file, atomically ([`crate::files`]).
 ///
 /// # Errors
-/// I/O errors, with the path; columns of different lengths.
+/// I/O errors, with the path; columns of different lengths; a target that is not a regular
+/// file.
 pub fn write_columns(path: &Path, names: &[String], cols: &[&[f64]]) -> anyhow::Result<()> {
+    crate::files::commit(vec![stage_columns(path, names, cols)?])
+}
+
+/// The columns of [`write_columns`] written to a staged temporary file, for
+/// [`crate::files::commit`] together with other outputs.
+///
+/// # Errors
+/// As [`write_columns`].
+pub fn stage_columns(
+    path: &Path,
+    names: &[String],
+    cols: &[&[f64]],
+) -> anyhow::Result<crate::files::Staged> {
     let n = cols.first().map_or(0, |c| c.len());
     if let Some((name, c)) = names.iter().zip(cols).find(|(_, c)| c.len() != n) {
         anyhow::bail!(
@@ -504,6 +579,7 @@ pub fn write_columns(path: &Path, names: &[String], cols: &[&[f64]]) -> anyhow::
             c.len()
         );
     }
+    let staged = crate::files::Staged::new(path)?;
     let is_mat = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
@@ -515,27 +591,24 @@ pub fn write_columns(path: &Path, names: &[String], cols: &[&[f64]]) -> anyhow::
                     .map_err(|e| anyhow::anyhow!("{}: variable '{name}': {e}", path.display()))?;
             mat.insert(name, matrw::MatVariable::NumericArray(arr));
         }
-        // matrw writes to a path; write beside the target, check it reads back, rename.
-        let tmp = path.with_extension(format!("mat.tmp{}", std::process::id()));
-        let result = (|| -> anyhow::Result<()> {
-            let tmp_str = tmp
-                .to_str()
-                .ok_or_else(|| anyhow::anyhow!("path is not valid UTF-8"))?;
-            matrw::save_matfile_v7(tmp_str, mat, true).map_err(|e| anyhow::anyhow!("{e}"))?;
-            let back = matrw::load_matfile(tmp_str).map_err(|e| anyhow::anyhow!("{e}"))?;
-            if back.iter().count() != names.len() {
-                anyhow::bail!("the written file does not read back");
-            }
-            std::fs::rename(&tmp, path)?;
-            Ok(())
-        })();
-        if let Err(e) = result {
-            let _ = std::fs::remove_file(&tmp);
-            anyhow::bail!("{}: cannot write: {e}", path.display());
+        // matrw writes to a path: write the staged file, check that it reads back.
+        let tmp_str = staged
+            .tmp_path()
+            .to_str()
+            .ok_or_else(|| anyhow::anyhow!("{}: path is not valid UTF-8", path.display()))?;
+        matrw::save_matfile_v7(tmp_str, mat, true)
+            .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
+        let back = load_mat_caught(staged.tmp_path())
+            .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", path.display()))?;
+        if back.iter().count() != names.len() {
+            anyhow::bail!(
+                "{}: cannot write: the written file does not read back",
+                path.display()
+            );
         }
-        return Ok(());
+        return Ok(staged);
     }
-    crate::util::write_atomic_with(path, |w| {
+    staged.fill(|w| {
         use std::io::Write;
         writeln!(w, "{}", names.join(","))?;
         for k in 0..n {
@@ -543,7 +616,53 @@ pub fn write_columns(path: &Path, names: &[String], cols: &[&[f64]]) -> anyhow::
             writeln!(w, "{}", row.join(","))?;
         }
         Ok(())
-    })
+    })?;
+    Ok(staged)
+}
+
+/// The side file of the measurement file `data`: `<stem>.toml` beside it.
+pub fn side_file_path(data: &Path) -> PathBuf {
+    data.with_extension("toml")
+}
+
+/// Refuse a measurement output whose side file would destroy something: the output itself
+/// (a `.toml` measurement), one of the command's `inputs` (a plant `run1.toml` beside
+/// `-o run1.csv`), or an existing file that is not a side file. Call before computing.
+///
+/// # Errors
+/// Each collision, naming both paths and what to do.
+pub fn check_side_file_target(data: &Path, inputs: &[&Path]) -> anyhow::Result<()> {
+    let side = side_file_path(data);
+    if data
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+    {
+        anyhow::bail!(
+            "{}: a measurement cannot be written as .toml (its side file would be the same file); use .csv or .mat",
+            data.display()
+        );
+    }
+    if let Some(input) = inputs.iter().find(|i| crate::files::same_file(&side, i)) {
+        anyhow::bail!(
+            "{}: the side file of {} would overwrite the input {}; choose another output name",
+            side.display(),
+            data.display(),
+            input.display()
+        );
+    }
+    if side.exists() {
+        let is_side_file = std::fs::read_to_string(&side)
+            .ok()
+            .is_some_and(|t| toml::from_str::<SideFile>(&t).is_ok());
+        if !is_side_file {
+            anyhow::bail!(
+                "{} exists and is not a measurement's side file; writing {} would replace it: choose another output name or move that file",
+                side.display(),
+                data.display()
+            );
+        }
+    }
+    crate::files::check_writable(&[data, &side])
 }
 
 /// Write a measurement's side file (`<stem>.toml` beside `data`), atomically.
@@ -551,6 +670,19 @@ pub fn write_columns(path: &Path, names: &[String], cols: &[&[f64]]) -> anyhow::
 /// # Errors
 /// I/O errors, with the path.
 pub fn write_side_file(data: &Path, side: &SideFile) -> anyhow::Result<()> {
+    crate::files::commit(vec![stage_side_file(data, side)?])
+}
+
+/// The side file of `data` staged for [`crate::files::commit`].
+///
+/// # Errors
+/// As [`write_side_file`].
+pub fn stage_side_file(data: &Path, side: &SideFile) -> anyhow::Result<crate::files::Staged> {
     let text = toml::to_string_pretty(side)?;
-    crate::util::write_atomic(&data.with_extension("toml"), text.as_bytes())
+    let staged = crate::files::Staged::new(&side_file_path(data))?;
+    staged.fill(|w| {
+        use std::io::Write;
+        w.write_all(text.as_bytes()).map_err(Into::into)
+    })?;
+    Ok(staged)
 }

@@ -28,8 +28,8 @@
 //! body (mass > 0, inertia positive definite, triangle inequality) and reports by link.
 
 use crate::effects::{Effect, EffectKind};
+use crate::files::write_atomic;
 use crate::simulation::{InputCoupling, JointTerms, LuGre, PlantModel, Stribeck};
-use crate::util::write_atomic;
 use anyhow::{bail, Context, Result};
 use generated::inertia::{CentroidalInertia, InconsistencyKind};
 use serde::{Deserialize, Serialize};
@@ -899,7 +899,14 @@ impl Plant {
     /// # Errors
     /// I/O errors, with the path.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let text = toml::to_string_pretty(&self.to_file()).context("serialising the plant")?;
-        write_atomic(path, text.as_bytes())
+        write_atomic(path, self.to_toml()?.as_bytes())
+    }
+
+    /// The plant file's text (TOML), as [`Plant::save`] writes it.
+    ///
+    /// # Errors
+    /// Serialisation fails (a non-finite value).
+    pub fn to_toml(&self) -> Result<String> {
+        toml::to_string_pretty(&self.to_file()).context("serialising the plant")
     }
 }

@@ -44,8 +44,10 @@ impl Excitation {
             names.push(format!("{prefix}{j}"));
             cols.push(c);
         }
-        crate::measurement::write_columns(path, &names, &cols)?;
-        crate::measurement::write_side_file(path, &self.side)
+        crate::files::commit(vec![
+            crate::measurement::stage_columns(path, &names, &cols)?,
+            crate::measurement::stage_side_file(path, &self.side)?,
+        ])
     }
 }
 
@@ -182,8 +184,10 @@ impl Simulated {
     /// # Errors
     /// I/O errors, with the path.
     pub fn write(&self, path: &Path) -> Result<()> {
-        self.measurement.write(path)?;
-        crate::measurement::write_side_file(path, &self.side)
+        crate::files::commit(vec![
+            self.measurement.stage(path)?,
+            crate::measurement::stage_side_file(path, &self.side)?,
+        ])
     }
 }
 

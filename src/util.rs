@@ -1,50 +1,48 @@
-//! Small shared helpers: atomic file output, TOML errors with line numbers, configuration
-//! lookup.
+//! Small shared helpers: TOML errors with line numbers, configuration lookup.
 
 use anyhow::{Context, Result};
 use std::io::Write;
-use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Write `bytes` to `path` through a temporary file in the same directory and a rename, so
-/// that a reader never sees a half-written file and a failure leaves no partial output.
-///
-/// # Errors
-/// The directory cannot be created, or the write or rename fails (the path is named).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic_with(path, |f| f.write_all(bytes).map_err(Into::into))
+static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
+
+/// Write to standard output; once the reader has gone (a closed pipe: `lockstep models |
+/// head -1`), further output is dropped quietly and the command goes on to write its files
+/// and exit 0, as coreutils do for a closed pipe. Used through [`out!`](crate::out) and
+/// [`outln!`](crate::outln).
+pub fn print_stdout(args: std::fmt::Arguments) {
+    if STDOUT_CLOSED.load(Ordering::Relaxed) {
+        return;
+    }
+    let mut out = std::io::stdout().lock();
+    if out.write_fmt(args).and_then(|_| out.flush()).is_err() {
+        STDOUT_CLOSED.store(true, Ordering::Relaxed);
+    }
 }
 
-/// Like [`write_atomic`] with a writer callback; the temporary file is removed on error.
-///
-/// # Errors
-/// As [`write_atomic`], or the callback's error.
-pub fn write_atomic_with(
-    path: &Path,
-    fill: impl FnOnce(&mut std::io::BufWriter<std::fs::File>) -> Result<()>,
-) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".into());
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    let result = (|| -> Result<()> {
-        let f = std::fs::File::create(&tmp)
-            .with_context(|| format!("cannot create {}", tmp.display()))?;
-        let mut w = std::io::BufWriter::new(f);
-        fill(&mut w)?;
-        w.flush()?;
-        std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
-        Ok(())
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result
+/// Write to standard error, ignoring a closed stream (warnings and progress).
+pub fn print_stderr(args: std::fmt::Arguments) {
+    let _ = std::io::stderr().lock().write_fmt(args);
+}
+
+/// `print!` that survives a closed pipe ([`util::print_stdout`](crate::util::print_stdout)).
+#[macro_export]
+macro_rules! out {
+    ($($t:tt)*) => { $crate::util::print_stdout(format_args!($($t)*)) };
+}
+
+/// `println!` that survives a closed pipe ([`util::print_stdout`](crate::util::print_stdout)).
+#[macro_export]
+macro_rules! outln {
+    () => { $crate::util::print_stdout(format_args!("\n")) };
+    ($($t:tt)*) => { $crate::util::print_stdout(format_args!("{}\n", format_args!($($t)*))) };
+}
+
+/// `eprintln!` that survives a closed stream, for warnings and notes (stdout carries
+/// results only).
+#[macro_export]
+macro_rules! errln {
+    ($($t:tt)*) => { $crate::util::print_stderr(format_args!("{}\n", format_args!($($t)*))) };
 }
 
 /// A TOML parse error as one line: `origin: line N: message`.

@@ -14,9 +14,9 @@ use super::identifiability::{
 };
 use super::joint::JointProblem;
 use super::output_error::{FitResult, OutputErrorOptions, Problem, Progress, Record, Statistics};
+use crate::files::write_all_atomic;
 use crate::measurement::{check_sampling, Table};
 use crate::plant::Plant;
-use crate::util::write_atomic;
 use anyhow::{bail, Context, Result};
 use generated::{Configuration, Model};
 use serde::Serialize;
@@ -608,6 +608,13 @@ pub fn run(
         };
         steps.truncate(i + 1);
     }
+    // The outputs are checked before the first fit, not after it.
+    crate::files::check_output_dir(&opts.out)?;
+    crate::files::check_writable(&[
+        &opts.out.join("plant.toml"),
+        &opts.out.join("report.json"),
+        &opts.out.join("report.md"),
+    ])?;
     // The joint fit covers every step up to the last one run; the per-step fits, that one
     // alone under --config, none under --joint-fit only.
     let joint_steps: Vec<Step> = if opts.joint == JointFitMode::Off {
@@ -1254,17 +1261,20 @@ fn merge_refit(plant: &Plant, fit: FitResult, second: FitResult, kept: bool) -> 
     merged
 }
 
-/// Write the plant and the report (Markdown and JSON) into `out`, each atomically.
+/// Write the plant and the report (Markdown and JSON) into `out`, atomically and together
+/// ([`crate::files::write_all_atomic`]).
 ///
 /// # Errors
 /// A file cannot be written.
 fn save(plant: &Plant, report: &SequenceReport, out: &Path, model: &Model) -> Result<()> {
-    plant.save(&out.join("plant.toml"))?;
-    write_atomic(
-        &out.join("report.json"),
-        serde_json::to_string_pretty(report)?.as_bytes(),
-    )?;
-    write_atomic(&out.join("report.md"), markdown(report, model).as_bytes())
+    write_all_atomic(&[
+        (out.join("plant.toml"), plant.to_toml()?.into_bytes()),
+        (
+            out.join("report.json"),
+            serde_json::to_string_pretty(report)?.into_bytes(),
+        ),
+        (out.join("report.md"), markdown(report, model).into_bytes()),
+    ])
 }
 
 /// The joint fit of `steps` (as planned) on their `files` from `plant`'s values, which it

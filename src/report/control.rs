@@ -7,9 +7,9 @@ use crate::control::fuzzy::Fam;
 use crate::control::tune::tune;
 use crate::control::wall::{Metrics, Run, WallLaw};
 use crate::control::WallSetup;
+use crate::files::write_atomic;
 use crate::measurement::Measurement;
 use crate::report::plot::{figure, Panel, Series, Style};
-use crate::util::write_atomic;
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use std::fmt::Write as _;
@@ -225,7 +225,7 @@ pub fn wall_command(args: &WallArgs) -> Result<()> {
                 }));
             }
         }
-        println!("{t}");
+        crate::outln!("{t}");
         md += &t;
         md += "\n";
         position_figure(&out.join(format!("position_{rate}hz")), rate, &names, &runs)?;
@@ -244,7 +244,7 @@ pub fn wall_command(args: &WallArgs) -> Result<()> {
                 .collect::<Vec<_>>()
                 .join(", ")
         );
-        println!("{obs}");
+        crate::outln!("{obs}");
         md += &obs;
         md += "\n";
     }
@@ -300,7 +300,7 @@ pub fn wall_command(args: &WallArgs) -> Result<()> {
         "fuzzy better on both oscillation and generated energy in {better} of {} cases",
         grid.len()
     );
-    print!("\n{s}");
+    crate::out!("\n{s}");
     md += &format!("```\n{s}```\n\n## Metrics\n{METRIC_DEFINITIONS}");
     surface_figure(&out.join("control_surfaces"), &pd, &fam)?;
     write_rule_files(out, "kubica", &setup.kubica)?;
@@ -310,7 +310,7 @@ pub fn wall_command(args: &WallArgs) -> Result<()> {
         &out.join("wall.json"),
         serde_json::to_string_pretty(&json_runs)?.as_bytes(),
     )?;
-    println!(
+    crate::outln!(
         "\nwrote {}: wall.md, wall.json, position_<rate>hz.png/.svg, control_surfaces.png/.svg, kubica.fll/.fis, rules.fll/.fis",
         out.display()
     );
@@ -329,7 +329,7 @@ pub fn tune_command(args: &WallArgs) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
     let started = std::time::Instant::now();
     let tuned = tune(&setup, rate, &|n, j| {
-        eprintln!(
+        crate::errln!(
             "  tune: {n:>4} evaluations, objective {j:.4}, {:.0} s",
             started.elapsed().as_secs_f64()
         );
@@ -364,13 +364,13 @@ pub fn tune_command(args: &WallArgs) -> Result<()> {
             let _ = writeln!(s, "{:<8} {name:<9} {}", a.name, metric_row(&r[i].metrics));
         }
     }
-    print!("{s}");
+    crate::out!("{s}");
     write_rule_files(out, "tuned", &tuned.fam)?;
     write_atomic(
         &out.join("tune.md"),
         format!("# Wall tuning\n\n```\n{s}```\n\n## Metrics\n{METRIC_DEFINITIONS}").as_bytes(),
     )?;
-    println!("wrote {}: tune.md, tuned.fll, tuned.fis", out.display());
+    crate::outln!("wrote {}: tune.md, tuned.fll, tuned.fis", out.display());
     Ok(())
 }
 
@@ -503,7 +503,7 @@ pub fn closedloop_command(
                 1e3 * rms[a]
             );
         }
-        println!("{t}");
+        crate::outln!("{t}");
         md += &format!("```\n{t}```\n\n");
         closedloop_figure(
             &out.join(format!("closedloop_{set}")),
@@ -521,7 +521,7 @@ pub fn closedloop_command(
         crate::measurement::write_columns(&out.join(format!("closedloop_{set}.csv")), &hdr, &data)?;
     }
     write_atomic(&out.join("closedloop.md"), md.as_bytes())?;
-    println!(
+    crate::outln!(
         "wrote {}: closedloop.md, closedloop_<gains>.png/.svg/.csv",
         out.display()
     );

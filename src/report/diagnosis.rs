@@ -5,6 +5,7 @@
 use crate::compare::{compare_observation, compare_output, plot, write_residual_csv, Comparison};
 use crate::diagnose::{diagnose_output, diagnose_torque, Finding, OutputOptions};
 use crate::effects::{Effect, EffectKind};
+use crate::files::write_atomic;
 use crate::identify::idim::{observation, IdimOptions};
 use crate::identify::output_error::Record;
 use crate::identify::refit::{refit, Refit, RefitOptions};
@@ -12,7 +13,6 @@ use crate::identify::sequence::{discover, read_record};
 use crate::measurement::Measurement;
 use crate::plant::{HistoryEntry, Plant};
 use crate::report::plot::{figure, Panel, Series, Style};
-use crate::util::write_atomic;
 use anyhow::{anyhow, bail, Context, Result};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -191,19 +191,19 @@ pub fn compare_command(
 ) -> Result<Vec<(Comparison, PathBuf)>> {
     let cmps = match data {
         Data::Output { config, records } => {
-            println!("output space (simulated positions), configuration {config}");
+            crate::outln!("output space (simulated positions), configuration {config}");
             let c = compare_output(plant, config, records, &refit_options(inputs))?;
-            println!("{}", c.step.summary());
-            println!("{}", hold_text(records, &c.holds, inputs.hold.is_some()));
+            crate::outln!("{}", c.step.summary());
+            crate::outln!("{}", hold_text(records, &c.holds, inputs.hold.is_some()));
             if let Some((better, e, used)) = c.better_hold() {
-                println!(
+                crate::errln!(
                     "note: --hold {better} fits markedly better (RMS {e:.3e} against {used:.3e} with the hold used): was the input applied that way?"
                 );
             }
             c.comparisons
         }
         Data::Torque { config, records } => {
-            println!("torque space (inverse model), configuration {config}");
+            crate::outln!("torque space (inverse model), configuration {config}");
             let mut v = Vec::new();
             for m in records {
                 let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
@@ -212,9 +212,17 @@ pub fn compare_command(
             v
         }
     };
-    println!(
+    crate::outln!(
         "{:<24} {:<5} {:>8} {:>9} {:>11} {:>11} {:>9} {:>10} {:>10}",
-        "record", "joint", "fit %", "error %", "RMSE", "max |e|", "at t (s)", "at q", "at qd"
+        "record",
+        "joint",
+        "fit %",
+        "error %",
+        "RMSE",
+        "max |e|",
+        "at t (s)",
+        "at q",
+        "at qd"
     );
     let mut outv = Vec::new();
     for c in cmps {
@@ -222,7 +230,7 @@ pub fn compare_command(
         let base = out.join(format!("{s}_{}", c.joint));
         write_residual_csv(&base.with_extension("csv"), &c)?;
         let [svg, _] = plot(&base, &c, &s)?;
-        println!(
+        crate::outln!(
             "{:<24} {:<5} {:>8.2} {:>9.3} {:>11.4e} {:>11.4e} {:>9.3} {:>10.4} {:>10.4}",
             s,
             c.joint,
@@ -234,14 +242,14 @@ pub fn compare_command(
             c.max_error_q,
             c.max_error.2
         );
-        println!("    {}", c.tests.verdict());
+        crate::outln!("    {}", c.tests.verdict());
         if matches!(data, Data::Torque { .. }) {
             let (a, b) = c.sign_step;
-            println!("    residual ~ a*sign(qd) + b + c*qd: a = {a:.4}, b = {b:.4} (a step of 2a at qd = 0 means missing Coulomb friction; b, an offset)");
+            crate::outln!("    residual ~ a*sign(qd) + b + c*qd: a = {a:.4}, b = {b:.4} (a step of 2a at qd = 0 means missing Coulomb friction; b, an offset)");
         }
         outv.push((c, svg));
     }
-    println!("residual CSVs and plots (PNG, SVG) in {}", out.display());
+    crate::outln!("residual CSVs and plots (PNG, SVG) in {}", out.display());
     Ok(outv)
 }
 
@@ -427,26 +435,26 @@ pub fn apply_all_command(
         crate::diagnose::apply::MAX_APPLIED_STEPS,
         &|turn| match turn {
             crate::diagnose::Turn::Diagnosed(d) => {
-                println!(
+                crate::outln!(
                     "plant {}, {}:",
                     plant.name(),
                     output_title(config, records, d)
                 );
-                print!("{}", d.table(top));
+                crate::out!("{}", d.table(top));
             }
             crate::diagnose::Turn::Applied(s) => {
-                println!(
+                crate::outln!(
                     "step: {} ({:.1} % explained, ΔBIC {:.1}); refitted jointly:",
                     crate::diagnose::apply::change_text(&s.finding),
                     100.0 * s.finding.explained,
                     s.finding.delta_bic
                 );
-                print!("{}", refit_table(&s.refit));
+                crate::out!("{}", refit_table(&s.refit));
             }
         },
     )?;
     for r in &done.removed {
-        println!("{r}");
+        crate::outln!("{r}");
     }
     done.plant.save(out)?;
     Ok(done)

@@ -165,7 +165,7 @@ pub fn figure(stem: &Path, panels: &[Panel], width: u32) -> Result<[PathBuf; 2]>
         panels,
     )
     .with_context(|| format!("drawing {}", svg_path.display()))?;
-    crate::util::write_atomic(&svg_path, svg.as_bytes())?;
+    crate::files::write_atomic(&svg_path, svg.as_bytes())?;
     let png_path = stem.with_extension("png");
     let dir = png_path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
