@@ -53,6 +53,10 @@ pub enum Command {
         /// output directory (default lockstep-out/identify).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// IDIM: write the fitted plant even when a link's mass or inertia is not physical
+        /// or a value leaves its bounds (refused by default, with the reasons).
+        #[arg(long)]
+        allow_inconsistent: bool,
         #[command(flatten)]
         oe: Box<OutputErrorArgs>,
     },
@@ -942,6 +946,7 @@ pub fn run(cli: Cli) -> Result<()> {
             common,
             method,
             out,
+            allow_inconsistent,
             oe,
         } => {
             match method.as_str() {
@@ -964,6 +969,20 @@ pub fn run(cli: Cli) -> Result<()> {
             crate::out!("{}", fit_table(&fit));
             if let Some(out) = out {
                 fit.apply(&mut plant);
+                let conf = crate::util::configuration(plant.model, config)?;
+                let reasons = crate::identify::idim::implausible(&plant, conf)?;
+                if !reasons.is_empty() {
+                    if !allow_inconsistent {
+                        bail!(
+                            "{} not written: the fitted values are not a physical body: {} (check the data for spikes and the filter cut-off; --allow-inconsistent writes them anyway)",
+                            out.display(),
+                            reasons.join("; ")
+                        );
+                    }
+                    for r in &reasons {
+                        crate::errln!("warning: {r}");
+                    }
+                }
                 plant.save(&out)?;
                 crate::outln!("wrote {}", out.display());
             }

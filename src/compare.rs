@@ -517,9 +517,9 @@ fn sign_fit(e: &[f64], qd: &[f64]) -> (f64, f64) {
         _ => qd[i],
     });
     let y = nalgebra::DVector::from_column_slice(e);
-    match a.svd(true, true).solve(&y, 1e-12) {
-        Ok(x) => (x[0], x[1]),
-        Err(_) => (0.0, 0.0),
+    match crate::util::svd(a).map(|s| s.solve(&y, 1e-12)) {
+        Some(Ok(x)) => (x[0], x[1]),
+        _ => (0.0, 0.0),
     }
 }
 

@@ -27,29 +27,44 @@ impl Value {
     /// Evaluate.
     ///
     /// # Errors
-    /// A malformed expression, with the position.
+    /// A malformed expression, with the position; parentheses nested deeper than
+    /// [`MAX_NESTING`]; a value that is not finite (NaN, or a division by zero such as
+    /// `1/0`).
     pub fn eval(&self) -> Result<f64> {
-        match self {
-            Value::Number(x) => Ok(*x),
+        let v = match self {
+            Value::Number(x) => *x,
             Value::Expr(s) => {
                 let mut p = Arith {
                     s: s.as_bytes(),
                     i: 0,
+                    depth: 0,
                 };
                 let v = p.sum()?;
                 p.skip();
                 if p.i != p.s.len() {
                     bail!("'{s}': unexpected '{}' at position {}", &s[p.i..], p.i + 1);
                 }
-                Ok(v)
+                v
             }
+        };
+        if !v.is_finite() {
+            let shown = match self {
+                Value::Number(x) => x.to_string(),
+                Value::Expr(s) => format!("'{s}'"),
+            };
+            bail!("{shown} is {v}: expected a finite number (a division by zero?)");
         }
+        Ok(v)
     }
 }
+
+/// Deepest nesting of parentheses an expression may have.
+pub const MAX_NESTING: usize = 64;
 
 struct Arith<'a> {
     s: &'a [u8],
     i: usize,
+    depth: usize,
 }
 
 impl Arith<'_> {
@@ -84,11 +99,29 @@ impl Arith<'_> {
         match self.peek() {
             Some(b'-') => {
                 self.i += 1;
-                Ok(-self.unary()?)
+                self.depth += 1;
+                if self.depth > 4 * MAX_NESTING {
+                    bail!(
+                        "more than {} signs in a row at position {}",
+                        4 * MAX_NESTING,
+                        self.i
+                    );
+                }
+                let v = -self.unary()?;
+                self.depth -= 1;
+                Ok(v)
             }
             Some(b'(') => {
                 self.i += 1;
+                self.depth += 1;
+                if self.depth > MAX_NESTING {
+                    bail!(
+                        "parentheses nested deeper than {MAX_NESTING} at position {}",
+                        self.i
+                    );
+                }
                 let v = self.sum()?;
+                self.depth -= 1;
                 if self.peek() != Some(b')') {
                     bail!("expected ')' at position {}", self.i + 1);
                 }

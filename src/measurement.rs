@@ -93,6 +93,10 @@ pub struct SideFile {
     pub hold: Option<crate::simulation::Hold>,
 }
 
+/// Largest magnitude a measured value may have (any unit): beyond it a cell is corrupt, and
+/// its square, in any sum of squares, would overflow the float format.
+pub const MAX_MAGNITUDE: f64 = 1e100;
+
 /// Named numeric columns of a CSV or MAT file, with the side file's mapping applied
 /// (columns carry their standard names). A CSV cell that is not a finite number is reported
 /// when its column is asked for.
@@ -218,7 +222,13 @@ fn read_csv_table(path: &Path) -> Result<Table, DataError> {
             let Ok(v) = col else { continue };
             let text = rec.get(i).unwrap_or("");
             match text.parse::<f64>() {
-                Ok(x) if x.is_finite() => v.push(x),
+                Ok(x) if x.abs() <= MAX_MAGNITUDE => v.push(x),
+                Ok(x) if x.is_finite() => {
+                    *col = Err((
+                        row,
+                        format!("'{text}' is beyond any measured value (|x| > {MAX_MAGNITUDE:e}): a corrupt cell?"),
+                    ))
+                }
                 Ok(_) => *col = Err((row, format!("'{text}' is not a finite number"))),
                 Err(_) => *col = Err((row, format!("'{text}' is not a number"))),
             }
@@ -327,7 +337,15 @@ fn read_mat(path: &Path) -> Result<Table, DataError> {
         }
         let (rows, cols) = (dim[0], dim[1]);
         let check = |v: Vec<f64>| -> Result<Vec<f64>, (usize, String)> {
-            match v.iter().position(|x| !x.is_finite()) {
+            match v.iter().position(|x| !(x.abs() <= MAX_MAGNITUDE)) {
+                Some(k) if v[k].is_finite() => Err((
+                    k + 1,
+                    format!(
+                        "element {} is {:e}, beyond any measured value (|x| > {MAX_MAGNITUDE:e}): corrupt?",
+                        k + 1,
+                        v[k]
+                    ),
+                )),
                 Some(k) => Err((k + 1, format!("element {} is {}", k + 1, v[k]))),
                 None => Ok(v),
             }

@@ -72,6 +72,11 @@ pub fn excite(
     if !(rate > 0.0 && rate.is_finite()) {
         bail!("--rate: expected a positive sampling rate in Hz, got {rate}");
     }
+    // Samples × (time and one column per joint) × 8 bytes, about four copies while written.
+    crate::util::check_memory(
+        (duration * rate + 1.0) * (model.joints.len() + 1) as f64 * 8.0 * 4.0,
+        &format!("--duration {duration} s at --rate {rate} Hz"),
+    )?;
     let conf = configuration(model, config)?;
     let tab = ex.table(table)?;
     let test = tab.test(test)?;
@@ -236,8 +241,17 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
             opts.h
         );
     }
-    if !(opts.noise >= 0.0 && opts.quantisation >= 0.0) {
-        bail!("--noise and --quantisation must be ≥ 0");
+    if !(opts.noise >= 0.0 && opts.noise.is_finite()) {
+        bail!(
+            "--noise: expected a finite σ ≥ 0 (rad or m), got {}",
+            opts.noise
+        );
+    }
+    if !(opts.quantisation >= 0.0 && opts.quantisation.is_finite()) {
+        bail!(
+            "--quantisation: expected a finite step ≥ 0 (rad or m), got {}",
+            opts.quantisation
+        );
     }
     let table = Table::read(input)?;
     let config = opts
@@ -298,6 +312,12 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
         }
     }
     let dt = check_sampling(input, &t)?;
+    if opts.h > dt * (1.0 + 1e-9) {
+        bail!(
+            "--step {} s is longer than the input's sample period {dt} s: each step would skip input samples; give a step of at most {dt} s (a fraction of it, such as 1/6000)",
+            opts.h
+        );
+    }
     let tau_free: Vec<Vec<f64>> = conf.free.iter().map(|&j| tau_all[j].clone()).collect();
     let hold = opts.hold.or(table.side.hold).unwrap_or_default();
     let signal = InputSignal {
@@ -328,7 +348,7 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
             y
         }
     };
-    let mut q = Vec::with_capacity(nj);
+    let mut q: Vec<Vec<f64>> = Vec::with_capacity(nj);
     let mut qd = Vec::with_capacity(nj);
     for j in 0..nj {
         match conf.free.iter().position(|&k| k == j) {
@@ -340,6 +360,20 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
                 q.push(t.iter().map(|_| measure(q_all[j])).collect());
                 qd.push(Some(vec![0.0; t.len()]));
             }
+        }
+    }
+    // Noise or quantisation the float format cannot carry (a σ near 1e308, a step near
+    // 1e-320) would write non-finite positions that no reader accepts.
+    for (j, col) in q.iter().enumerate() {
+        if let Some(k) = col.iter().position(|x: &f64| !x.is_finite()) {
+            bail!(
+                "joint '{}', t = {} s: the measured position is {} after noise σ = {:e} and quantisation {:e}: these settings overflow the float format",
+                model.joints[j],
+                t[k],
+                col[k],
+                opts.noise,
+                opts.quantisation
+            );
         }
     }
     let side = SideFile {

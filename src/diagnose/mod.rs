@@ -233,7 +233,7 @@ fn fit(cols: &[Vec<f64>], e: &[f64]) -> Option<(Vec<f64>, f64)> {
     }
     let a = DMatrix::from_fn(n, p, |r, c| cols[c][r]);
     let b = DVector::from_column_slice(e);
-    let svd = a.clone().svd(true, true);
+    let svd = crate::util::svd(a.clone())?;
     let x = svd.solve(&b, 1e-12 * svd.singular_values.max()).ok()?;
     let sse = (b - a * &x).norm_squared();
     Some((x.iter().copied().collect(), sse))
@@ -261,7 +261,7 @@ pub fn least_squares_residual(cols: &[&[f64]], e: &[f64]) -> Option<Vec<f64>> {
         }
     });
     let b = DVector::from_column_slice(e);
-    let svd = a.clone().svd(true, true);
+    let svd = crate::util::svd(a.clone())?;
     let x = svd.solve(&b, 1e-10 * svd.singular_values.max()).ok()?;
     Some((b - a * x).iter().copied().collect())
 }

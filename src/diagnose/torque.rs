@@ -30,7 +30,7 @@ use super::{fit, Finding};
 use crate::effects::{sign, Effect, EffectKind};
 use crate::identify::idim::{predict, Observation};
 use crate::plant::Plant;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use nalgebra::{DMatrix, DVector};
 
 /// A candidate before fitting: name, effect kind, source joint, symbols, signature columns.
@@ -65,7 +65,12 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
         let e0: Vec<f64> = idx.iter().map(|&i| obs.y[i] - yhat[i]).collect();
         let pw = obs.w.ncols();
         let wj = DMatrix::from_fn(n, pw, |r, c| obs.w[(idx[r], c)]);
-        let w_svd = wj.clone().svd(true, true);
+        let w_svd = crate::util::svd(wj.clone()).with_context(|| {
+            format!(
+                "joint {}: the regressor of the plant's parameters is not finite or its decomposition did not converge",
+                m.joints[j]
+            )
+        })?;
         let tol = 1e-12 * w_svd.singular_values.max();
         // (I − W W⁺) v: what refitting the plant's own parameters cannot explain.
         let project = |v: &[f64]| -> Vec<f64> {

@@ -309,10 +309,12 @@ pub fn base_parameters_at(
     let w1 = DMatrix::from_columns(&kept.iter().map(|&j| w.column(j)).collect::<Vec<_>>());
     let mut terms: Vec<Vec<(f64, String)>> = vec![Vec::new(); kept.len()];
     if !kept.is_empty() {
-        let svd = w1.clone().svd(true, true);
+        let svd = crate::util::svd(w1.clone());
         for &d in &dependent {
             let beta = svd
-                .solve(&w.column(d).into_owned(), 1e-12)
+                .as_ref()
+                .ok_or("no decomposition")
+                .and_then(|s| s.solve(&w.column(d).into_owned(), 1e-12))
                 .unwrap_or_else(|_| nalgebra::DVector::zeros(kept.len()));
             for (i, &b) in beta.iter().enumerate() {
                 if b.abs() > 1e-9 {

@@ -129,12 +129,23 @@ pub fn observation(
         }
         let dt = m.dt();
         let fs = 1.0 / dt;
-        if opts.cutoff_hz <= 0.0 || opts.cutoff_hz >= fs / 2.0 {
+        if !(opts.cutoff_hz > 0.0 && opts.cutoff_hz < fs / 2.0) {
             bail!(
                 "{}: filter cut-off {} Hz must lie between 0 and the Nyquist frequency {} Hz",
                 m.file.display(),
                 opts.cutoff_hz,
                 fs / 2.0
+            );
+        }
+        // Below one cycle per record the filter removes the motion itself (and its
+        // coefficients lose every significant digit): q̈ is then noise or overflow.
+        let span = m.t[m.len() - 1] - m.t[0];
+        if opts.cutoff_hz * span < 1.0 {
+            bail!(
+                "{}: filter cut-off {} Hz is below one cycle per record (1/{span:.3} s = {:.4} Hz): it would remove the motion the fit needs",
+                m.file.display(),
+                opts.cutoff_hz,
+                1.0 / span
             );
         }
         let bw = butter_lowpass(opts.filter_order, opts.cutoff_hz / (fs / 2.0));
@@ -198,6 +209,35 @@ pub fn observation(
                         c += 1;
                     }
                 }
+            }
+        }
+        // A value the float format cannot carry through the filter and the differences
+        // (a 1e308 cell) would make the least squares meaningless: name the first one.
+        for a in 0..nf {
+            let bad = |v: &[f64]| v.iter().position(|x| !x.is_finite());
+            let found = bad(&yr[a])
+                .map(|r| (r, "the torque".to_string()))
+                .or_else(|| {
+                    (0..ncol).find_map(|c| {
+                        bad(&wr[a][c]).map(|r| (r, format!("regressor column '{}'", names[c])))
+                    })
+                });
+            if let Some((r, what)) = found {
+                let k = interior[r];
+                // The sample that overflowed: the largest position of any joint.
+                let (jmax, kmax) = (0..nj)
+                    .flat_map(|j| (0..n).map(move |k| (j, k)))
+                    .max_by(|x, y| m.q[x.0][x.1].abs().total_cmp(&m.q[y.0][y.1].abs()))
+                    .unwrap_or((0, 0));
+                bail!(
+                    "{}: row {} (t = {} s), joint {}: {what} is not finite after filtering and differentiating the positions; the largest position in the file is q{jmax} = {:e} at row {} (a value near the float limit, or a spike)",
+                    m.file.display(),
+                    k + 2,
+                    m.t[k],
+                    model.joints[conf.free[a]],
+                    m.q[jmax][kmax],
+                    kmax + 2
+                );
             }
         }
         // Parallel decimation.
@@ -285,7 +325,9 @@ pub fn least_squares(obs: &Observation) -> Result<Fit> {
         .map(|c| obs.w.column(c).norm().max(f64::MIN_POSITIVE))
         .collect();
     let ws = DMatrix::from_fn(r, p, |i, c| obs.w[(i, c)] / scale[c]);
-    let svd = ws.clone().svd(true, true);
+    let svd = crate::util::svd(ws.clone()).context(
+        "the regressor's singular value decomposition did not converge (non-finite entries)",
+    )?;
     let smax = svd.singular_values.max();
     let smin = svd.singular_values.min();
     if smin <= 1e-10 * smax {
@@ -305,24 +347,56 @@ pub fn least_squares(obs: &Observation) -> Result<Fit> {
         .solve(&obs.y, 0.0)
         .map_err(|e| anyhow::anyhow!("least squares: {e}"))?;
     let theta: Vec<f64> = (0..p).map(|c| sol[c] / scale[c]).collect();
+    let std_of =
+        |cov: &DMatrix<f64>| -> Vec<f64> { (0..p).map(|i| cov[(i, i)].max(0.0).sqrt()).collect() };
     let th = DVector::from_vec(theta.clone());
     let resid = &obs.y - &obs.w * &th;
     let sigma2 = resid.norm_squared() / (r - p) as f64;
     let wtw = obs.w.transpose() * &obs.w;
     let cov = wtw.try_inverse().context("WᵀW is singular")? * sigma2;
-    let std = (0..p).map(|i| cov[(i, i)].max(0.0).sqrt()).collect();
-    let condition = {
-        let s = obs.w.clone().singular_values();
-        s.max() / s.min()
-    };
+    let std = std_of(&cov);
+    let condition =
+        crate::util::singular_values(&obs.w).map_or(f64::INFINITY, |s| s.max() / s.min());
+    let relative_error = 100.0 * resid.norm() / obs.y.norm();
+    if !(condition.is_finite() && relative_error.is_finite())
+        || theta.iter().chain(&std).any(|x| !x.is_finite())
+    {
+        bail!(
+            "the least squares gave no usable estimate (condition number {condition:.3e}, relative error {relative_error} %): the data do not determine {}",
+            obs.names.join(", ")
+        );
+    }
     Ok(Fit {
         names: obs.names.clone(),
         theta,
         std,
         condition,
         rows: r,
-        relative_error: 100.0 * resid.norm() / obs.y.norm(),
+        relative_error,
     })
+}
+
+/// Why the values of `plant` (after a fit) are not a physical body, for configuration
+/// `conf`: links with mass ≤ 0 or an inertia that is not positive definite
+/// ([`Plant::consistency`], blocking findings only), and values outside the plant's
+/// `[bounds]`. Empty when plausible.
+///
+/// # Errors
+/// A parameter the configuration needs has no value.
+pub fn implausible(plant: &Plant, conf: &generated::Configuration) -> Result<Vec<String>> {
+    let p = plant.barycentric(Some(conf))?;
+    let mut out: Vec<String> = plant
+        .consistency(&p, Some(conf))
+        .into_iter()
+        .filter(|f| f.is_blocking())
+        .map(|f| f.to_string())
+        .collect();
+    for (n, v, (lo, hi)) in plant.outside_bounds(&plant.parameters) {
+        out.push(format!(
+            "{n} = {v:.6e} is outside its bounds [{lo:.6e}, {hi:.6e}]"
+        ));
+    }
+    Ok(out)
 }
 
 /// The model's prediction Wθ for the observation with the plant's parameter values.

@@ -1260,7 +1260,7 @@ impl Problem {
                     y.iter().zip(&base).map(|(u, v)| u - v),
                 );
                 let mut out = r.clone();
-                if let Ok(d) = a.svd(true, true).solve(&e, 1e-12) {
+                if let Some(Ok(d)) = crate::util::svd(a).map(|s| s.solve(&e, 1e-12)) {
                     for (k, &j) in self.conf.free.iter().enumerate() {
                         // A step beyond ±10 δ is not a noise correction: keep the sample.
                         if d[k].abs() <= 10.0 * delta {

@@ -571,7 +571,9 @@ pub(crate) fn rigid_body_make_up(
     let c = DMatrix::from_fn(m, partners.len(), |k, a| {
         cols[partners[a]][k] * widths[partners[a]]
     });
-    let svd = c.svd(true, true);
+    let Some(svd) = crate::util::svd(c) else {
+        return d;
+    };
     let eps = EXACT_SYMMETRY.sqrt() * svd.singular_values.max();
     if let Ok(y) = svd.solve(&nalgebra::DVector::from_column_slice(b), eps) {
         for (a, &j) in partners.iter().enumerate() {
@@ -796,7 +798,11 @@ pub(crate) fn covariance_statistics(
     if !(a.iter().all(|x| x.is_finite()) && b.iter().all(|x| x.is_finite())) {
         bail!("the Jacobian at the fitted values is not finite");
     }
-    let svd = a.clone().svd(true, true);
+    let svd = crate::util::svd(a.clone()).ok_or_else(|| {
+        anyhow::anyhow!(
+            "the Jacobian at the fitted values: the singular value decomposition did not converge"
+        )
+    })?;
     let smax = svd.singular_values.max();
     let condition = smax / svd.singular_values.min().max(1e-300);
     // Directions the data do not see (below EXACT_SYMMETRY of the largest singular value)
@@ -1049,7 +1055,9 @@ fn held_information(cols: &[Vec<f64>], held: &HeldColumns, sigma: &[f64]) -> Vec
     // as k4's ties through held symbols): the held value is undetermined only if appending
     // it adds one.
     let unseen_directions = |a: &DMatrix<f64>| {
-        let sv = a.clone().singular_values();
+        let Some(sv) = crate::util::singular_values(a) else {
+            return usize::MAX;
+        };
         let cutoff = sv.max() * EXACT_SYMMETRY;
         sv.iter().filter(|&&x| x <= cutoff).count()
     };
@@ -1077,7 +1085,7 @@ fn held_information(cols: &[Vec<f64>], held: &HeldColumns, sigma: &[f64]) -> Vec
             if unseen_directions(&a) > fitted_unseen {
                 return Some((name.clone(), 0.0));
             }
-            let svd = a.svd(true, true);
+            let svd = crate::util::svd(a)?;
             let cutoff = svd.singular_values.max() * EXACT_SYMMETRY;
             let ainv = svd.pseudo_inverse(cutoff).ok()?;
             let var = (&ainv * b * &ainv)[(n, n)] / (norm * norm);
