@@ -149,10 +149,10 @@ pub enum Command {
         #[arg(long)]
         config: String,
         /// Duration (s).
-        #[arg(long, default_value_t = 60.0)]
+        #[arg(value_parser = parse_positive, long, default_value_t = 60.0)]
         duration: f64,
         /// Sampling rate (Hz).
-        #[arg(long, default_value_t = 100.0)]
+        #[arg(value_parser = parse_positive, long, default_value_t = 100.0)]
         rate: f64,
         /// Excitation file (default: the tables bundled for the model).
         #[arg(long)]
@@ -191,16 +191,16 @@ pub enum Command {
         #[arg(long)]
         hold: Option<Hold>,
         /// Gaussian position noise σ (rad or m).
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(value_parser = parse_non_negative, long, default_value_t = 0.0)]
         noise: f64,
         /// Position quantisation step (rad or m).
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(value_parser = parse_non_negative, long, default_value_t = 0.0)]
         quantisation: f64,
         /// Noise seed.
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Report divergence when a speed exceeds this (rad/s or m/s).
-        #[arg(long, default_value_t = 100.0)]
+        #[arg(value_parser = parse_positive, long, default_value_t = 100.0)]
         max_speed: f64,
         /// Simulate even with physically impossible rigid-body parameters.
         #[arg(long)]
@@ -319,7 +319,7 @@ pub struct SpaceArgs {
     #[arg(long, default_value_t = 0)]
     pub skip: usize,
     /// Output space: largest motion (rad) allowed of a locked joint in a file.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(value_parser = parse_positive, long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
     /// Output space: initial positions `estimate`d from each file (as MATLAB compare) or
     /// the first `measured` sample.
@@ -395,7 +395,7 @@ pub struct WallArgs {
     #[arg(long)]
     pub rules: Option<PathBuf>,
     /// Control rate for the hand sweep and tuning (Hz; default the file's first).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_positive)]
     pub rate: Option<f64>,
     /// Output directory.
     #[arg(long, default_value = "lockstep-out/wall")]
@@ -410,6 +410,22 @@ fn parse_number(s: &str) -> Result<f64, String> {
     crate::excitation::Value::Expr(s.to_string())
         .eval()
         .map_err(|e| format!("{e:#}"))
+}
+
+/// A positive finite number (fractions accepted).
+fn parse_positive(s: &str) -> Result<f64, String> {
+    match parse_number(s)? {
+        x if x > 0.0 => Ok(x),
+        x => Err(format!("expected a positive number, got {x}")),
+    }
+}
+
+/// A finite number ≥ 0 (fractions accepted).
+fn parse_non_negative(s: &str) -> Result<f64, String> {
+    match parse_number(s)? {
+        x if x >= 0.0 => Ok(x),
+        x => Err(format!("expected a number ≥ 0, got {x}")),
+    }
 }
 
 fn parse_positions(s: &str) -> Result<PositionList, String> {
@@ -442,7 +458,7 @@ pub struct Common {
     #[arg(long)]
     pub config: Option<String>,
     /// Cut-off of the zero-phase Butterworth on positions (Hz).
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(value_parser = parse_positive, long, default_value_t = 100.0)]
     pub cutoff: f64,
     /// Order of that Butterworth.
     #[arg(long, default_value_t = 4)]
@@ -475,8 +491,7 @@ impl Common {
     fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
         let (plant, opts) = self.load_plant()?;
         let nj = plant.model.joints.len();
-        let records = self
-            .data
+        let records = crate::measurement::expand_data_paths(&self.data)?
             .iter()
             .map(|d| Measurement::read(d, nj))
             .collect::<Result<Vec<_>, _>>()?;
@@ -495,7 +510,7 @@ pub struct OutputErrorArgs {
     #[arg(long, default_value_t = 1000)]
     pub skip: usize,
     /// Joint weight of the joint(s) of interest (others 1).
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(value_parser = parse_positive, long, default_value_t = 50.0)]
     pub weight: f64,
     /// Integration step (s); fractions such as 1/12000 accepted. The thesis's 1/6000 s leaves
     /// RK4's stability region on the Freedom 6S wrist (joint 4's friction damping over link
@@ -518,10 +533,10 @@ pub struct OutputErrorArgs {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Stop when the relative parameter step is below this (thesis 2e-6).
-    #[arg(long, default_value_t = 2e-6)]
+    #[arg(value_parser = parse_positive, long, default_value_t = 2e-6)]
     pub xtol: f64,
     /// Stop when the relative cost decrease is below this.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(value_parser = parse_positive, long, default_value_t = 1e-6)]
     pub ftol: f64,
     /// Most iterations per start.
     #[arg(long, default_value_t = 100)]
@@ -666,7 +681,7 @@ pub struct OutputErrorArgs {
     #[arg(long, default_value = "estimate", value_name = "SIGMA|estimate")]
     pub noise_sigma: String,
     /// Largest motion (rad) allowed of a locked joint in a file.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(value_parser = parse_positive, long, default_value_t = 0.01)]
     pub locked_tolerance: f64,
     /// Rigid-body symbols each step fits: `spanning` (a set of them that spans the
     /// configuration's base parameters where its files hold the locked joints, by column
@@ -935,6 +950,19 @@ fn identify_sequence(
 /// # Errors
 /// Any failure, with a message naming the file or option.
 pub fn run(cli: Cli) -> Result<()> {
+    // A command's outputs are written together at its end, or not at all
+    // ([`crate::files::all_or_nothing`]); the identification sequences instead keep each
+    // completed step's files, so that an interrupted run can be resumed.
+    let keeps_each_step =
+        matches!(&cli.command, Command::Identify { method, .. } if method != "idim");
+    if keeps_each_step {
+        run_command(cli)
+    } else {
+        crate::files::all_or_nothing(|| run_command(cli))
+    }
+}
+
+fn run_command(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo { out } => {
             crate::files::check_output_dir(&out)?;

@@ -12,6 +12,9 @@
 //! - **Checked first**: [`check_writable`] resolves each output and creates and removes a
 //!   probe file beside it, so a command refuses an unwritable output before a long
 //!   computation rather than after it.
+//! - **All or nothing** under [`all_or_nothing`]: a command's outputs (report, figures,
+//!   CSVs) are staged as it runs and renamed together when it succeeds; a failure part way
+//!   (a diverging simulation, a bad gain set) leaves none of them.
 //! - **No debris**: temporary files are removed on error, on a panic (drop) and, through
 //!   [`remove_staged_files`] called from the binary's Ctrl-C handler, on SIGINT.
 
@@ -24,6 +27,34 @@ use std::sync::Mutex;
 /// Temporary files not yet renamed or removed (for the Ctrl-C handler).
 static STAGED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 static COUNTER: AtomicUsize = AtomicUsize::new(0);
+/// Staged files held back until the end of an [`all_or_nothing`] run.
+static DEFERRED: Mutex<Option<Vec<Staged>>> = Mutex::new(None);
+
+/// Run `body` with every commit held back: the files it writes are renamed into place
+/// together when it returns `Ok`, and removed when it returns an error, so a command that
+/// fails part way leaves none of its outputs. Not for long runs that must keep each
+/// completed step's results (the identification sequences).
+///
+/// # Errors
+/// `body`'s error (its files removed), or a rename that fails at the end.
+pub fn all_or_nothing<T>(body: impl FnOnce() -> Result<T>) -> Result<T> {
+    let lock = |g: std::sync::LockResult<std::sync::MutexGuard<'static, Option<Vec<Staged>>>>| {
+        g.unwrap_or_else(|p| p.into_inner())
+    };
+    *lock(DEFERRED.lock()) = Some(Vec::new());
+    let result = body();
+    let staged = lock(DEFERRED.lock()).take().unwrap_or_default();
+    match result {
+        Ok(v) => {
+            commit_now(staged)?;
+            Ok(v)
+        }
+        Err(e) => {
+            drop(staged);
+            Err(e)
+        }
+    }
+}
 
 /// Remove every temporary file of an unfinished write (called on SIGINT by the binary).
 pub fn remove_staged_files() {
@@ -194,12 +225,24 @@ fn parent_dir(p: &Path) -> &Path {
         .unwrap_or(Path::new("."))
 }
 
-/// Rename every staged file over its target, together: under an exclusive lock of each
+/// Rename every staged file over its target, together (at the end of an [`all_or_nothing`]
+/// run when inside one): under an exclusive lock of each
 /// target directory, so concurrent commits to the same outputs do not interleave.
 ///
 /// # Errors
 /// A rename fails (the path is named); the files renamed before it stay.
 pub fn commit(staged: Vec<Staged>) -> Result<()> {
+    {
+        let mut g = DEFERRED.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(held) = g.as_mut() {
+            held.extend(staged);
+            return Ok(());
+        }
+    }
+    commit_now(staged)
+}
+
+fn commit_now(staged: Vec<Staged>) -> Result<()> {
     let mut dirs: Vec<PathBuf> = staged
         .iter()
         .map(|s| parent_dir(&s.target).to_path_buf())

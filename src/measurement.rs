@@ -211,6 +211,25 @@ fn read_csv_table(path: &Path) -> Result<Table, DataError> {
         })?
         .clone();
     let names: Vec<String> = headers.iter().map(str::to_string).collect();
+    if names.iter().all(|n| n.is_empty()) {
+        return Err(DataError::Record {
+            file,
+            reason: "the file is empty: expected a header row (such as t,tau0,q0) and data rows"
+                .into(),
+        });
+    }
+    for (i, n) in names.iter().enumerate() {
+        if let Some(first) = names[..i].iter().position(|m| m == n) {
+            return Err(DataError::Record {
+                file,
+                reason: format!(
+                    "the header names '{n}' twice (columns {} and {}): which one is meant?",
+                    first + 1,
+                    i + 1
+                ),
+            });
+        }
+    }
     let mut columns: Vec<Result<Vec<f64>, (usize, String)>> = vec![Ok(Vec::new()); names.len()];
     for (r, rec) in rdr.records().enumerate() {
         let row = r + 2;
@@ -636,6 +655,39 @@ pub fn stage_columns(
         Ok(())
     })?;
     Ok(staged)
+}
+
+/// The measurement files named by `paths`: each file as given, each directory as its `.csv`
+/// and `.mat` files in name order (side files, `.toml`, are not measurements).
+///
+/// # Errors
+/// A path that does not exist; a directory that cannot be read or holds no measurement.
+pub fn expand_data_paths(paths: &[PathBuf]) -> anyhow::Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for p in paths {
+        if p.is_dir() {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(p)
+                .map_err(|e| anyhow::anyhow!("{}: cannot read the directory: {e}", p.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    f.is_file()
+                        && f.extension().is_some_and(|e| {
+                            e.eq_ignore_ascii_case("csv") || e.eq_ignore_ascii_case("mat")
+                        })
+                })
+                .collect();
+            if found.is_empty() {
+                anyhow::bail!("{}: the directory holds no .csv or .mat file", p.display());
+            }
+            found.sort();
+            files.extend(found);
+        } else if p.exists() {
+            files.push(p.clone());
+        } else {
+            anyhow::bail!("{}: no such file or directory", p.display());
+        }
+    }
+    Ok(files)
 }
 
 /// The side file of the measurement file `data`: `<stem>.toml` beside it.

@@ -68,8 +68,12 @@ pub struct PlantFile {
     /// Parameter values (SI).
     #[serde(default)]
     pub parameters: BTreeMap<String, f64>,
-    /// Parameter bounds `[lower, upper]` (SI).
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    /// Parameter bounds `[lower, upper]` (SI); exactly two numbers each.
+    #[serde(
+        default,
+        skip_serializing_if = "BTreeMap::is_empty",
+        deserialize_with = "two_numbers_each"
+    )]
     pub bounds: BTreeMap<String, [f64; 2]>,
     /// What was changed and refitted, oldest first (`lockstep diagnose --apply`, `lockstep
     /// refit`).
@@ -150,6 +154,24 @@ pub struct Plant {
     /// Correlations of recorded values one step fitted together, each pair once with the
     /// lexically smaller name first ([`PlantFile::correlations`], [`Plant::correlation`]).
     pub correlations: BTreeMap<String, BTreeMap<String, f64>>,
+}
+
+/// `[bounds]` entries as `[lower, upper]`, refusing any other length (serde's fixed-size
+/// arrays would drop extra elements silently).
+fn two_numbers_each<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<BTreeMap<String, [f64; 2]>, D::Error> {
+    use serde::de::Error;
+    let raw = BTreeMap::<String, Vec<f64>>::deserialize(d)?;
+    raw.into_iter()
+        .map(|(k, v)| match v.as_slice() {
+            [lo, hi] => Ok((k, [*lo, *hi])),
+            _ => Err(D::Error::custom(format!(
+                "[bounds] '{k}': expected [lower, upper] (two numbers), found {} number(s)",
+                v.len()
+            ))),
+        })
+        .collect()
 }
 
 /// One physical-consistency finding of a link of a plant.

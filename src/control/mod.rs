@@ -301,6 +301,14 @@ impl WallSetup {
         if spec.approach.is_empty() || spec.loop_.rates.is_empty() {
             bail!("{origin}: at least one [[approach]] and one loop rate are needed");
         }
+        if let Some(r) = spec
+            .loop_
+            .rates
+            .iter()
+            .find(|r| !(**r > 0.0 && r.is_finite()))
+        {
+            bail!("{origin}: loop rates: expected positive rates in Hz, got {r}");
+        }
         let (pp, vp) = spec
             .partitions()
             .with_context(|| format!("{origin}: fuzzy"))?;

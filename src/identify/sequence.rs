@@ -217,26 +217,7 @@ fn records_of(
 /// # Errors
 /// A path that does not exist, an unreadable directory or side file.
 pub fn discover(paths: &[PathBuf], model: &Model) -> Result<(Vec<DataFile>, Vec<String>)> {
-    let mut files = Vec::new();
-    for p in paths {
-        if p.is_dir() {
-            let mut found: Vec<PathBuf> = std::fs::read_dir(p)
-                .with_context(|| format!("{}: cannot read the directory", p.display()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|f| {
-                    f.extension().is_some_and(|e| {
-                        e.eq_ignore_ascii_case("csv") || e.eq_ignore_ascii_case("mat")
-                    })
-                })
-                .collect();
-            found.sort();
-            files.extend(found);
-        } else if p.exists() {
-            files.push(p.clone());
-        } else {
-            bail!("{}: no such file or directory", p.display());
-        }
-    }
+    let files = crate::measurement::expand_data_paths(paths)?;
     let mut out = Vec::new();
     let mut ignored = Vec::new();
     for f in files {

@@ -161,8 +161,7 @@ impl Inputs {
                 let nj = plant.model.joints.len();
                 Data::Torque {
                     config: self.config.clone().unwrap_or_else(|| "full".into()),
-                    records: self
-                        .data
+                    records: crate::measurement::expand_data_paths(&self.data)?
                         .iter()
                         .map(|d| Measurement::read(d, nj))
                         .collect::<Result<Vec<_>, _>>()?,

@@ -167,28 +167,12 @@ pub fn figure(stem: &Path, panels: &[Panel], width: u32) -> Result<[PathBuf; 2]>
     .with_context(|| format!("drawing {}", svg_path.display()))?;
     crate::files::write_atomic(&svg_path, svg.as_bytes())?;
     let png_path = stem.with_extension("png");
-    let dir = png_path.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}.png",
-        png_path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default(),
-        std::process::id()
-    ));
-    let res = draw(
-        BitMapBackend::new(&tmp, (width, height)).into_drawing_area(),
+    let png = crate::files::Staged::new(&png_path)?;
+    draw(
+        BitMapBackend::new(png.tmp_path(), (width, height)).into_drawing_area(),
         panels,
     )
-    .with_context(|| format!("drawing {}", png_path.display()))
-    .and_then(|_| {
-        std::fs::rename(&tmp, &png_path)
-            .with_context(|| format!("cannot write {}", png_path.display()))
-    });
-    if res.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    res?;
+    .with_context(|| format!("drawing {}", png_path.display()))?;
+    crate::files::commit(vec![png])?;
     Ok([svg_path, png_path])
 }
