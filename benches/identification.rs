@@ -147,6 +147,7 @@ fn sequence(dir: &Path, data: &Path) {
         },
         locked_tolerance: 0.01,
         out: dir.join("out"),
+        resume: false,
         rigid_body: RigidBodyFit::Spanning,
         joint: JointFitMode::Off,
         release_held: true,

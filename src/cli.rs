@@ -502,6 +502,10 @@ impl Common {
 /// Settings of output-error identification (`identify --method isolated|coupled`).
 #[derive(Debug, Args)]
 pub struct OutputErrorArgs {
+    /// Continue an interrupted sequence in --out from its last completed step: start from
+    /// --out's plant.toml, skip the steps its report lists, add the rest to that report.
+    #[arg(long)]
+    pub resume: bool,
     /// Cost: 4.2 (first half of each file weighted 1/2; isolated default) or 4.3 (skip the
     /// first --skip samples; coupled default).
     #[arg(long)]
@@ -847,13 +851,31 @@ fn identify_sequence(
     out: Option<PathBuf>,
     oe: &OutputErrorArgs,
 ) -> Result<()> {
-    let plant = Plant::load(&common.plant)?;
+    let out = out.unwrap_or_else(|| PathBuf::from("lockstep-out/identify"));
+    let mut plant = Plant::load(&common.plant)?;
+    if oe.resume {
+        let current = crate::identify::sequence::resume_plant(&out)?;
+        if current.model.name != plant.model.name {
+            bail!(
+                "--resume: {} is a plant of model '{}', --plant of '{}'",
+                out.join("plant.toml").display(),
+                current.model.name,
+                plant.model.name
+            );
+        }
+        crate::errln!(
+            "resuming from {} (the plant of the last completed step)",
+            out.join("plant.toml").display()
+        );
+        plant = current;
+    }
     let opts = SequenceOptions {
         sequence: method.to_string(),
         only: common.config.clone(),
         fit: oe.options(method)?,
         locked_tolerance: oe.locked_tolerance,
-        out: out.unwrap_or_else(|| PathBuf::from("lockstep-out/identify")),
+        out,
+        resume: oe.resume,
         rigid_body: if oe.rigid_body == "spanning" {
             RigidBodyFit::Spanning
         } else {

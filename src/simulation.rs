@@ -176,7 +176,7 @@ pub struct InputCoupling {
 const GROWTH_MAX: f64 = 10.0;
 
 /// The fixed-step integration scheme of a simulation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Integrator {
     /// Classical fourth-order Runge–Kutta (the thesis's integrator). Stable for h·|λ| < 2.78

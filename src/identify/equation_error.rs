@@ -53,7 +53,7 @@ pub const RESIDUAL_TOLERANCE: f64 = 1.1;
 const RESIDUAL_MARGIN: usize = 50;
 
 /// The position filter's cut-off.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Cutoff {
     /// The same cut-off for every joint, a fraction of the Nyquist frequency in (0, 1).

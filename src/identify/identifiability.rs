@@ -49,7 +49,7 @@ fn stacked_regressor(
 }
 
 /// Occurrence of inertial quantities in configurations.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct Occurrence {
     /// Model name.
     pub model: String,
@@ -77,7 +77,7 @@ impl Occurrence {
 }
 
 /// First appearances along one locking sequence.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct SequenceOccurrence {
     /// Sequence name.
     pub name: String,
@@ -201,7 +201,7 @@ pub fn occurrence(model: &Model) -> Occurrence {
 
 /// One base parameter: an independent barycentric parameter plus the dependent ones that
 /// fold into it.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct BaseParameter {
     /// The independent parameter.
     pub name: String,
@@ -231,7 +231,7 @@ fn fmt_coeff(c: f64) -> String {
 }
 
 /// Base parameters of one configuration.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct BaseParameters {
     /// Configuration name.
     pub configuration: String,

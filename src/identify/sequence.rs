@@ -24,7 +24,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// One step of a locking sequence.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct Step {
     /// Configuration name.
     pub config: String,
@@ -50,7 +50,7 @@ pub struct Step {
 
 /// Which rigid-body symbols a step fits (`lockstep identify --rigid-body`, default
 /// [`RigidBodyFit::Spanning`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub enum RigidBodyFit {
     /// Every symbol the step identifies or carries; exact ties among them are left to the
     /// optimiser and resolved afterwards by the least change.
@@ -325,7 +325,7 @@ pub fn read_record(
 }
 
 /// What a sequence run did, step by step.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct SequenceReport {
     /// Sequence name.
     pub sequence: String,
@@ -344,7 +344,7 @@ pub struct SequenceReport {
 }
 
 /// One completed step.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct StepReport {
     /// The plan.
     pub step: Step,
@@ -371,7 +371,7 @@ pub const RELEASE_INFORMATION: f64 = 1.0;
 
 /// The release of held values after a step that did not reach the noise floor
 /// ([`SequenceOptions::release_held`]).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct Release {
     /// Per released value: name, ρ ([`Statistics::held_information`]), the prior's
     /// standard deviation (SI; the standard error recorded by the step that fitted it), its
@@ -391,7 +391,7 @@ pub struct Release {
 
 /// How a refit of a step ended and its work, included in the step's ([`Release`],
 /// [`Balance`]).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct RefitWork {
     /// How the refit's kept start ended.
     pub status: String,
@@ -419,7 +419,7 @@ impl RefitWork {
 }
 
 /// The balanced refit after a step's fit ([`StepRefit::balance`]).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct Balance {
     /// Per free joint: name, RMS error over the fitted samples over its noise σ̂ before
     /// and after the balanced refit; None where the files give no σ̂
@@ -450,7 +450,7 @@ impl Balance {
 
 /// The reach across held ties after a step that ended above the noise floor with a
 /// fitted rigid-body symbol on a bound ([`StepRefit::reach_across_held_ties`]).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct TieReach {
     /// Per fitted symbol on a bound: name, that bound, the bounds of the wide fit (SI),
     /// its value there (the β the held ties then carried).
@@ -542,13 +542,59 @@ pub struct SequenceOptions {
     /// the rest's ([`StepRefit::balance`]): the whole files once more with every free joint
     /// weighted 1, kept when the worst free joint's RMS / σ̂ falls.
     pub balance: bool,
+    /// Continue the sequence recorded in `out` ([`previous_report`]): the steps its report
+    /// lists as completed are skipped; the plant given to [`run`] should be `out`'s
+    /// `plant.toml` ([`resume_plant`]).
+    pub resume: bool,
+}
+
+/// The report a run of `sequence` left in `out` (`report.json`), if any. Its completed steps
+/// are kept by the next run into `out` (a step run alone with `--config` adds to them, it
+/// does not replace them).
+///
+/// # Errors
+/// `report.json` exists but is not readable as a report; it is from another sequence.
+pub fn previous_report(out: &Path, sequence: &str) -> Result<Option<SequenceReport>> {
+    let path = out.join("report.json");
+    if !path.exists() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let report: SequenceReport = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a sequence report of this version", path.display()))?;
+    if report.sequence != sequence {
+        bail!(
+            "{}: a report of the '{}' sequence, not '{sequence}': give another --out",
+            path.display(),
+            report.sequence
+        );
+    }
+    Ok(Some(report))
+}
+
+/// The plant a resumed run starts from: `out/plant.toml`, written by the last completed
+/// step.
+///
+/// # Errors
+/// It does not exist (nothing to resume) or is not a valid plant file.
+pub fn resume_plant(out: &Path) -> Result<Plant> {
+    let path = out.join("plant.toml");
+    if !path.exists() {
+        bail!(
+            "--resume: {} does not exist: {} holds no interrupted run",
+            path.display(),
+            out.display()
+        );
+    }
+    Plant::load(&path)
 }
 
 /// The joint fit of a sequence's steps (`lockstep identify --joint-fit`,
 /// [`super::joint::JointProblem`]): every parameter the steps fit, on every step's files at
 /// once, from the values the steps left. It covers the steps of the sequence up to the
 /// last one run (all, or up to `--config`'s).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum JointFitMode {
     /// The steps only (the thesis).
@@ -575,6 +621,14 @@ pub fn run(
     let model = plant.model;
     let occ = occurrence(model);
     let mut steps = plan_with(plant, &opts.sequence, &occ)?;
+    let plan_order: Vec<String> = steps.iter().map(|s| s.config.clone()).collect();
+    // An earlier run into the same directory: its completed steps are kept.
+    let previous = match previous_report(&opts.out, &opts.sequence) {
+        Ok(p) => p,
+        Err(e) if opts.resume => return Err(e),
+        // Without --resume a report that cannot be continued is replaced.
+        Err(_) => None,
+    };
     if let Some(only) = &opts.only {
         let Some(i) = steps.iter().position(|s| &s.config == only) else {
             bail!(
@@ -609,6 +663,27 @@ pub fn run(
             steps.drain(..steps.len() - 1);
         }
         (None, _) => {}
+    }
+    if opts.resume {
+        let Some(prev) = &previous else {
+            bail!(
+                "--resume: {} holds no report of the '{}' sequence",
+                opts.out.display(),
+                opts.sequence
+            );
+        };
+        steps.retain(|s| !prev.steps.iter().any(|d| d.step.config == s.config));
+        if steps.is_empty() && (opts.joint == JointFitMode::Off || prev.joint.is_some()) {
+            bail!(
+                "--resume: every step of {} is already completed (steps {}); nothing to resume",
+                opts.out.display(),
+                prev.steps
+                    .iter()
+                    .map(|d| d.step.config.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
     }
     let (files, mut ignored) = discover(data, model)?;
     // Everything checked before the first fit.
@@ -683,14 +758,31 @@ pub fn run(
     // Rigid-body symbols a completed step fitted but did not determine, starting with those
     // the plant file records (a step run alone with `--config` after an earlier run).
     let mut undetermined: Vec<String> = plant.undetermined.clone();
+    let rerun: Vec<String> = steps.iter().map(|s| s.config.clone()).collect();
     let mut report = SequenceReport {
         sequence: opts.sequence.clone(),
-        plant: plant.name(),
+        plant: previous
+            .as_ref()
+            .map_or_else(|| plant.name(), |p| p.plant.clone()),
         options: opts.fit.clone(),
-        steps: Vec::new(),
-        joint: None,
+        steps: previous
+            .as_ref()
+            .map(|p| {
+                p.steps
+                    .iter()
+                    .filter(|d| !rerun.contains(&d.step.config))
+                    .cloned()
+                    .collect()
+            })
+            .unwrap_or_default(),
+        joint: if joint_steps.is_empty() {
+            previous.as_ref().and_then(|p| p.joint.clone())
+        } else {
+            None
+        },
         ignored,
     };
+    let position = |c: &str| plan_order.iter().position(|x| x == c).unwrap_or(usize::MAX);
     for (mut s, first) in steps.into_iter().zip(checked) {
         // Symbols an earlier step of this run fitted but could not determine (not called
         // identifiable: tied, poorly determined or at a bound) stay free where they appear
@@ -804,6 +896,7 @@ pub fn run(
             tie_reach,
             balance,
         });
+        report.steps.sort_by_key(|d| position(&d.step.config));
         current.description = format!(
             "{} — identified by lockstep ({} method, steps {})",
             plant.description,

@@ -62,7 +62,7 @@ pub(super) fn refinement_bandwidth(
 }
 
 /// One start of a multi-start fit.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct StartSummary {
     /// Index (0 = the plant's values).
     pub start: usize,

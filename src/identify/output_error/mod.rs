@@ -96,7 +96,7 @@ const STRIBECK_RATIOS: [f64; 3] = [0.25, 0.5, 1.0];
 const STRIBECK_BRANCH_OMEGA: f64 = 3.0;
 
 /// Time weighting of the output-error cost.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub enum TimeWeighting {
     /// Cost (4.2): samples in the first half of each file weighted ½, the rest 1.
     HalfFirst,
@@ -127,7 +127,7 @@ impl TimeWeighting {
 }
 
 /// Settings of an output-error fit.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct OutputErrorOptions {
     /// Time weighting (cost 4.2 or 4.3).
     pub weighting: TimeWeighting,
@@ -282,7 +282,7 @@ pub struct OutputErrorOptions {
 }
 
 /// The bounded least-squares method of a fit's stages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, clap::ValueEnum)]
 pub enum StageOptimiser {
     /// rmpfit's bounded Levenberg–Marquardt (MINPACK's `lmdif` with CMPFIT's limits), with
     /// [`OutputErrorOptions::jacobian_refresh`]'s Broyden updates between Jacobians.
@@ -392,7 +392,7 @@ pub struct Record {
 }
 
 /// A stage of a fit: multiple-shooting segments, or a growing horizon of the files.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub enum Stage {
     /// Every file cut into segments of this length (s), each simulated from the measured
     /// state at its start ([`Problem::segmented`]).
@@ -412,7 +412,7 @@ pub enum Stage {
 }
 
 /// How a start is warmed up before the fit of the whole files.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum WarmUp {
     /// Growing horizons ([`OutputErrorOptions::horizons`]).
@@ -1685,7 +1685,7 @@ fn residual_total(sqrt_w: &[Vec<f64>], nf: usize) -> usize {
 }
 
 /// Result of [`Problem::least_change`].
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct LeastChange {
     /// The parameters after the move (physical units).
     #[serde(skip)]
@@ -1754,7 +1754,7 @@ pub fn scales_with_the_gain(model: &generated::Model, name: &str) -> bool {
 }
 
 /// Result of [`Problem::fit`].
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct FitResult {
     /// Configuration.
     pub configuration: String,

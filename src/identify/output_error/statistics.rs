@@ -26,7 +26,7 @@ pub const EQUAL_MINIMUM_STD_ERRORS: f64 = 2.0;
 /// gains known: the kept fit (0.31497) had joint 2's Stribeck dip collapsed (Fs_2 = 1.0004
 /// Fc_2 at vs_2 = 0.46 rad/s) and called Fs_2 identifiable at ± 5.9e-6 N·m, 38 % below the
 /// truth; the Stribeck re-seed's branch ended at 0.31499 with the dip near the truth's.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct OtherMinimum {
     /// The start that ended there ([`StartSummary::start`]).
     pub start: usize,
@@ -40,7 +40,7 @@ pub struct OtherMinimum {
 }
 
 /// Fit figures of one free joint over all files.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct JointFit {
     /// Joint name.
     pub joint: String,
@@ -74,7 +74,7 @@ pub struct JointFit {
 }
 
 /// Uncertainty and fit figures at a solution.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct Statistics {
     /// Standard error per parameter (its units), the held values' uncertainty included
     /// (`held`).
