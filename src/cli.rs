@@ -238,7 +238,7 @@ pub enum Command {
         #[arg(long, num_args = 1..)]
         measured: Vec<PathBuf>,
         /// Duration (s), replacing the file's.
-        #[arg(long)]
+        #[arg(long, value_parser = parse_positive)]
         duration: Option<f64>,
         /// Output directory.
         #[arg(long, default_value = "lockstep-out/closedloop")]

@@ -144,3 +144,113 @@ pub fn configuration(
         )
     })
 }
+
+/// Read JSON that lockstep wrote back into `T`, with `null` accepted wherever a number is
+/// expected and read as NaN: serde_json writes NaN and ±∞ (an undetermined standard error,
+/// an infinite condition number) as `null`, which plain deserialisation refuses.
+///
+/// # Errors
+/// Not JSON, or not the shape of `T`.
+pub fn from_json_with_nan<T: serde::de::DeserializeOwned>(text: &str) -> serde_json::Result<T> {
+    let v: serde_json::Value = serde_json::from_str(text)?;
+    T::deserialize(NanAsNull(v))
+}
+
+/// A JSON value whose `null`s deserialise as NaN where a float is expected.
+struct NanAsNull(serde_json::Value);
+
+impl<'de> serde::Deserializer<'de> for NanAsNull {
+    type Error = serde_json::Error;
+
+    fn deserialize_any<V: serde::de::Visitor<'de>>(self, v: V) -> serde_json::Result<V::Value> {
+        use serde_json::Value;
+        match self.0 {
+            Value::Array(a) => v.visit_seq(NanSeq(a.into_iter())),
+            Value::Object(m) => v.visit_map(NanMap(m.into_iter(), None)),
+            other => other.deserialize_any(v),
+        }
+    }
+
+    fn deserialize_f64<V: serde::de::Visitor<'de>>(self, v: V) -> serde_json::Result<V::Value> {
+        match self.0 {
+            serde_json::Value::Null => v.visit_f64(f64::NAN),
+            other => other.deserialize_f64(v),
+        }
+    }
+
+    fn deserialize_f32<V: serde::de::Visitor<'de>>(self, v: V) -> serde_json::Result<V::Value> {
+        self.deserialize_f64(v)
+    }
+
+    fn deserialize_option<V: serde::de::Visitor<'de>>(self, v: V) -> serde_json::Result<V::Value> {
+        match self.0 {
+            serde_json::Value::Null => v.visit_none(),
+            other => v.visit_some(NanAsNull(other)),
+        }
+    }
+
+    fn deserialize_newtype_struct<V: serde::de::Visitor<'de>>(
+        self,
+        _name: &'static str,
+        v: V,
+    ) -> serde_json::Result<V::Value> {
+        v.visit_newtype_struct(self)
+    }
+
+    fn deserialize_enum<V: serde::de::Visitor<'de>>(
+        self,
+        name: &'static str,
+        variants: &'static [&'static str],
+        v: V,
+    ) -> serde_json::Result<V::Value> {
+        self.0.deserialize_enum(name, variants, v)
+    }
+
+    serde::forward_to_deserialize_any! {
+        bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 char str string bytes byte_buf unit
+        unit_struct seq tuple tuple_struct map struct identifier ignored_any
+    }
+}
+
+struct NanSeq(std::vec::IntoIter<serde_json::Value>);
+
+impl<'de> serde::de::SeqAccess<'de> for NanSeq {
+    type Error = serde_json::Error;
+
+    fn next_element_seed<S: serde::de::DeserializeSeed<'de>>(
+        &mut self,
+        seed: S,
+    ) -> serde_json::Result<Option<S::Value>> {
+        self.0
+            .next()
+            .map(|x| seed.deserialize(NanAsNull(x)))
+            .transpose()
+    }
+}
+
+struct NanMap(serde_json::map::IntoIter, Option<serde_json::Value>);
+
+impl<'de> serde::de::MapAccess<'de> for NanMap {
+    type Error = serde_json::Error;
+
+    fn next_key_seed<K: serde::de::DeserializeSeed<'de>>(
+        &mut self,
+        seed: K,
+    ) -> serde_json::Result<Option<K::Value>> {
+        match self.0.next() {
+            Some((k, v)) => {
+                self.1 = Some(v);
+                seed.deserialize(serde_json::Value::String(k)).map(Some)
+            }
+            None => Ok(None),
+        }
+    }
+
+    fn next_value_seed<S: serde::de::DeserializeSeed<'de>>(
+        &mut self,
+        seed: S,
+    ) -> serde_json::Result<S::Value> {
+        let v = self.1.take().unwrap_or(serde_json::Value::Null);
+        seed.deserialize(NanAsNull(v))
+    }
+}

@@ -43,6 +43,9 @@ pub enum Func {
     Sqrt,
 }
 
+/// Deepest nesting of parentheses (or longest run of prefix signs) an expression may have.
+pub const MAX_NESTING: usize = 64;
+
 /// A parse error with the byte offset where it happened.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParseError {
@@ -259,6 +262,28 @@ impl Expr {
                 at: 0,
                 message: "empty expression".into(),
             });
+        }
+        // The parser recurses once per parenthesis and per prefix sign: bound both, so a
+        // hostile file gets an error, not a stack overflow.
+        let (mut depth, mut signs) = (0usize, 0usize);
+        for (at, t) in &toks {
+            match t {
+                Tok::Op('(') => depth += 1,
+                Tok::Op(')') => depth = depth.saturating_sub(1),
+                _ => {}
+            }
+            signs = match t {
+                Tok::Op('-' | '+') => signs + 1,
+                _ => 0,
+            };
+            if depth > MAX_NESTING || signs > MAX_NESTING {
+                return Err(ParseError {
+                    at: *at,
+                    message: format!(
+                        "nested deeper than {MAX_NESTING} (parentheses or signs in a row)"
+                    ),
+                });
+            }
         }
         let mut p = Parser {
             toks: &toks,

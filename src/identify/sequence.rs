@@ -561,7 +561,7 @@ pub fn previous_report(out: &Path, sequence: &str) -> Result<Option<SequenceRepo
     }
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("{}: cannot read", path.display()))?;
-    let report: SequenceReport = serde_json::from_str(&text)
+    let report: SequenceReport = crate::util::from_json_with_nan(&text)
         .with_context(|| format!("{}: not a sequence report of this version", path.display()))?;
     if report.sequence != sequence {
         bail!(
