@@ -273,6 +273,24 @@ fn commit_now(staged: Vec<Staged>) -> Result<()> {
     result
 }
 
+/// Read back a file this command wrote: inside [`all_or_nothing`] the staged (not yet
+/// renamed) version, else the file itself (a report inlines the figures it drew).
+///
+/// # Errors
+/// Neither exists or can be read.
+pub fn read_output(path: &Path) -> std::io::Result<String> {
+    let staged = {
+        let g = DEFERRED.lock().unwrap_or_else(|p| p.into_inner());
+        g.as_ref().and_then(|held| {
+            held.iter()
+                .rev()
+                .find(|s| s.given == path || same_file(&s.given, path))
+                .map(|s| s.tmp.clone())
+        })
+    };
+    std::fs::read_to_string(staged.as_deref().unwrap_or(path))
+}
+
 /// Check, before any computation, that each of `paths` can be written: resolved
 /// ([`resolve_target`]), its directory created, and a probe file made and removed beside
 /// it. Two outputs that are the same file are refused.

@@ -232,7 +232,7 @@ fn wall_and_closed_loop_files() {
         read("model/control/freedom6s_closedloop.toml"),
     ];
     let path = control.join("spec.toml");
-    proptest!(ProptestConfig { cases: CASES / 2, ..config() }, |(b in input(seeds.clone()))| {
+    proptest!(config(), |(b in input(seeds.clone()))| {
         write(&path, &b);
         let _ = WallSetup::load(&path);
         let _ = ClosedLoop::load(&path, None, Some(0.05));

@@ -840,3 +840,53 @@ fn bad_bounds_an_empty_csv_and_a_duplicate_column_are_named() {
     let e = Measurement::read(&dup, 1).unwrap_err().to_string();
     assert!(e.contains("'q0' twice (columns 3 and 4)"), "{e}");
 }
+
+/// Class 10: Ctrl-C during a large write removes the temporary file and leaves no output.
+#[test]
+fn ctrl_c_during_a_large_write_leaves_nothing_behind() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("long.csv");
+    let mut child = bin()
+        .args([
+            "excite",
+            "--model",
+            "freedom6s",
+            "--table",
+            "4.3",
+            "--test",
+            "J3",
+            "--config",
+            "c3",
+            "--duration",
+            "2e5",
+            "-o",
+            s(&out),
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait for the temporary file of the write to appear, then interrupt.
+    let start = Instant::now();
+    while !entries(d.path()).iter().any(|e| e.contains(".tmp")) {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "no write started"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "finished before it could be interrupted"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    std::thread::sleep(Duration::from_millis(100));
+    let pid = child.id().to_string();
+    assert!(Command::new("kill")
+        .args(["-INT", &pid])
+        .status()
+        .unwrap()
+        .success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130));
+    assert!(entries(d.path()).is_empty(), "{:?}", entries(d.path()));
+}

@@ -600,7 +600,7 @@ fn esc(s: &str) -> String {
 
 fn inline_svg(path: &Path) -> Result<String> {
     let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        crate::files::read_output(path).with_context(|| format!("reading {}", path.display()))?;
     let start = text.find("<svg").unwrap_or(0);
     Ok(format!(
         "<div class=\"fig\">{}</div>\n",

@@ -1,7 +1,8 @@
 //! Figures as SVG and PNG (plotters; the PNG font is embedded, no system libraries).
 //!
 //! A figure is a vertical stack of panels; each panel has lines and point clouds. Both files
-//! are written through a temporary file and a rename, so no half-written figure is left.
+//! are written through [`crate::files`] (atomic; all together with the command's other
+//! outputs). Series longer than the figure can show are thinned to a few points per pixel.
 
 use anyhow::{anyhow, Context, Result};
 use plotters::coord::Shift;
@@ -151,12 +152,68 @@ where
     Ok(())
 }
 
+/// `s` with at most about four points per pixel of a `width`-pixel axis: a line keeps the
+/// first, smallest, largest and last point of each bucket of consecutive samples (its
+/// drawn envelope is unchanged), a point cloud every k-th point.
+fn thin(s: &Series, width: usize) -> Series {
+    let n = s.x.len().min(s.y.len());
+    let buckets = width.max(100);
+    if n <= 4 * buckets {
+        return s.clone();
+    }
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    match s.style {
+        Style::Points => {
+            let k = n.div_ceil(4 * buckets);
+            for i in (0..n).step_by(k) {
+                x.push(s.x[i]);
+                y.push(s.y[i]);
+            }
+        }
+        Style::Line => {
+            for b in 0..buckets {
+                let (lo, hi) = (b * n / buckets, ((b + 1) * n / buckets).min(n));
+                if lo >= hi {
+                    continue;
+                }
+                let by = |f: fn(f64, f64) -> bool| {
+                    (lo..hi).fold(lo, |best, i| if f(s.y[i], s.y[best]) { i } else { best })
+                };
+                let (imin, imax) = (by(|a, b| a < b), by(|a, b| a > b));
+                let mut keep = vec![lo, imin, imax, hi - 1];
+                keep.sort_unstable();
+                keep.dedup();
+                for i in keep {
+                    x.push(s.x[i]);
+                    y.push(s.y[i]);
+                }
+            }
+        }
+    }
+    Series {
+        name: s.name.clone(),
+        x,
+        y,
+        style: s.style,
+    }
+}
+
 /// Write `<stem>.svg` and `<stem>.png` (width × 300 px per panel) and return both paths.
 ///
 /// # Errors
 /// The directory cannot be created or a file cannot be written (named).
 pub fn figure(stem: &Path, panels: &[Panel], width: u32) -> Result<[PathBuf; 2]> {
     register_font();
+    // A long record draws no better than a few points per pixel; the file size stays
+    // bounded (a 200 MB record once made a 138 MB SVG).
+    let thinned: Vec<Panel> = panels
+        .iter()
+        .map(|p| Panel {
+            series: p.series.iter().map(|s| thin(s, width as usize)).collect(),
+            ..p.clone()
+        })
+        .collect();
+    let panels = &thinned[..];
     let height = 300 * panels.len().max(1) as u32;
     let svg_path = stem.with_extension("svg");
     let mut svg = String::new();
@@ -175,4 +232,43 @@ pub fn figure(stem: &Path, panels: &[Panel], width: u32) -> Result<[PathBuf; 2]>
     .with_context(|| format!("drawing {}", png_path.display()))?;
     crate::files::commit(vec![png])?;
     Ok([svg_path, png_path])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thinning_keeps_a_lines_envelope_and_bounds_its_length() {
+        let n = 1_000_000;
+        let x: Vec<f64> = (0..n).map(|k| k as f64 * 1e-4).collect();
+        // A slow sine with one isolated spike that must survive.
+        let mut y: Vec<f64> = x.iter().map(|t| t.sin()).collect();
+        y[123_457] = 5.0;
+        let s = Series {
+            name: "q".into(),
+            x,
+            y,
+            style: Style::Line,
+        };
+        let t = thin(&s, 1000);
+        assert!(t.x.len() <= 4000, "{}", t.x.len());
+        let max = t.y.iter().copied().fold(f64::MIN, f64::max);
+        let min = t.y.iter().copied().fold(f64::MAX, f64::min);
+        assert_eq!(max, 5.0);
+        let true_min = s.y.iter().copied().fold(f64::MAX, f64::min);
+        assert_eq!(min, true_min);
+        assert_eq!(t.x.first(), s.x.first());
+        assert_eq!(t.x.last(), s.x.last());
+        assert!(t.x.windows(2).all(|w| w[0] < w[1]), "time order kept");
+        let short = thin(
+            &Series {
+                x: vec![0.0, 1.0],
+                y: vec![1.0, 2.0],
+                ..s.clone()
+            },
+            1000,
+        );
+        assert_eq!(short.y, vec![1.0, 2.0]);
+    }
 }
