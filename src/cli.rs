@@ -951,6 +951,13 @@ fn identify_sequence(
         );
     }
     for s in report.steps.iter().chain(&report.joint) {
+        if s.fit.evaluations == 0 {
+            crate::errln!(
+                "warning: step {}: no fit was made (the plant's values are kept); {} says why",
+                s.step.config,
+                opts.out.join("report.md").display()
+            );
+        }
         for line in &s.impossible {
             crate::errln!(
                 "warning: step {}: physically impossible: {line}",

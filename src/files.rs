@@ -291,17 +291,46 @@ pub fn read_output(path: &Path) -> std::io::Result<String> {
     std::fs::read_to_string(staged.as_deref().unwrap_or(path))
 }
 
+/// Check that files can be made in `dir` without creating anything that stays: the
+/// nearest existing ancestor must be a directory in which a probe file can be made (and is
+/// removed). `what` is the output named in messages.
+fn probe_dir(dir: &Path, what: &Path) -> Result<()> {
+    let mut d = dir.to_path_buf();
+    while !d.as_os_str().is_empty() && std::fs::symlink_metadata(&d).is_err() {
+        d = d.parent().map(Path::to_path_buf).unwrap_or_default();
+    }
+    if d.as_os_str().is_empty() {
+        d = PathBuf::from(".");
+    }
+    if !d.is_dir() {
+        bail!(
+            "{}: cannot be written: {} is not a directory",
+            what.display(),
+            d.display()
+        );
+    }
+    let probe = d.join(format!(
+        ".lockstep-probe{}-{}",
+        std::process::id(),
+        COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    std::fs::File::create(&probe)
+        .with_context(|| format!("{}: cannot write in {}", what.display(), d.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Check, before any computation, that each of `paths` can be written: resolved
-/// ([`resolve_target`]), its directory created, and a probe file made and removed beside
-/// it. Two outputs that are the same file are refused.
+/// ([`resolve_target`]) and its directory (or the nearest existing ancestor) writable; no
+/// directory is created. Two outputs that are the same file are refused.
 ///
 /// # Errors
-/// As [`Staged::new`]; two outputs resolve to the same file.
+/// As [`resolve_target`]; an unwritable directory; two outputs resolve to the same file.
 pub fn check_writable(paths: &[&Path]) -> Result<()> {
     let mut seen: Vec<(PathBuf, &Path)> = Vec::new();
     for p in paths {
-        drop(Staged::new(p)?);
         let target = resolve_target(p)?;
+        probe_dir(parent_dir(&target), p)?;
         let key = canonical_or_absolute(&target);
         if let Some((_, first)) = seen.iter().find(|(k, _)| *k == key) {
             bail!(
@@ -335,8 +364,7 @@ pub fn check_output_dir(dir: &Path) -> Result<()> {
             );
         }
     }
-    drop(Staged::new(&dir.join("lockstep-probe"))?);
-    Ok(())
+    probe_dir(dir, dir)
 }
 
 /// `p` made absolute with its directory resolved, for comparing paths that may not exist.

@@ -43,7 +43,8 @@ fn excite_then_simulate_makes_noisy_quantised_data_of_the_configuration() {
         tau.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert!(String::from_utf8_lossy(&o.stdout).contains("q0, q1, q2, q3 locked"));
+    // A note: on stderr (stdout carries results only).
+    assert!(String::from_utf8_lossy(&o.stderr).contains("note: q0, q1, q2, q3 locked"));
     let t = Table::read(&tau).unwrap();
     assert_eq!(t.side.configuration.as_deref(), Some("k1"));
     let tau5 = t.need("tau5").unwrap();
@@ -70,10 +71,11 @@ fn excite_then_simulate_makes_noisy_quantised_data_of_the_configuration() {
             out.to_str().unwrap(),
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let stdout = String::from_utf8_lossy(&o.stdout);
+        // Warnings go to stderr (stdout carries results only).
+        let stderr = String::from_utf8_lossy(&o.stderr);
         assert!(
-            stdout.contains("warning:") && stdout.contains("link 'L7'"),
-            "{stdout}"
+            stderr.contains("warning:") && stderr.contains("link 'L7'"),
+            "{stderr}"
         );
         let m = Measurement::read(&out, 6).unwrap();
         assert_eq!(m.len(), 1001);

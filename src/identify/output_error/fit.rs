@@ -401,6 +401,16 @@ impl Problem {
                 }
                 Stage::Horizon(frac) if frac < 1.0 => {
                     staged = self.truncated(frac);
+                    // A horizon too short to determine the parameters (a short file)
+                    // cannot warm anything up: go on to the next.
+                    if staged.residual_count() <= 2 * u.len() {
+                        ended.push(format!(
+                            "{stage}: skipped ({} residuals for {} parameters)",
+                            staged.residual_count(),
+                            u.len()
+                        ));
+                        continue;
+                    }
                     &staged
                 }
                 Stage::Horizon(_) | Stage::Joint | Stage::Predictor(_) => self,
