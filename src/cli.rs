@@ -2,7 +2,7 @@
 
 use crate::identify::equation_error::Cutoff;
 use crate::identify::identifiability::{base_parameters, markdown, occurrence};
-use crate::identify::idim::{least_squares, observation, IdimOptions};
+use crate::identify::idim::{observation, IdimOptions};
 use crate::identify::output_error::{OutputErrorOptions, StageOptimiser};
 use crate::identify::sequence::{JointFitMode, RigidBodyFit, SequenceOptions};
 use crate::measurement::Measurement;
@@ -1016,7 +1016,20 @@ fn run_command(cli: Cli) -> Result<()> {
                 crate::files::check_writable(&[out])?;
             }
             let (mut plant, records, opts) = common.load()?;
-            let fit = least_squares(&observation(&plant, config, &records, &opts)?)?;
+            let obs = observation(&plant, config, &records, &opts)?;
+            // A rank-deficient regressor (every serial arm's) is fitted on its base
+            // parameters; the dependent ones keep the plant's values.
+            let conf = crate::util::configuration(plant.model, config)?;
+            let bary = plant.barycentric(None)?;
+            let prior = |n: &str| -> Option<f64> {
+                match plant.model.params.iter().position(|p| *p == n) {
+                    Some(j) if plant.configuration_has_link(conf, plant.model.param_link[j]) => {
+                        Some(bary[j])
+                    }
+                    _ => plant.parameters.get(n).copied(),
+                }
+            };
+            let fit = crate::identify::idim::least_squares_base(&obs, plant.model, &prior)?;
             crate::outln!(
                 "IDIM-LS, plant {}, configuration {}, {} record(s)",
                 common.plant.display(),
@@ -1025,7 +1038,7 @@ fn run_command(cli: Cli) -> Result<()> {
             );
             crate::out!("{}", fit_table(&fit));
             if let Some(out) = out {
-                fit.apply(&mut plant);
+                fit.apply(&mut plant)?;
                 let conf = crate::util::configuration(plant.model, config)?;
                 let reasons = crate::identify::idim::implausible(&plant, conf)?;
                 if !reasons.is_empty() {

@@ -69,7 +69,7 @@ fn fit_and_compare(
     // One observation of the training record serves the fit and the comparison.
     let obs = observation(plant, "full", std::slice::from_ref(train), &opts)?;
     let fit = least_squares(&obs)?;
-    fit.apply(plant);
+    fit.apply(plant)?;
     plant.description = format!("{label} (IDIM-LS on emps_train.csv)");
     plant.save(&out.join(format!("{tag}.toml")))?;
     let t = compare_observation(plant, &obs, &train.file)?.remove(0);

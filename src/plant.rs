@@ -527,7 +527,23 @@ impl Plant {
                     .map(|n| n.to_string())
                     .collect()
             };
-            let (gs, gb) = (has(&syms), has(&bary));
+            // A name that is both a symbol and a barycentric parameter (the mass, `m1`)
+            // belongs to either form; only the others tell the forms apart.
+            let link_params: Vec<&str> = (0..m.params.len())
+                .filter(|&j| m.param_link[j] == l)
+                .map(|j| m.params[j])
+                .collect();
+            let syms_only: Vec<&str> = syms
+                .iter()
+                .filter(|s| !link_params.contains(s))
+                .copied()
+                .collect();
+            let shared: Vec<&str> = syms
+                .iter()
+                .filter(|s| link_params.contains(s))
+                .copied()
+                .collect();
+            let (gs, gb) = (has(&syms_only), has(&bary));
             if !gs.is_empty() && !gb.is_empty() {
                 bail!(
                     "link '{lname}': given both in the model file's symbols ({}) and as barycentric parameters ({}); use one form per link",
@@ -535,7 +551,8 @@ impl Plant {
                     gb.join(", ")
                 );
             }
-            if !gs.is_empty() {
+            let symbol_form = gb.is_empty() && (!gs.is_empty() || !has(&shared).is_empty());
+            if symbol_form {
                 let missing: Vec<&str> = syms
                     .iter()
                     .filter(|n| !self.parameters.contains_key(**n))
@@ -548,7 +565,7 @@ impl Plant {
                     );
                 }
             }
-            forms.push(if !gs.is_empty() {
+            forms.push(if symbol_form {
                 Some(true)
             } else if !gb.is_empty() {
                 Some(false)
@@ -698,6 +715,48 @@ impl Plant {
             row.retain(|b, _| !drop(b));
         }
         self.correlations.retain(|_, row| !row.is_empty());
+    }
+
+    /// Set fitted values given as barycentric rigid-body parameters or effect parameters
+    /// (IDIM's columns). A link given in the model file's symbols whose barycentric
+    /// parameters are set is first converted to barycentric form, so that the plant keeps one
+    /// form per link: its symbols (with their bounds, standard errors, correlations and
+    /// undetermined marks) are removed and every barycentric parameter of the link is
+    /// written from the current values.
+    ///
+    /// # Errors
+    /// The plant's link forms are inconsistent, or a value the conversion needs is missing.
+    pub fn set_barycentric_values(&mut self, names: &[String], values: &[f64]) -> Result<()> {
+        let m = self.model;
+        let forms = self.link_forms()?;
+        let mut convert: Vec<usize> = names
+            .iter()
+            .filter_map(|n| {
+                let j = m.params.iter().position(|p| p == n)?;
+                let l = m.param_link[j];
+                (forms[l] == Some(true) && !self.link_symbols(l).contains(&m.params[j]))
+                    .then_some(l)
+            })
+            .collect();
+        convert.sort_unstable();
+        convert.dedup();
+        if !convert.is_empty() {
+            let bary = self.barycentric(None)?;
+            for &l in &convert {
+                for s in self.link_symbols(l) {
+                    self.parameters.remove(s);
+                    self.bounds.remove(s);
+                    self.standard_errors.remove(s);
+                    self.undetermined.retain(|u| u != s);
+                    self.forget_correlations(|x| x == s);
+                }
+                for j in (0..m.params.len()).filter(|&j| m.param_link[j] == l) {
+                    self.parameters.insert(m.params[j].to_string(), bary[j]);
+                }
+            }
+        }
+        self.set_values(names, values);
+        Ok(())
     }
 
     /// Set parameters `names` to `values` (SI, in the same order; a name without a value

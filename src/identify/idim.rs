@@ -288,12 +288,50 @@ pub struct Fit {
     pub rows: usize,
     /// Relative error 100·‖y − Wθ̂‖/‖y‖ (%).
     pub relative_error: f64,
+    /// When the regressor is rank-deficient ([`least_squares_base`]): the base parameters
+    /// the data determine, each a kept column with the dependent columns folded into it;
+    /// empty for a full-rank fit.
+    pub base: Vec<BaseParameter>,
+}
+
+/// A base parameter: a kept parameter plus the dependent ones folded into it,
+/// β = θ_kept + Σ k·θ_dependent (Gautier & Khalil 1990; grouped in the order of
+/// [`crate::identify::identifiability::base_parameters`]: inertias, then first moments,
+/// then masses, base to tip).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BaseParameter {
+    /// The kept parameter's name.
+    pub name: String,
+    /// Dependent parameters folded in, with their coefficients k (SI; for a mass folded
+    /// into an inertia, m² such as a1²).
+    pub terms: Vec<(f64, String)>,
+    /// Estimate β̂ (SI).
+    pub value: f64,
+    /// Standard deviation of β̂ (SI).
+    pub std: f64,
+}
+
+impl BaseParameter {
+    /// `ZZ1 + 0.09·M2` (terms with |k| < 1e-9 dropped).
+    pub fn expression(&self) -> String {
+        let mut s = self.name.clone();
+        for (k, n) in &self.terms {
+            let sign = if *k < 0.0 { '-' } else { '+' };
+            s.push_str(&format!(" {sign} {:.6}·{n}", k.abs()));
+        }
+        s
+    }
 }
 
 impl Fit {
-    /// Store the estimates as the plant's parameter values.
-    pub fn apply(&self, plant: &mut Plant) {
-        plant.set_values(&self.names, &self.theta);
+    /// Store the estimates as the plant's parameter values (links given in symbols whose
+    /// barycentric parameters were fitted are converted to barycentric form,
+    /// [`Plant::set_barycentric_values`]).
+    ///
+    /// # Errors
+    /// As [`Plant::set_barycentric_values`].
+    pub fn apply(&self, plant: &mut Plant) -> Result<()> {
+        plant.set_barycentric_values(&self.names, &self.theta)
     }
 
     /// Relative standard deviation 100·σ/|θ| (%).
@@ -373,6 +411,135 @@ pub fn least_squares(obs: &Observation) -> Result<Fit> {
         condition,
         rows: r,
         relative_error,
+        base: Vec::new(),
+    })
+}
+
+/// Relative size below which a unit-norm regressor column counts as a combination of the
+/// columns kept before it (an exact, structural dependency: rounding leaves ~1e-13).
+const DEPENDENT: f64 = 1e-8;
+
+/// Least squares on the base parameters (Gautier & Khalil 1990), for a regressor with
+/// dependent columns (every serial arm's): the columns are taken in the order of
+/// [`crate::identify::identifiability::base_parameters`] (effect parameters, then inertias,
+/// first moments and masses, base to tip), a column that is a combination of those kept
+/// before it (W₂ = W₁K) is folded into them, and the base parameters β = θ₁ + Kθ₂ are
+/// fitted on W₁. The dependent parameters θ₂ keep the values `prior` gives (the plant's),
+/// the kept ones get θ₁ = β̂ − Kθ₂, so the fitted dynamics Wθ equal W₁β̂ whatever θ₂.
+/// Standard deviations are those of β̂; a dependent parameter's is NaN (not determined).
+/// A full-rank regressor gives the result of [`least_squares`] with `base` empty.
+///
+/// `model` orders the rigid-body columns (names of `model.params`); `prior(name)` gives a
+/// dependent parameter's value (`None`: 0).
+///
+/// # Errors
+/// Fewer rows than base parameters; non-finite estimates.
+pub fn least_squares_base(
+    obs: &Observation,
+    model: &generated::Model,
+    prior: &dyn Fn(&str) -> Option<f64>,
+) -> Result<Fit> {
+    let (r, p) = obs.w.shape();
+    let norms: Vec<f64> = (0..p).map(|c| obs.w.column(c).norm()).collect();
+    // Effects first (kept), then rigid-body columns in the grouping order.
+    let key = |c: usize| -> (usize, usize, usize, usize) {
+        match model.params.iter().position(|n| *n == obs.names[c]) {
+            Some(j) => {
+                let kind = model.param_kind[j];
+                let group = match kind {
+                    0 => 3,
+                    1..=3 => 2,
+                    _ => 1,
+                };
+                (group, model.param_link[j], kind, c)
+            }
+            None => (0, 0, 0, c),
+        }
+    };
+    let mut order: Vec<usize> = (0..p).collect();
+    order.sort_by_key(|&c| key(c));
+    let mut kept: Vec<usize> = Vec::new();
+    let mut dependent: Vec<usize> = Vec::new();
+    let mut basis: Vec<DVector<f64>> = Vec::new();
+    for c in order {
+        if norms[c] == 0.0 {
+            dependent.push(c);
+            continue;
+        }
+        let mut v: DVector<f64> = obs.w.column(c).into_owned() / norms[c];
+        for _ in 0..2 {
+            for b in &basis {
+                let d = b.dot(&v);
+                v -= b * d;
+            }
+        }
+        let rest = v.norm();
+        if rest > DEPENDENT {
+            kept.push(c);
+            basis.push(v / rest);
+        } else {
+            dependent.push(c);
+        }
+    }
+    if dependent.is_empty() {
+        return least_squares(obs);
+    }
+    kept.sort_unstable();
+    if r <= kept.len() {
+        bail!(
+            "{r} observation rows for {} base parameters: more data needed",
+            kept.len()
+        );
+    }
+    let w1 = DMatrix::from_fn(r, kept.len(), |i, a| obs.w[(i, kept[a])]);
+    let reduced = Observation {
+        names: kept.iter().map(|&c| obs.names[c].clone()).collect(),
+        y: obs.y.clone(),
+        w: w1.clone(),
+        rows: obs.rows.clone(),
+    };
+    let beta = least_squares(&reduced)?;
+    // K: each dependent column as a combination of the kept ones (exact up to rounding).
+    let svd = crate::util::svd(w1).context("the kept columns: no decomposition")?;
+    let mut theta = vec![0.0; p];
+    let mut std = vec![f64::NAN; p];
+    let mut base: Vec<BaseParameter> = kept
+        .iter()
+        .enumerate()
+        .map(|(a, &c)| BaseParameter {
+            name: obs.names[c].clone(),
+            terms: Vec::new(),
+            value: beta.theta[a],
+            std: beta.std[a],
+        })
+        .collect();
+    let mut theta1: Vec<f64> = beta.theta.clone();
+    for &d in &dependent {
+        let k = svd
+            .solve(&obs.w.column(d).into_owned(), 0.0)
+            .map_err(|e| anyhow::anyhow!("folding '{}': {e}", obs.names[d]))?;
+        let theta2 = prior(&obs.names[d]).unwrap_or(0.0);
+        theta[d] = theta2;
+        for a in 0..kept.len() {
+            // Coefficients below rounding relative to the column scales are not terms.
+            if k[a].abs() * norms[kept[a]] > 1e-9 * norms[d].max(f64::MIN_POSITIVE) {
+                base[a].terms.push((k[a], obs.names[d].clone()));
+                theta1[a] -= k[a] * theta2;
+            }
+        }
+    }
+    for (a, &c) in kept.iter().enumerate() {
+        theta[c] = theta1[a];
+        std[c] = beta.std[a];
+    }
+    Ok(Fit {
+        names: obs.names.clone(),
+        theta,
+        std,
+        condition: beta.condition,
+        rows: r,
+        relative_error: beta.relative_error,
+        base,
     })
 }
 
@@ -404,10 +571,22 @@ pub fn implausible(plant: &Plant, conf: &generated::Configuration) -> Result<Vec
 /// # Errors
 /// A parameter of the observation has no value in the plant.
 pub fn predict(plant: &Plant, obs: &Observation) -> Result<DVector<f64>> {
+    // Rigid-body columns from the barycentric vector (links given in the model file's
+    // symbols are converted); effect parameters by name.
+    let bary = plant.barycentric(None).ok();
     let theta: Vec<f64> = obs
         .names
         .iter()
         .map(|n| {
+            let j = plant.model.params.iter().position(|p| p == n);
+            if let (Some(j), Some(b)) = (j, &bary) {
+                let syms = plant.link_symbols(plant.model.param_link[j]);
+                let symbol_form =
+                    !syms.is_empty() && syms.iter().all(|s| plant.parameters.contains_key(*s));
+                if symbol_form {
+                    return Ok(b[j]);
+                }
+            }
             plant.parameters.get(n).copied().with_context(|| {
                 format!(
                     "{}: parameter '{n}' has no value (identify first, or add it under [parameters])",

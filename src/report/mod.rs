@@ -26,5 +26,25 @@ pub fn fit_table(fit: &Fit) -> String {
         "rows {}, condition number {:.2}, relative error {:.3} %\n",
         fit.rows, fit.condition, fit.relative_error
     ));
+    if !fit.base.is_empty() {
+        let folded: usize = fit
+            .theta
+            .iter()
+            .zip(&fit.std)
+            .filter(|(_, s)| s.is_nan())
+            .count();
+        s.push_str(&format!(
+            "the regressor is rank-deficient: {} base parameters fitted; {folded} parameter(s) not separately identifiable keep the plant's values (std dev NaN) and are folded into:\n",
+            fit.base.len()
+        ));
+        for b in fit.base.iter().filter(|b| !b.terms.is_empty()) {
+            s.push_str(&format!(
+                "  {} = {:.6} ± {:.4e}\n",
+                b.expression(),
+                b.value,
+                b.std
+            ));
+        }
+    }
     s
 }
