@@ -356,7 +356,7 @@ fn read_mat(path: &Path) -> Result<Table, DataError> {
         }
         let (rows, cols) = (dim[0], dim[1]);
         let check = |v: Vec<f64>| -> Result<Vec<f64>, (usize, String)> {
-            match v.iter().position(|x| !(x.abs() <= MAX_MAGNITUDE)) {
+            match v.iter().position(|x| x.is_nan() || x.abs() > MAX_MAGNITUDE) {
                 Some(k) if v[k].is_finite() => Err((
                     k + 1,
                     format!(

@@ -61,7 +61,7 @@ pub fn check_memory(bytes: f64, what: &str) -> Result<()> {
         })
         .map_or(8.0 * (1u64 << 30) as f64, |kib| kib * 1024.0);
     let limit = (available / 2.0).min(64.0 * (1u64 << 30) as f64);
-    if !(bytes <= limit) {
+    if bytes.is_nan() || bytes > limit {
         anyhow::bail!(
             "{what}: would need about {:.1} GiB of memory, more than the {:.1} GiB this command allows itself (half of what is available); shorten it",
             bytes / (1u64 << 30) as f64,

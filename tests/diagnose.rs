@@ -27,7 +27,7 @@ fn opts() -> IdimOptions {
 fn fit_and_diagnose(plant: &mut Plant, m: &Measurement) -> (f64, Vec<Finding>) {
     let obs = observation(plant, "full", std::slice::from_ref(m), &opts()).unwrap();
     let fit = least_squares(&obs).unwrap();
-    fit.apply(plant);
+    fit.apply(plant).unwrap();
     (fit.relative_error, diagnose_torque(plant, &obs).unwrap())
 }
 

@@ -53,7 +53,7 @@ fn symmetric_model_reproduces_published_parameters_and_errors() {
     );
     // Same parameters on the pulses record.
     let mut fitted = p.clone();
-    fit.apply(&mut fitted);
+    fit.apply(&mut fitted).unwrap();
     let pulses = record("emps_test_pulses.csv");
     let obs2 = observation(&fitted, "full", &[pulses], &IdimOptions::default()).unwrap();
     let yhat = predict(&fitted, &obs2).unwrap();

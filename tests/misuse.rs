@@ -733,10 +733,7 @@ fn a_step_run_alone_adds_to_the_report_and_resume_skips_completed_steps() {
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("c1") && md.contains("c2"));
     // c1 again, alone: replaced in place, c2 kept.
-    ok(&run(
-        &s(&out.join("plant.toml")).to_string(),
-        &["--config", "c1"],
-    ));
+    ok(&run(s(&out.join("plant.toml")), &["--config", "c1"]));
     assert_eq!(steps(), ["c1", "c2"]);
     let o = run(&start, &["--resume", "--config", "c2"]);
     let err = String::from_utf8_lossy(&o.stderr);
