@@ -173,12 +173,14 @@ pub enum Command {
         /// Configuration (default: the input's side file's).
         #[arg(long)]
         config: Option<String>,
-        /// Locked-joint positions, e.g. q0=0.1,q1=-0.2 (rad or m; default 0 or the side file's).
-        #[arg(long, value_parser = parse_positions, default_value = "")]
-        locked: PositionList,
-        /// Initial positions of free joints, e.g. q4=0.3 (default 0; at rest, z = 0).
-        #[arg(long, value_parser = parse_positions, default_value = "")]
-        initial: PositionList,
+        /// Locked-joint positions, e.g. q0=0.1,q1=-0.2 (rad or m; default 0 or the side
+        /// file's; repeatable).
+        #[arg(long, value_parser = parse_positions)]
+        locked: Vec<PositionList>,
+        /// Initial positions of free joints, e.g. q4=0.3 (default 0; at rest, z = 0;
+        /// repeatable).
+        #[arg(long, value_parser = parse_positions)]
+        initial: Vec<PositionList>,
         /// Integration step (s), a number or a fraction such as 1/6000.
         #[arg(long, default_value = "1/6000", value_parser = parse_number)]
         step: f64,
@@ -289,9 +291,9 @@ pub enum EffectAction {
         /// input_coupling: the joint that receives it.
         #[arg(long)]
         to: Option<String>,
-        /// Values, e.g. Ks_3=0.01,qeq_3=0.2.
-        #[arg(long, value_parser = parse_positions, default_value = "")]
-        set: PositionList,
+        /// Values, e.g. Ks_3=0.01,qeq_3=0.2 (repeatable).
+        #[arg(long, value_parser = parse_positions)]
+        set: Vec<PositionList>,
         /// Bounds, e.g. Ks_3=0:0.1 (repeatable).
         #[arg(long, value_parser = parse_bound)]
         bound: Vec<(String, f64, f64)>,
@@ -435,9 +437,24 @@ fn parse_positions(s: &str) -> Result<PositionList, String> {
             .split_once('=')
             .ok_or_else(|| format!("'{item}': expected joint=value, e.g. q0=0.1"))?;
         let v = parse_number(v.trim()).map_err(|e| format!("'{item}': {e}"))?;
-        m.insert(k.trim().to_string(), v);
+        if m.insert(k.trim().to_string(), v).is_some() {
+            return Err(format!("'{}' is given twice", k.trim()));
+        }
     }
     Ok(PositionList(m))
+}
+
+/// The lists of a repeatable `flag` merged; a name given in two of them is refused.
+fn merged(flag: &str, lists: Vec<PositionList>) -> Result<std::collections::BTreeMap<String, f64>> {
+    let mut m = std::collections::BTreeMap::new();
+    for l in lists {
+        for (k, v) in l.0 {
+            if m.insert(k.clone(), v).is_some() {
+                bail!("{flag}: '{k}' is given twice");
+            }
+        }
+    }
+    Ok(m)
 }
 
 fn model_named(name: &str) -> Result<&'static generated::Model> {
@@ -1141,7 +1158,7 @@ fn run_command(cli: Cli) -> Result<()> {
             } else {
                 kind
             };
-            let set: Vec<(String, f64)> = set.0.into_iter().collect();
+            let set: Vec<(String, f64)> = merged("--set", set)?.into_iter().collect();
             let (new, effect) = effect_add(
                 &p,
                 &kind,
@@ -1227,8 +1244,8 @@ fn run_command(cli: Cli) -> Result<()> {
             let p = Plant::load(&plant)?;
             let opts = crate::synthetic::SimulateOptions {
                 config,
-                locked: locked.0,
-                initial: initial.0,
+                locked: merged("--locked", locked)?,
+                initial: merged("--initial", initial)?,
                 h: step,
                 integrator,
                 hold,
