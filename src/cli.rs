@@ -1035,18 +1035,21 @@ fn run_command(cli: Cli) -> Result<()> {
             let (mut plant, records, opts) = common.load()?;
             let obs = observation(&plant, config, &records, &opts)?;
             // A rank-deficient regressor (every serial arm's) is fitted on its base
-            // parameters; the dependent ones keep the plant's values.
+            // parameters, grouped at the records' locked positions; the dependent ones keep
+            // the plant's values.
             let conf = crate::util::configuration(plant.model, config)?;
-            let bary = plant.barycentric(None)?;
-            let prior = |n: &str| -> Option<f64> {
-                match plant.model.params.iter().position(|p| *p == n) {
-                    Some(j) if plant.configuration_has_link(conf, plant.model.param_link[j]) => {
-                        Some(bary[j])
-                    }
-                    _ => plant.parameters.get(n).copied(),
-                }
-            };
-            let fit = crate::identify::idim::least_squares_base(&obs, plant.model, &prior)?;
+            let values = plant.values_with_barycentric()?;
+            let locked_at: Vec<Vec<f64>> = records
+                .iter()
+                .map(|r| r.q.iter().map(|q| q[0]).collect())
+                .collect();
+            let fit = crate::identify::idim::least_squares_base(
+                &obs,
+                plant.model,
+                conf,
+                &locked_at,
+                &|n| values.get(n).copied(),
+            )?;
             crate::outln!(
                 "IDIM-LS, plant {}, configuration {}, {} record(s)",
                 common.plant.display(),
@@ -1056,7 +1059,6 @@ fn run_command(cli: Cli) -> Result<()> {
             crate::out!("{}", fit_table(&fit));
             if let Some(out) = out {
                 fit.apply(&mut plant)?;
-                let conf = crate::util::configuration(plant.model, config)?;
                 let reasons = crate::identify::idim::implausible(&plant, conf)?;
                 if !reasons.is_empty() {
                     if !allow_inconsistent {

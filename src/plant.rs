@@ -717,6 +717,23 @@ impl Plant {
         self.correlations.retain(|_, row| !row.is_empty());
     }
 
+    /// Every value by name as the equations use it: the plant's parameters, and for each
+    /// link given in the model file's symbols its barycentric parameters, converted
+    /// ([`Plant::barycentric`]).
+    ///
+    /// # Errors
+    /// The plant's link forms are inconsistent.
+    pub fn values_with_barycentric(&self) -> Result<BTreeMap<String, f64>> {
+        let m = self.model;
+        let forms = self.link_forms()?;
+        let bary = self.barycentric(None)?;
+        let mut values = self.parameters.clone();
+        for j in (0..m.params.len()).filter(|&j| forms[m.param_link[j]] == Some(true)) {
+            values.insert(m.params[j].to_string(), bary[j]);
+        }
+        Ok(values)
+    }
+
     /// Set fitted values given as barycentric rigid-body parameters or effect parameters
     /// (IDIM's columns). A link given in the model file's symbols whose barycentric
     /// parameters are set is first converted to barycentric form, so that the plant keeps one

@@ -12,6 +12,7 @@
 //!    linear relation y = W θ.
 //! 5. θ̂ = argmin ‖y − Wθ‖ (SVD), σ̂² = ‖y − Wθ̂‖²/(r − p), cov(θ̂) = σ̂² (WᵀW)⁻¹.
 
+use crate::identify::identifiability::{base_parameters_at, BaseParameter};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::signal::{butter_lowpass, central_difference, decimate, decimation_indices};
@@ -291,36 +292,20 @@ pub struct Fit {
     /// When the regressor is rank-deficient ([`least_squares_base`]): the base parameters
     /// the data determine, each a kept column with the dependent columns folded into it;
     /// empty for a full-rank fit.
-    pub base: Vec<BaseParameter>,
+    pub base: Vec<BaseEstimate>,
 }
 
-/// A base parameter: a kept parameter plus the dependent ones folded into it,
-/// β = θ_kept + Σ k·θ_dependent (Gautier & Khalil 1990; grouped in the order of
-/// [`crate::identify::identifiability::base_parameters`]: inertias, then first moments,
-/// then masses, base to tip).
-#[derive(Debug, Clone, PartialEq)]
-pub struct BaseParameter {
-    /// The kept parameter's name.
-    pub name: String,
-    /// Dependent parameters folded in, with their coefficients k (SI; for a mass folded
-    /// into an inertia, m² such as a1²).
-    pub terms: Vec<(f64, String)>,
+/// The estimate of one base parameter of a rank-deficient regressor
+/// ([`least_squares_base`]).
+#[derive(Debug, Clone)]
+pub struct BaseEstimate {
+    /// The base parameter: the kept parameter and the dependent ones folded into it,
+    /// β = θ_kept + Σ k·θ_dependent ([`base_parameters_at`]).
+    pub parameter: BaseParameter,
     /// Estimate β̂ (SI).
     pub value: f64,
     /// Standard deviation of β̂ (SI).
     pub std: f64,
-}
-
-impl BaseParameter {
-    /// `ZZ1 + 0.09·M2` (terms with |k| < 1e-9 dropped).
-    pub fn expression(&self) -> String {
-        let mut s = self.name.clone();
-        for (k, n) in &self.terms {
-            let sign = if *k < 0.0 { '-' } else { '+' };
-            s.push_str(&format!(" {sign} {:.6}·{n}", k.abs()));
-        }
-        s
-    }
 }
 
 impl Fit {
@@ -415,131 +400,74 @@ pub fn least_squares(obs: &Observation) -> Result<Fit> {
     })
 }
 
-/// Relative size below which a unit-norm regressor column counts as a combination of the
-/// columns kept before it (an exact, structural dependency: rounding leaves ~1e-13).
-const DEPENDENT: f64 = 1e-8;
-
 /// Least squares on the base parameters (Gautier & Khalil 1990), for a regressor with
-/// dependent columns (every serial arm's): the columns are taken in the order of
-/// [`crate::identify::identifiability::base_parameters`] (effect parameters, then inertias,
-/// first moments and masses, base to tip), a column that is a combination of those kept
-/// before it (W₂ = W₁K) is folded into them, and the base parameters β = θ₁ + Kθ₂ are
-/// fitted on W₁. The dependent parameters θ₂ keep the values `prior` gives (the plant's),
-/// the kept ones get θ₁ = β̂ − Kθ₂, so the fitted dynamics Wθ equal W₁β̂ whatever θ₂.
-/// Standard deviations are those of β̂; a dependent parameter's is NaN (not determined).
-/// A full-rank regressor gives the result of [`least_squares`] with `base` empty.
+/// dependent columns (every serial arm's). The grouping is the configuration's own
+/// ([`base_parameters_at`] at the records' locked positions `locked_at`, as `lockstep
+/// params` prints it): each dependent rigid-body column is a combination of kept ones
+/// (W₂ = W₁K), so the base parameters β = θ₁ + Kθ₂ are fitted on W₁ (the kept rigid-body
+/// columns and every effect column). The dependent parameters θ₂ keep the values `prior`
+/// gives (the plant's), the kept ones get θ₁ = β̂ − Kθ₂, so the fitted dynamics Wθ equal
+/// W₁β̂ whatever θ₂. Standard deviations are those of β̂; a dependent parameter's is NaN
+/// (not determined). Without dependent columns the result is [`least_squares`]'s, `base`
+/// empty.
 ///
-/// `model` orders the rigid-body columns (names of `model.params`); `prior(name)` gives a
-/// dependent parameter's value (`None`: 0).
+/// `prior(name)` gives a dependent parameter's value (`None`: 0).
 ///
 /// # Errors
-/// Fewer rows than base parameters; non-finite estimates.
+/// As [`least_squares`] on the kept columns (fewer rows than base parameters, a kept
+/// column the data do not determine, non-finite estimates).
 pub fn least_squares_base(
     obs: &Observation,
     model: &generated::Model,
+    conf: &generated::Configuration,
+    locked_at: &[Vec<f64>],
     prior: &dyn Fn(&str) -> Option<f64>,
 ) -> Result<Fit> {
-    let (r, p) = obs.w.shape();
-    let norms: Vec<f64> = (0..p).map(|c| obs.w.column(c).norm()).collect();
-    // Effects first (kept), then rigid-body columns in the grouping order.
-    let key = |c: usize| -> (usize, usize, usize, usize) {
-        match model.params.iter().position(|n| *n == obs.names[c]) {
-            Some(j) => {
-                let kind = model.param_kind[j];
-                let group = match kind {
-                    0 => 3,
-                    1..=3 => 2,
-                    _ => 1,
-                };
-                (group, model.param_link[j], kind, c)
-            }
-            None => (0, 0, 0, c),
-        }
-    };
-    let mut order: Vec<usize> = (0..p).collect();
-    order.sort_by_key(|&c| key(c));
-    let mut kept: Vec<usize> = Vec::new();
-    let mut dependent: Vec<usize> = Vec::new();
-    let mut basis: Vec<DVector<f64>> = Vec::new();
-    for c in order {
-        if norms[c] == 0.0 {
-            dependent.push(c);
-            continue;
-        }
-        let mut v: DVector<f64> = obs.w.column(c).into_owned() / norms[c];
-        for _ in 0..2 {
-            for b in &basis {
-                let d = b.dot(&v);
-                v -= b * d;
-            }
-        }
-        let rest = v.norm();
-        if rest > DEPENDENT {
-            kept.push(c);
-            basis.push(v / rest);
-        } else {
-            dependent.push(c);
-        }
-    }
-    if dependent.is_empty() {
+    let grouping = base_parameters_at(model, conf, locked_at);
+    let p = obs.names.len();
+    let is_dependent = |c: usize| grouping.dependent.contains(&obs.names[c]);
+    if !(0..p).any(is_dependent) {
         return least_squares(obs);
     }
-    kept.sort_unstable();
-    if r <= kept.len() {
-        bail!(
-            "{r} observation rows for {} base parameters: more data needed",
-            kept.len()
-        );
-    }
-    let w1 = DMatrix::from_fn(r, kept.len(), |i, a| obs.w[(i, kept[a])]);
+    let kept: Vec<usize> = (0..p).filter(|&c| !is_dependent(c)).collect();
     let reduced = Observation {
         names: kept.iter().map(|&c| obs.names[c].clone()).collect(),
         y: obs.y.clone(),
-        w: w1.clone(),
+        w: DMatrix::from_fn(obs.w.nrows(), kept.len(), |i, a| obs.w[(i, kept[a])]),
         rows: obs.rows.clone(),
     };
     let beta = least_squares(&reduced)?;
-    // K: each dependent column as a combination of the kept ones (exact up to rounding).
-    let svd = crate::util::svd(w1).context("the kept columns: no decomposition")?;
     let mut theta = vec![0.0; p];
     let mut std = vec![f64::NAN; p];
-    let mut base: Vec<BaseParameter> = kept
-        .iter()
-        .enumerate()
-        .map(|(a, &c)| BaseParameter {
-            name: obs.names[c].clone(),
-            terms: Vec::new(),
-            value: beta.theta[a],
-            std: beta.std[a],
-        })
-        .collect();
-    let mut theta1: Vec<f64> = beta.theta.clone();
-    for &d in &dependent {
-        let k = svd
-            .solve(&obs.w.column(d).into_owned(), 0.0)
-            .map_err(|e| anyhow::anyhow!("folding '{}': {e}", obs.names[d]))?;
-        let theta2 = prior(&obs.names[d]).unwrap_or(0.0);
-        theta[d] = theta2;
-        for a in 0..kept.len() {
-            // Coefficients below rounding relative to the column scales are not terms.
-            if k[a].abs() * norms[kept[a]] > 1e-9 * norms[d].max(f64::MIN_POSITIVE) {
-                base[a].terms.push((k[a], obs.names[d].clone()));
-                theta1[a] -= k[a] * theta2;
-            }
-        }
+    let mut base = Vec::new();
+    for c in (0..p).filter(|&c| is_dependent(c)) {
+        theta[c] = prior(&obs.names[c]).unwrap_or(0.0);
     }
     for (a, &c) in kept.iter().enumerate() {
-        theta[c] = theta1[a];
+        // θ₁ = β̂ − Σ k·θ₂ over the dependent parameters folded into this one.
+        let folded = grouping.base.iter().find(|b| b.name == obs.names[c]);
+        let made_up: f64 = folded.map_or(0.0, |b| {
+            b.terms
+                .iter()
+                .map(|(k, n)| k * prior(n).unwrap_or(0.0))
+                .sum()
+        });
+        theta[c] = beta.theta[a] - made_up;
         std[c] = beta.std[a];
+        if let Some(b) = folded.filter(|b| !b.terms.is_empty()) {
+            base.push(BaseEstimate {
+                parameter: b.clone(),
+                value: beta.theta[a],
+                std: beta.std[a],
+            });
+        }
     }
     Ok(Fit {
         names: obs.names.clone(),
         theta,
         std,
-        condition: beta.condition,
-        rows: r,
-        relative_error: beta.relative_error,
         base,
+        ..beta
     })
 }
 
@@ -571,23 +499,13 @@ pub fn implausible(plant: &Plant, conf: &generated::Configuration) -> Result<Vec
 /// # Errors
 /// A parameter of the observation has no value in the plant.
 pub fn predict(plant: &Plant, obs: &Observation) -> Result<DVector<f64>> {
-    // Rigid-body columns from the barycentric vector (links given in the model file's
-    // symbols are converted); effect parameters by name.
-    let bary = plant.barycentric(None).ok();
+    // Links given in the model file's symbols enter through their barycentric values.
+    let values = plant.values_with_barycentric()?;
     let theta: Vec<f64> = obs
         .names
         .iter()
         .map(|n| {
-            let j = plant.model.params.iter().position(|p| p == n);
-            if let (Some(j), Some(b)) = (j, &bary) {
-                let syms = plant.link_symbols(plant.model.param_link[j]);
-                let symbol_form =
-                    !syms.is_empty() && syms.iter().all(|s| plant.parameters.contains_key(*s));
-                if symbol_form {
-                    return Ok(b[j]);
-                }
-            }
-            plant.parameters.get(n).copied().with_context(|| {
+            values.get(n).copied().with_context(|| {
                 format!(
                     "{}: parameter '{n}' has no value (identify first, or add it under [parameters])",
                     plant.name()

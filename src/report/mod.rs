@@ -27,22 +27,15 @@ pub fn fit_table(fit: &Fit) -> String {
         fit.rows, fit.condition, fit.relative_error
     ));
     if !fit.base.is_empty() {
-        let folded: usize = fit
-            .theta
-            .iter()
-            .zip(&fit.std)
-            .filter(|(_, s)| s.is_nan())
-            .count();
+        let folded = fit.std.iter().filter(|s| s.is_nan()).count();
         s.push_str(&format!(
             "the regressor is rank-deficient: {} base parameters fitted; {folded} parameter(s) not separately identifiable keep the plant's values (std dev NaN) and are folded into:\n",
-            fit.base.len()
+            fit.std.len() - folded
         ));
-        for b in fit.base.iter().filter(|b| !b.terms.is_empty()) {
+        for b in &fit.base {
             s.push_str(&format!(
                 "  {} = {:.6} ± {:.4e}\n",
-                b.expression(),
-                b.value,
-                b.std
+                b.parameter, b.value, b.std
             ));
         }
     }
