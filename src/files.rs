@@ -38,12 +38,9 @@ static DEFERRED: Mutex<Option<Vec<Staged>>> = Mutex::new(None);
 /// # Errors
 /// `body`'s error (its files removed), or a rename that fails at the end.
 pub fn all_or_nothing<T>(body: impl FnOnce() -> Result<T>) -> Result<T> {
-    let lock = |g: std::sync::LockResult<std::sync::MutexGuard<'static, Option<Vec<Staged>>>>| {
-        g.unwrap_or_else(|p| p.into_inner())
-    };
-    *lock(DEFERRED.lock()) = Some(Vec::new());
+    *locked(&DEFERRED) = Some(Vec::new());
     let result = body();
-    let staged = lock(DEFERRED.lock()).take().unwrap_or_default();
+    let staged = locked(&DEFERRED).take().unwrap_or_default();
     match result {
         Ok(v) => {
             commit_now(staged)?;
@@ -56,12 +53,15 @@ pub fn all_or_nothing<T>(body: impl FnOnce() -> Result<T>) -> Result<T> {
     }
 }
 
+/// The guarded value of `m`, also after a panic elsewhere poisoned it (the lists here stay
+/// valid whatever a panicking writer did).
+fn locked<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 /// Remove every temporary file of an unfinished write (called on SIGINT by the binary).
 pub fn remove_staged_files() {
-    let staged = match STAGED.lock() {
-        Ok(g) => g.clone(),
-        Err(p) => p.into_inner().clone(),
-    };
+    let staged = locked(&STAGED).clone();
     for p in staged {
         let _ = std::fs::remove_file(p);
     }
@@ -166,9 +166,7 @@ impl Staged {
             std::process::id(),
             COUNTER.fetch_add(1, Ordering::Relaxed)
         ));
-        if let Ok(mut g) = STAGED.lock() {
-            g.push(tmp.clone());
-        }
+        locked(&STAGED).push(tmp.clone());
         let staged = Staged {
             tmp,
             target,
@@ -180,14 +178,19 @@ impl Staged {
         Ok(staged)
     }
 
+    /// [`Staged::new`] filled with `bytes`.
+    ///
+    /// # Errors
+    /// As [`Staged::new`] and [`Staged::fill`].
+    pub fn with_bytes(path: &Path, bytes: &[u8]) -> Result<Staged> {
+        let s = Staged::new(path)?;
+        s.fill(|w| w.write_all(bytes).map_err(Into::into))?;
+        Ok(s)
+    }
+
     /// The temporary file (to be filled by a writer that takes a path).
     pub fn tmp_path(&self) -> &Path {
         &self.tmp
-    }
-
-    /// The path the user gave.
-    pub fn path(&self) -> &Path {
-        &self.given
     }
 
     /// Fill the temporary file through a buffered writer.
@@ -213,9 +216,7 @@ impl Drop for Staged {
         if !self.done {
             let _ = std::fs::remove_file(&self.tmp);
         }
-        if let Ok(mut g) = STAGED.lock() {
-            g.retain(|p| p != &self.tmp);
-        }
+        locked(&STAGED).retain(|p| p != &self.tmp);
     }
 }
 
@@ -232,12 +233,9 @@ fn parent_dir(p: &Path) -> &Path {
 /// # Errors
 /// A rename fails (the path is named); the files renamed before it stay.
 pub fn commit(staged: Vec<Staged>) -> Result<()> {
-    {
-        let mut g = DEFERRED.lock().unwrap_or_else(|p| p.into_inner());
-        if let Some(held) = g.as_mut() {
-            held.extend(staged);
-            return Ok(());
-        }
+    if let Some(held) = locked(&DEFERRED).as_mut() {
+        held.extend(staged);
+        return Ok(());
     }
     commit_now(staged)
 }
@@ -279,15 +277,12 @@ fn commit_now(staged: Vec<Staged>) -> Result<()> {
 /// # Errors
 /// Neither exists or can be read.
 pub fn read_output(path: &Path) -> std::io::Result<String> {
-    let staged = {
-        let g = DEFERRED.lock().unwrap_or_else(|p| p.into_inner());
-        g.as_ref().and_then(|held| {
-            held.iter()
-                .rev()
-                .find(|s| s.given == path || same_file(&s.given, path))
-                .map(|s| s.tmp.clone())
-        })
-    };
+    let staged = locked(&DEFERRED).as_ref().and_then(|held| {
+        held.iter()
+            .rev()
+            .find(|s| s.given == path || same_file(&s.given, path))
+            .map(|s| s.tmp.clone())
+    });
     std::fs::read_to_string(staged.as_deref().unwrap_or(path))
 }
 
@@ -391,7 +386,7 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
 /// # Errors
 /// As [`Staged::new`] and [`commit`].
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic_with(path, |f| f.write_all(bytes).map_err(Into::into))
+    commit(vec![Staged::with_bytes(path, bytes)?])
 }
 
 /// Like [`write_atomic`] with a writer callback; the temporary file is removed on error.
@@ -412,12 +407,10 @@ pub fn write_atomic_with(
 /// # Errors
 /// As [`write_atomic`]; nothing is renamed if any file cannot be staged.
 pub fn write_all_atomic(files: &[(PathBuf, Vec<u8>)]) -> Result<()> {
-    let mut staged = Vec::with_capacity(files.len());
-    for (p, bytes) in files {
-        let s = Staged::new(p)?;
-        s.fill(|w| w.write_all(bytes).map_err(Into::into))?;
-        staged.push(s);
-    }
+    let staged = files
+        .iter()
+        .map(|(p, bytes)| Staged::with_bytes(p, bytes))
+        .collect::<Result<Vec<_>>>()?;
     commit(staged)
 }
 

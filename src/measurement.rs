@@ -97,6 +97,19 @@ pub struct SideFile {
 /// its square, in any sum of squares, would overflow the float format.
 pub const MAX_MAGNITUDE: f64 = 1e100;
 
+/// Why `x` cannot be a measured value (CSV cell or MAT element), or `None`.
+fn implausible(x: f64) -> Option<String> {
+    if !x.is_finite() {
+        Some("is not a finite number".into())
+    } else if x.abs() > MAX_MAGNITUDE {
+        Some(format!(
+            "is beyond any measured value (|x| > {MAX_MAGNITUDE:e}): a corrupt cell?"
+        ))
+    } else {
+        None
+    }
+}
+
 /// Named numeric columns of a CSV or MAT file, with the side file's mapping applied
 /// (columns carry their standard names). A CSV cell that is not a finite number is reported
 /// when its column is asked for.
@@ -240,15 +253,9 @@ fn read_csv_table(path: &Path) -> Result<Table, DataError> {
         for (i, col) in columns.iter_mut().enumerate() {
             let Ok(v) = col else { continue };
             let text = rec.get(i).unwrap_or("");
-            match text.parse::<f64>() {
-                Ok(x) if x.abs() <= MAX_MAGNITUDE => v.push(x),
-                Ok(x) if x.is_finite() => {
-                    *col = Err((
-                        row,
-                        format!("'{text}' is beyond any measured value (|x| > {MAX_MAGNITUDE:e}): a corrupt cell?"),
-                    ))
-                }
-                Ok(_) => *col = Err((row, format!("'{text}' is not a finite number"))),
+            match text.parse::<f64>().map(|x| (x, implausible(x))) {
+                Ok((x, None)) => v.push(x),
+                Ok((_, Some(why))) => *col = Err((row, format!("'{text}' {why}"))),
                 Err(_) => *col = Err((row, format!("'{text}' is not a number"))),
             }
         }
@@ -356,16 +363,12 @@ fn read_mat(path: &Path) -> Result<Table, DataError> {
         }
         let (rows, cols) = (dim[0], dim[1]);
         let check = |v: Vec<f64>| -> Result<Vec<f64>, (usize, String)> {
-            match v.iter().position(|x| x.is_nan() || x.abs() > MAX_MAGNITUDE) {
-                Some(k) if v[k].is_finite() => Err((
-                    k + 1,
-                    format!(
-                        "element {} is {:e}, beyond any measured value (|x| > {MAX_MAGNITUDE:e}): corrupt?",
-                        k + 1,
-                        v[k]
-                    ),
-                )),
-                Some(k) => Err((k + 1, format!("element {} is {}", k + 1, v[k]))),
+            match v
+                .iter()
+                .enumerate()
+                .find_map(|(k, &x)| Some((k, implausible(x)?)))
+            {
+                Some((k, why)) => Err((k + 1, format!("element {} ({:e}) {why}", k + 1, v[k]))),
                 None => Ok(v),
             }
         };
@@ -749,10 +752,5 @@ pub fn write_side_file(data: &Path, side: &SideFile) -> anyhow::Result<()> {
 /// As [`write_side_file`].
 pub fn stage_side_file(data: &Path, side: &SideFile) -> anyhow::Result<crate::files::Staged> {
     let text = toml::to_string_pretty(side)?;
-    let staged = crate::files::Staged::new(&side_file_path(data))?;
-    staged.fill(|w| {
-        use std::io::Write;
-        w.write_all(text.as_bytes()).map_err(Into::into)
-    })?;
-    Ok(staged)
+    crate::files::Staged::with_bytes(&side_file_path(data), text.as_bytes())
 }

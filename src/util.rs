@@ -76,22 +76,24 @@ pub fn check_memory(bytes: f64, what: &str) -> Result<()> {
 /// iterates forever on a NaN or infinite entry and panics sorting NaN singular values;
 /// every least-squares solve of lockstep goes through here.
 pub fn svd(a: nalgebra::DMatrix<f64>) -> Option<nalgebra::SVD<f64, nalgebra::Dyn, nalgebra::Dyn>> {
-    if !a.iter().all(|x| x.is_finite()) {
-        return None;
-    }
-    let limit = 1000 + 100 * a.nrows().min(a.ncols());
-    a.try_svd(true, true, f64::EPSILON, limit)
+    guarded_svd(a, true)
 }
 
 /// Singular values only, under the same guards as [`svd`].
 pub fn singular_values(a: &nalgebra::DMatrix<f64>) -> Option<nalgebra::DVector<f64>> {
+    guarded_svd(a.clone(), false).map(|s| s.singular_values)
+}
+
+/// [`svd`]'s guards: finite entries, a bounded number of iterations.
+fn guarded_svd(
+    a: nalgebra::DMatrix<f64>,
+    vectors: bool,
+) -> Option<nalgebra::SVD<f64, nalgebra::Dyn, nalgebra::Dyn>> {
     if !a.iter().all(|x| x.is_finite()) {
         return None;
     }
     let limit = 1000 + 100 * a.nrows().min(a.ncols());
-    a.clone()
-        .try_svd(false, false, f64::EPSILON, limit)
-        .map(|s| s.singular_values)
+    a.try_svd(vectors, vectors, f64::EPSILON, limit)
 }
 
 /// A TOML parse error as one line: `origin: line N: message`.
