@@ -6,7 +6,6 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod accuracy;
-pub mod cli;
 pub mod compare;
 pub mod control;
 pub mod demo;

@@ -1,6 +1,8 @@
 //! The `lockstep` binary.
 use clap::Parser;
 
+mod commands;
+
 fn main() {
     // Ctrl-C: remove the temporary files of unfinished writes, exit as a shell expects
     // (128 + SIGINT). Completed outputs stay as they are.
@@ -8,8 +10,8 @@ fn main() {
         lockstep::files::remove_staged_files();
         std::process::exit(130);
     });
-    let cli = lockstep::cli::Cli::parse();
-    if let Err(e) = lockstep::cli::run(cli) {
+    let cli = commands::Cli::parse();
+    if let Err(e) = commands::run(cli) {
         lockstep::errln!("error: {e:#}");
         std::process::exit(1);
     }

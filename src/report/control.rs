@@ -1,7 +1,6 @@
 //! Reports of the control commands: `lockstep closedloop`, `lockstep wall`, `lockstep wall
 //! tune` (tables on stdout and in markdown/JSON, figures, rule tables as FLL and FIS).
 
-use crate::cli::WallArgs;
 use crate::control::closedloop::{ClosedLoop, ClosedLoopRun};
 use crate::control::fuzzy::Fam;
 use crate::control::tune::tune;
@@ -14,6 +13,20 @@ use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+
+/// What `lockstep wall` and `lockstep wall tune` run: the wall file, an optional rule table
+/// replacing its modified one, the control rate and the output directory.
+#[derive(Debug, Clone)]
+pub struct WallRun {
+    /// Wall file (plant, loop, PD gains, user, membership functions, rule modifications).
+    pub spec: PathBuf,
+    /// Rule table (.fll fuzzylite or .fis MATLAB) replacing the file's modified one.
+    pub rules: Option<PathBuf>,
+    /// Control rate for the hand sweep and tuning (Hz); `None`: the file's first rate.
+    pub rate: Option<f64>,
+    /// Output directory.
+    pub out: PathBuf,
+}
 
 /// Metric definitions, printed in every wall report.
 pub const METRIC_DEFINITIONS: &str = "\
@@ -187,7 +200,7 @@ fn compare_at(setup: &WallSetup, fz: &WallLaw, rate: f64) -> Result<Comparison> 
 ///
 /// # Errors
 /// Bad wall file or rule table (named), simulation failures, unwritable output.
-pub fn wall_command(args: &WallArgs) -> Result<()> {
+pub fn wall_command(args: &WallRun) -> Result<()> {
     let setup = WallSetup::load(&args.spec)?;
     let fam = load_rules(&setup, args.rules.as_deref())?;
     let fz = WallLaw::Fuzzy(fam.clone());
@@ -322,7 +335,7 @@ pub fn wall_command(args: &WallArgs) -> Result<()> {
 ///
 /// # Errors
 /// As [`wall_command`].
-pub fn tune_command(args: &WallArgs) -> Result<()> {
+pub fn tune_command(args: &WallRun) -> Result<()> {
     let setup = WallSetup::load(&args.spec)?;
     let rate = args.rate.unwrap_or(setup.spec.loop_.rates[0]);
     let out = &args.out;

@@ -20,8 +20,8 @@ struct Cli {
 enum Cmd {
     /// Generate the kernels of one model (all configurations, or one).
     Gen {
-        /// Model name (file model/<name>.toml).
-        #[arg(long, default_value = "emps")]
+        /// Model name (file model/<name>.toml); the default is the flagship, the Freedom 6S.
+        #[arg(long, default_value = "freedom6s")]
         model: String,
         /// Only this configuration (name or 1-based index).
         #[arg(long)]
@@ -32,7 +32,15 @@ enum Cmd {
     },
 }
 
-fn main() -> Result<()> {
+fn main() {
+    // One line on stderr and exit 1, never a backtrace: the errors name file and item.
+    if let Err(e) = run() {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run() -> Result<()> {
     let Cli {
         cmd: Cmd::Gen { model, config, out },
     } = Cli::parse();

@@ -1,20 +1,20 @@
 //! The `lockstep` command line.
 
-use crate::identify::equation_error::Cutoff;
-use crate::identify::identifiability::{base_parameters, markdown, occurrence};
-use crate::identify::idim::{observation, IdimOptions};
-use crate::identify::output_error::{OutputErrorOptions, StageOptimiser};
-use crate::identify::sequence::{JointFitMode, RigidBodyFit, SequenceOptions};
-use crate::measurement::Measurement;
-use crate::plant::Plant;
-use crate::report::diagnosis::{
+use anyhow::{bail, Result};
+use clap::{Args, Parser, Subcommand};
+use lockstep::identify::equation_error::Cutoff;
+use lockstep::identify::identifiability::{base_parameters, markdown, occurrence};
+use lockstep::identify::idim::{observation, IdimOptions};
+use lockstep::identify::output_error::{OutputErrorOptions, StageOptimiser};
+use lockstep::identify::sequence::{JointFitMode, RigidBodyFit, SequenceOptions};
+use lockstep::measurement::Measurement;
+use lockstep::plant::Plant;
+use lockstep::report::diagnosis::{
     apply_all_command, apply_finding, compare_command, diagnose, effect_add, refit_command,
     refit_table, report_command, Inputs,
 };
-use crate::report::fit_table;
-use crate::simulation::{Hold, Integrator};
-use anyhow::{bail, Result};
-use clap::{Args, Parser, Subcommand};
+use lockstep::report::fit_table;
+use lockstep::simulation::{Hold, Integrator};
 use std::path::PathBuf;
 
 /// lockstep: symbolic robot models to Rust kernels; identification, model-vs-measurement
@@ -409,7 +409,7 @@ pub struct WallArgs {
 pub struct PositionList(pub std::collections::BTreeMap<String, f64>);
 
 fn parse_number(s: &str) -> Result<f64, String> {
-    crate::excitation::Value::Expr(s.to_string())
+    lockstep::excitation::Value::Expr(s.to_string())
         .eval()
         .map_err(|e| format!("{e:#}"))
 }
@@ -458,7 +458,7 @@ fn merged(flag: &str, lists: Vec<PositionList>) -> Result<std::collections::BTre
 }
 
 fn model_named(name: &str) -> Result<&'static generated::Model> {
-    crate::util::model(name).map_err(|e| anyhow::anyhow!("--model: {e}"))
+    lockstep::util::model(name).map_err(|e| anyhow::anyhow!("--model: {e}"))
 }
 
 /// Options shared by identify and compare.
@@ -508,7 +508,7 @@ impl Common {
     fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
         let (plant, opts) = self.load_plant()?;
         let nj = plant.model.joints.len();
-        let records = crate::measurement::expand_data_paths(&self.data)?
+        let records = lockstep::measurement::expand_data_paths(&self.data)?
             .iter()
             .map(|d| Measurement::read(d, nj))
             .collect::<Result<Vec<_>, _>>()?;
@@ -717,7 +717,7 @@ pub struct OutputErrorArgs {
 
 impl OutputErrorArgs {
     fn options<'a>(&'a self, method: &str) -> Result<OutputErrorOptions> {
-        use crate::identify::output_error::TimeWeighting;
+        use lockstep::identify::output_error::TimeWeighting;
         // The coupled method's defaults are the settings that took k1..k4 of the Freedom
         // 6S sequence to the noise floor (README); the isolated method keeps the thesis's
         // growing horizons.
@@ -871,7 +871,7 @@ fn identify_sequence(
     let out = out.unwrap_or_else(|| PathBuf::from("lockstep-out/identify"));
     let mut plant = Plant::load(&common.plant)?;
     if oe.resume {
-        let current = crate::identify::sequence::resume_plant(&out)?;
+        let current = lockstep::identify::sequence::resume_plant(&out)?;
         if current.model.name != plant.model.name {
             bail!(
                 "--resume: {} is a plant of model '{}', --plant of '{}'",
@@ -880,7 +880,7 @@ fn identify_sequence(
                 plant.model.name
             );
         }
-        crate::errln!(
+        lockstep::errln!(
             "resuming from {} (the plant of the last completed step)",
             out.join("plant.toml").display()
         );
@@ -912,7 +912,7 @@ fn identify_sequence(
     // Without a terminal (logs, CI) one line per iteration instead of a spinner.
     let plain = bar.is_hidden();
     let last = std::sync::Mutex::new((String::new(), usize::MAX));
-    let report = crate::identify::sequence::run(&plant, &common.data, &opts, &|step, p| {
+    let report = lockstep::identify::sequence::run(&plant, &common.data, &opts, &|step, p| {
         let msg = format!(
             "{step} · start {}/{} · {} · iteration {} · {} evaluations · cost {:.4e} · {:.0} s",
             p.start + 1,
@@ -927,7 +927,7 @@ fn identify_sequence(
             let mut l = last.lock().unwrap_or_else(|e| e.into_inner());
             if l.0 != step || l.1 != p.iteration {
                 *l = (step.to_string(), p.iteration);
-                crate::errln!("{msg}");
+                lockstep::errln!("{msg}");
             }
         } else {
             bar.set_message(msg);
@@ -936,9 +936,9 @@ fn identify_sequence(
     bar.finish_and_clear();
     let report = report?;
     for i in &report.ignored {
-        crate::errln!("note: not used: {i}");
+        lockstep::errln!("note: not used: {i}");
     }
-    crate::outln!(
+    lockstep::outln!(
         "{:<6} {:>6} {:>12} {:>12} {:>9} {:>8} {:>6}  fit % per joint",
         "step",
         "params",
@@ -950,7 +950,7 @@ fn identify_sequence(
     );
     for s in report.steps.iter().chain(&report.joint) {
         let f = &s.fit;
-        crate::outln!(
+        lockstep::outln!(
             "{:<6} {:>6} {:>12.4e} {:>12.4e} {:>9.1} {:>8} {:>6}  {}",
             s.step.config,
             f.names.len(),
@@ -969,20 +969,20 @@ fn identify_sequence(
     }
     for s in report.steps.iter().chain(&report.joint) {
         if s.fit.evaluations == 0 {
-            crate::errln!(
+            lockstep::errln!(
                 "warning: step {}: no fit was made (the plant's values are kept); {} says why",
                 s.step.config,
                 opts.out.join("report.md").display()
             );
         }
         for line in &s.impossible {
-            crate::errln!(
+            lockstep::errln!(
                 "warning: step {}: physically impossible: {line}",
                 s.step.config
             );
         }
     }
-    crate::outln!(
+    lockstep::outln!(
         "wrote {}, {} and {}",
         opts.out.join("plant.toml").display(),
         opts.out.join("report.md").display(),
@@ -997,24 +997,24 @@ fn identify_sequence(
 /// Any failure, with a message naming the file or option.
 pub fn run(cli: Cli) -> Result<()> {
     // A command's outputs are written together at its end, or not at all
-    // ([`crate::files::all_or_nothing`]); the identification sequences instead keep each
+    // ([`lockstep::files::all_or_nothing`]); the identification sequences instead keep each
     // completed step's files, so that an interrupted run can be resumed.
     let keeps_each_step =
         matches!(&cli.command, Command::Identify { method, .. } if method != "idim");
     if keeps_each_step {
         run_command(cli)
     } else {
-        crate::files::all_or_nothing(|| run_command(cli))
+        lockstep::files::all_or_nothing(|| run_command(cli))
     }
 }
 
 fn run_command(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo { out } => {
-            crate::files::check_output_dir(&out)?;
-            let r = crate::demo::run(&crate::demo::bundled_data_dir(), &out)?;
-            crate::out!("{}", r.text);
-            crate::outln!("\nOutputs (plant files, residual CSVs, plots as PNG and SVG, summary.txt) are in {}", r.out.display());
+            lockstep::files::check_output_dir(&out)?;
+            let r = lockstep::demo::run(&lockstep::demo::bundled_data_dir(), &out)?;
+            lockstep::out!("{}", r.text);
+            lockstep::outln!("\nOutputs (plant files, residual CSVs, plots as PNG and SVG, summary.txt) are in {}", r.out.display());
         }
         Command::Identify {
             common,
@@ -1030,36 +1030,36 @@ fn run_command(cli: Cli) -> Result<()> {
             }
             let config = common.config.as_deref().unwrap_or("full");
             if let Some(out) = &out {
-                crate::files::check_writable(&[out])?;
+                lockstep::files::check_writable(&[out])?;
             }
             let (mut plant, records, opts) = common.load()?;
             let obs = observation(&plant, config, &records, &opts)?;
             // A rank-deficient regressor (every serial arm's) is fitted on its base
             // parameters, grouped at the records' locked positions; the dependent ones keep
             // the plant's values.
-            let conf = crate::util::configuration(plant.model, config)?;
+            let conf = lockstep::util::configuration(plant.model, config)?;
             let values = plant.values_with_barycentric()?;
             let locked_at: Vec<Vec<f64>> = records
                 .iter()
                 .map(|r| r.q.iter().map(|q| q[0]).collect())
                 .collect();
-            let fit = crate::identify::idim::least_squares_base(
+            let fit = lockstep::identify::idim::least_squares_base(
                 &obs,
                 plant.model,
                 conf,
                 &locked_at,
                 &|n| values.get(n).copied(),
             )?;
-            crate::outln!(
+            lockstep::outln!(
                 "IDIM-LS, plant {}, configuration {}, {} record(s)",
                 common.plant.display(),
                 config,
                 records.len()
             );
-            crate::out!("{}", fit_table(&fit));
+            lockstep::out!("{}", fit_table(&fit));
             if let Some(out) = out {
                 fit.apply(&mut plant)?;
-                let reasons = crate::identify::idim::implausible(&plant, conf)?;
+                let reasons = lockstep::identify::idim::implausible(&plant, conf)?;
                 if !reasons.is_empty() {
                     if !allow_inconsistent {
                         bail!(
@@ -1069,15 +1069,15 @@ fn run_command(cli: Cli) -> Result<()> {
                         );
                     }
                     for r in &reasons {
-                        crate::errln!("warning: {r}");
+                        lockstep::errln!("warning: {r}");
                     }
                 }
                 plant.save(&out)?;
-                crate::outln!("wrote {}", out.display());
+                lockstep::outln!("wrote {}", out.display());
             }
         }
         Command::Compare { common, space, out } => {
-            crate::files::check_output_dir(&out)?;
+            lockstep::files::check_output_dir(&out)?;
             let (plant, inputs) = common.inputs(&space)?;
             compare_command(&plant, &inputs, &inputs.load(&plant)?, &out)?;
         }
@@ -1089,14 +1089,14 @@ fn run_command(cli: Cli) -> Result<()> {
             out,
         } => {
             if let Some(out) = &out {
-                crate::files::check_writable(&[out])?;
+                lockstep::files::check_writable(&[out])?;
             }
             let (plant, inputs) = common.inputs(&space)?;
             let data = inputs.load(&plant)?;
             if let (Some(Apply::AllSignificant), Some(out)) = (apply, &out) {
                 // The loop diagnoses (and prints) the plant itself, before each step.
                 let done = apply_all_command(&plant, &inputs, &data, out, top)?;
-                crate::outln!(
+                lockstep::outln!(
                     "{}; wrote {} ({} steps applied, history: {} steps)",
                     done.end,
                     out.display(),
@@ -1107,17 +1107,17 @@ fn run_command(cli: Cli) -> Result<()> {
             }
             let results = diagnose(&plant, &inputs, &data)?;
             for (title, findings, above_noise) in &results {
-                crate::outln!("plant {}, {title}:", plant.name());
-                crate::out!(
+                lockstep::outln!("plant {}, {title}:", plant.name());
+                lockstep::out!(
                     "{}",
-                    crate::diagnose::table_with(findings, top, above_noise)
+                    lockstep::diagnose::table_with(findings, top, above_noise)
                 );
             }
             if let (Some(Apply::Finding(k)), Some(out)) = (apply, out) {
                 let r = apply_finding(&plant, &inputs, &data, &results[0].1, k, &out)?;
-                crate::outln!("applied finding {k} and refitted jointly:");
-                crate::out!("{}", refit_table(&r));
-                crate::outln!(
+                lockstep::outln!("applied finding {k} and refitted jointly:");
+                lockstep::out!("{}", refit_table(&r));
+                lockstep::outln!(
                     "wrote {} (history: {} steps)",
                     out.display(),
                     r.plant.history.len()
@@ -1132,12 +1132,12 @@ fn run_command(cli: Cli) -> Result<()> {
             out,
         } => {
             let out = out.unwrap_or_else(|| common.plant.clone());
-            crate::files::check_writable(&[&out])?;
+            lockstep::files::check_writable(&[&out])?;
             let (plant, inputs) = common.inputs(&space)?;
             let change = change.unwrap_or_else(|| format!("refitted {}", params.join(", ")));
             let r = refit_command(&plant, &inputs, &params, &change, &out)?;
-            crate::out!("{}", refit_table(&r));
-            crate::outln!("wrote {}", out.display());
+            lockstep::out!("{}", refit_table(&r));
+            lockstep::outln!("wrote {}", out.display());
         }
         Command::Effect {
             action:
@@ -1154,7 +1154,7 @@ fn run_command(cli: Cli) -> Result<()> {
         } => {
             let p = Plant::load(&plant)?;
             let out = out.unwrap_or_else(|| plant.clone());
-            crate::files::check_writable(&[&out])?;
+            lockstep::files::check_writable(&[&out])?;
             let kind = if kind == "coupling" {
                 "input_coupling".to_string()
             } else {
@@ -1171,7 +1171,7 @@ fn run_command(cli: Cli) -> Result<()> {
                 &out,
             )?;
             let added = effect.parameter_names();
-            crate::outln!(
+            lockstep::outln!(
                 "added {kind} to {}: {}",
                 out.display(),
                 added
@@ -1187,10 +1187,10 @@ fn run_command(cli: Cli) -> Result<()> {
             top,
             out,
         } => {
-            crate::files::check_output_dir(&out)?;
+            lockstep::files::check_output_dir(&out)?;
             let (plant, inputs) = common.inputs(&space)?;
             let path = report_command(&plant, &inputs, &out, top)?;
-            crate::outln!("wrote {}", path.display());
+            lockstep::outln!("wrote {}", path.display());
         }
         Command::Excite {
             model,
@@ -1204,21 +1204,28 @@ fn run_command(cli: Cli) -> Result<()> {
         } => {
             let m = model_named(&model)?;
             let inputs: Vec<&std::path::Path> = excitation.iter().map(|p| p.as_path()).collect();
-            crate::measurement::check_side_file_target(&out, &inputs)?;
+            lockstep::measurement::check_side_file_target(&out, &inputs)?;
             let ex = match &excitation {
-                Some(p) => crate::excitation::Excitations::load(p, m)?,
-                None => crate::excitation::Excitations::bundled(m)?,
+                Some(p) => lockstep::excitation::Excitations::load(p, m)?,
+                None => lockstep::excitation::Excitations::bundled(m)?,
             };
-            let e =
-                crate::synthetic::excite(m, &ex, &table, test.as_deref(), &config, duration, rate)?;
+            let e = lockstep::synthetic::excite(
+                m,
+                &ex,
+                &table,
+                test.as_deref(),
+                &config,
+                duration,
+                rate,
+            )?;
             e.write(&out)?;
             if !e.left_out.is_empty() {
-                crate::errln!(
+                lockstep::errln!(
                     "note: {} locked in configuration {config}: their signals of table {table} are not applied",
                     e.left_out.join(", ")
                 );
             }
-            crate::outln!(
+            lockstep::outln!(
                 "wrote {} ({} samples, {}) and its side file {}",
                 out.display(),
                 e.t.len(),
@@ -1242,9 +1249,9 @@ fn run_command(cli: Cli) -> Result<()> {
             allow_inconsistent,
             out,
         } => {
-            crate::measurement::check_side_file_target(&out, &[&plant, &input])?;
+            lockstep::measurement::check_side_file_target(&out, &[&plant, &input])?;
             let p = Plant::load(&plant)?;
-            let opts = crate::synthetic::SimulateOptions {
+            let opts = lockstep::synthetic::SimulateOptions {
                 config,
                 locked: merged("--locked", locked)?,
                 initial: merged("--initial", initial)?,
@@ -1256,24 +1263,24 @@ fn run_command(cli: Cli) -> Result<()> {
                 seed,
                 max_speed,
                 policy: if allow_inconsistent {
-                    crate::plant::ConsistencyPolicy::Warn
+                    lockstep::plant::ConsistencyPolicy::Warn
                 } else {
-                    crate::plant::ConsistencyPolicy::Refuse
+                    lockstep::plant::ConsistencyPolicy::Refuse
                 },
             };
             let started = std::time::Instant::now();
-            let sim = crate::synthetic::simulate_file(&p, &input, &opts)?;
+            let sim = lockstep::synthetic::simulate_file(&p, &input, &opts)?;
             let elapsed = started.elapsed().as_secs_f64();
             for f in &sim.findings {
-                crate::errln!("warning: {}: {f}", plant.display());
+                lockstep::errln!("warning: {}: {f}", plant.display());
             }
             for n in &sim.notes {
-                crate::errln!("note: {n}");
+                lockstep::errln!("note: {n}");
             }
             sim.write(&out)?;
             let m = &sim.measurement;
             let span = m.t[m.len() - 1] - m.t[0];
-            crate::outln!(
+            lockstep::outln!(
                 "simulated {span:.3} s of configuration {} in {elapsed:.3} s ({:.0} RK4 steps/s); wrote {} and {}",
                 sim.side.configuration.as_deref().unwrap_or("?"),
                 span / step / elapsed.max(1e-9),
@@ -1300,7 +1307,7 @@ fn run_command(cli: Cli) -> Result<()> {
                 }
                 None => None,
             };
-            crate::outln!(
+            lockstep::outln!(
                 "plant {} (model {}): {}",
                 plant.display(),
                 m.name,
@@ -1308,10 +1315,10 @@ fn run_command(cli: Cli) -> Result<()> {
             );
             let all = p.consistency(&p.barycentric(None)?, None);
             if all.is_empty() {
-                crate::outln!("every link is physically consistent");
+                lockstep::outln!("every link is physically consistent");
             }
             for f in &all {
-                crate::outln!(
+                lockstep::outln!(
                     "  {} {f}",
                     if f.is_blocking() {
                         "IMPOSSIBLE "
@@ -1322,10 +1329,10 @@ fn run_command(cli: Cli) -> Result<()> {
             }
             for c in m.configurations {
                 let q = vec![0.0; m.joints.len()];
-                match p.simulator(c.name, &q, crate::plant::ConsistencyPolicy::Warn) {
+                match p.simulator(c.name, &q, lockstep::plant::ConsistencyPolicy::Warn) {
                     Ok(s) => {
                         let blocking = s.findings.iter().filter(|f| f.is_blocking()).count();
-                        crate::outln!(
+                        lockstep::outln!(
                             "  configuration {:<6} simulates{}",
                             c.name,
                             if blocking > 0 {
@@ -1335,22 +1342,24 @@ fn run_command(cli: Cli) -> Result<()> {
                             }
                         );
                     }
-                    Err(e) => crate::outln!("  configuration {:<6} cannot simulate: {e:#}", c.name),
+                    Err(e) => {
+                        lockstep::outln!("  configuration {:<6} cannot simulate: {e:#}", c.name)
+                    }
                 }
             }
             if let Some((other, o)) = reference {
                 let outside = p.outside_bounds(&o.parameters);
                 if outside.is_empty() {
-                    crate::outln!("every value of {} lies within the bounds", other.display());
+                    lockstep::outln!("every value of {} lies within the bounds", other.display());
                 } else {
-                    crate::outln!(
+                    lockstep::outln!(
                         "{} value(s) of {} outside the bounds (a fit from this plant cannot reach them):",
                         outside.len(),
                         other.display()
                     );
                 }
                 for (n, v, (lo, hi)) in &outside {
-                    crate::outln!("  {n} = {v:.5e} outside [{lo:.5e}, {hi:.5e}]");
+                    lockstep::outln!("  {n} = {v:.5e} outside [{lo:.5e}, {hi:.5e}]");
                 }
             }
         }
@@ -1368,35 +1377,35 @@ fn run_command(cli: Cli) -> Result<()> {
                 "occurrence": occ,
                 "base_parameters": bases,
             }))?;
-            crate::files::check_output_dir(&out)?;
-            crate::files::write_all_atomic(&[
+            lockstep::files::check_output_dir(&out)?;
+            lockstep::files::write_all_atomic(&[
                 (out.join("parameters.md"), md.into_bytes()),
                 (out.join("parameters.json"), json.into_bytes()),
             ])?;
             for seq in &occ.sequences {
-                crate::outln!(
+                lockstep::outln!(
                     "sequence {}: {} first identified per step",
                     seq.name,
                     occ.quantity
                 );
                 for (c, first) in &seq.steps {
-                    crate::outln!("  {c:<6} {:>3}  {}", first.len(), first.join(", "));
+                    lockstep::outln!("  {c:<6} {:>3}  {}", first.len(), first.join(", "));
                 }
-                crate::outln!(
+                lockstep::outln!(
                     "  nowhere {:>2}  {}",
                     seq.nowhere.len(),
                     seq.nowhere.join(", ")
                 );
             }
             for b in &bases {
-                crate::outln!(
+                lockstep::outln!(
                     "configuration {}: {} barycentric parameters appear, {} base parameters",
                     b.configuration,
                     b.appearing,
                     b.rank
                 );
             }
-            crate::outln!(
+            lockstep::outln!(
                 "wrote {0}/parameters.md and {0}/parameters.json",
                 out.display()
             );
@@ -1408,7 +1417,7 @@ fn run_command(cli: Cli) -> Result<()> {
             measured,
             duration,
             out,
-        } => crate::report::control::closedloop_command(
+        } => lockstep::report::control::closedloop_command(
             &bundled_path(&spec),
             plant.as_deref(),
             &gains,
@@ -1417,14 +1426,14 @@ fn run_command(cli: Cli) -> Result<()> {
             &out,
         )?,
         Command::Wall { action, args } => match action {
-            None => crate::report::control::wall_command(&bundled_wall_args(args))?,
+            None => lockstep::report::control::wall_command(&bundled_wall_args(args))?,
             Some(WallAction::Tune { args }) => {
-                crate::report::control::tune_command(&bundled_wall_args(args))?
+                lockstep::report::control::tune_command(&bundled_wall_args(args))?
             }
         },
         Command::Models => {
             for m in generated::MODELS {
-                crate::outln!(
+                lockstep::outln!(
                     "{}: joints {}; {} barycentric parameters ({})",
                     m.name,
                     m.joints.join(", "),
@@ -1433,7 +1442,7 @@ fn run_command(cli: Cli) -> Result<()> {
                 );
                 for c in m.configurations {
                     let free: Vec<&str> = c.free.iter().map(|&j| m.joints[j]).collect();
-                    crate::outln!(
+                    lockstep::outln!(
                         "  configuration {}: free {}; parameters present {}",
                         c.name,
                         free.join(", "),
@@ -1460,9 +1469,13 @@ fn bundled_path(p: &std::path::Path) -> PathBuf {
     }
 }
 
-fn bundled_wall_args(mut a: WallArgs) -> WallArgs {
-    a.spec = bundled_path(&a.spec);
-    a
+fn bundled_wall_args(a: WallArgs) -> lockstep::report::control::WallRun {
+    lockstep::report::control::WallRun {
+        spec: bundled_path(&a.spec),
+        rules: a.rules,
+        rate: a.rate,
+        out: a.out,
+    }
 }
 
 /// What `diagnose --apply` applies: one finding by rank, or the loop.
