@@ -671,12 +671,12 @@ pub struct OutputErrorArgs {
     /// 0.147), at one Jacobian per accepted step (finite differences, or Broyden's update
     /// between them with --jacobian-refresh). Default: trf.
     #[arg(long, value_enum, default_value = "trf")]
-    pub predictor_optimiser: StageOptimiser,
+    pub predictor_optimiser: OptimiserArg,
     /// Optimiser of the whole files' stage (the cost itself) and of the refit that
     /// releases held values: `lm` or `trf`, as --predictor-optimiser. The horizons',
     /// segments' and equation error's stages run `lm`.
     #[arg(long, value_enum, default_value = "lm")]
-    pub whole_files_optimiser: StageOptimiser,
+    pub whole_files_optimiser: OptimiserArg,
     /// Initial positions of the free joints in every file: `estimate`d with the parameters
     /// at the whole files' stage (as MATLAB `oe`/`pem` with `InitialCondition = 'estimate'`;
     /// the first sample carries the sensor noise, which a trajectory sensitive to its start
@@ -823,8 +823,8 @@ impl OutputErrorArgs {
                     _ => bail!("--predictor-step: expected 'none' or a positive step in seconds such as 1/2000, got '{x}'"),
                 },
             },
-            predictor_optimiser: self.predictor_optimiser,
-            whole_files_optimiser: self.whole_files_optimiser,
+            predictor_optimiser: self.predictor_optimiser.into(),
+            whole_files_optimiser: self.whole_files_optimiser.into(),
             estimate_initial_positions: initial_positions_arg == "estimate",
             noise_sigma: match self.noise_sigma.trim() {
                 "estimate" => None,
@@ -1516,6 +1516,24 @@ mod tests {
         for bad in ["0", "-1", "all", ""] {
             let e = bad.parse::<Apply>().unwrap_err();
             assert!(e.contains("all-significant") && e.contains(bad), "{e}");
+        }
+    }
+}
+
+/// A stage optimiser on the command line ([`StageOptimiser`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OptimiserArg {
+    /// Bounded Levenberg–Marquardt (rmpfit).
+    Lm,
+    /// Trust-region-reflective (basin).
+    Trf,
+}
+
+impl From<OptimiserArg> for StageOptimiser {
+    fn from(a: OptimiserArg) -> Self {
+        match a {
+            OptimiserArg::Lm => StageOptimiser::LevenbergMarquardt,
+            OptimiserArg::Trf => StageOptimiser::TrustRegionReflective,
         }
     }
 }

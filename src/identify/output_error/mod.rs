@@ -282,24 +282,19 @@ pub struct OutputErrorOptions {
 }
 
 /// The bounded least-squares method of a fit's stages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub enum StageOptimiser {
     /// rmpfit's bounded Levenberg–Marquardt (MINPACK's `lmdif` with CMPFIT's limits), with
     /// [`OutputErrorOptions::jacobian_refresh`]'s Broyden updates between Jacobians.
     /// The CLI's `lm`.
-    #[value(name = "lm")]
     LevenbergMarquardt,
     /// basin's trust-region-reflective method (Coleman & Li, *SIAM J. Optim.* 6, 1996;
     /// SciPy's `least_squares(method='trf')`): bounds by an affine scaling that shrinks
     /// the steps toward a bound only along that bound's coordinate, a Jacobian at every
     /// accepted step (finite differences, or [`OutputErrorOptions::jacobian_refresh`]'s
-    /// Broyden updates between them). On k3 of the Freedom 6S, from the point where the
-    /// Levenberg–Marquardt's predictor stage at ω = 100 rad/s stopped (cost 0.14810,
-    /// "convergence in chi-square value" with a projected gradient still pointing down a
-    /// straight descent to 0.11032), it reached 0.11032 in 23 iterations; rmpfit restarted
-    /// there stopped at 0.14734 after 7. Its stage at ω = 30 rad/s then went on to 0.2377,
-    /// where the Levenberg–Marquardt had lost the path (2.47). The CLI's `trf`.
-    #[value(name = "trf")]
+    /// Broyden updates between them). It follows a descent on which the
+    /// Levenberg–Marquardt stops with a collapsed trust region (the comparison on the
+    /// Freedom 6S's k3 is in the identification record). The CLI's `trf`.
     TrustRegionReflective,
 }
 
