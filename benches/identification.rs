@@ -3,7 +3,7 @@
 //!
 //! - `cost_evaluation/<config>`: one evaluation of cost (4.3), i.e. one simulation of a
 //!   40 s file by RK4 at 1/12000 s (the step these data need: at the thesis's 1/6000 s RK4
-//!   is unstable in k2..k5, DESIGN.md §2); a Jacobian costs one evaluation per fitted
+//!   is unstable in k2..k5, docs/src/design/digest.md §2); a Jacobian costs one evaluation per fitted
 //!   parameter, spread over the cores.
 //! - `cost_evaluation_etdrk4/<config>`: the same by ETDRK4 at 1/2000 s (`--integrator
 //!   etdrk4 --step 1/2000`), which takes the stiff friction damping exactly: 0.3–0.4 × the

@@ -10,7 +10,7 @@
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
-/// The kinds of effect lockstep knows (thesis 3.3–3.4, 4.3.4–4.3.5, Figure 3.5; DESIGN.md §2).
+/// The kinds of effect lockstep knows (thesis 3.3–3.4, 4.3.4–4.3.5, Figure 3.5; docs/src/design/digest.md §2).
 ///
 /// The first four are linear in their parameters and give regressor columns for
 /// inverse-dynamic identification ([`EffectKind::regressor`]); the others enter the

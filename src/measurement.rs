@@ -1,4 +1,4 @@
-//! Measurement files (DESIGN.md §5): CSV with a header; `t` (s), then per joint `j`
+//! Measurement files (docs/src/design/digest.md §5): CSV with a header; `t` (s), then per joint `j`
 //! `tau{j}` (commanded torque or force, N·m or N) and `q{j}` (position, rad or m); optional
 //! `qd{j}` (rad/s or m/s) and `tauM{j}` (measured torque).
 //!

@@ -1,5 +1,5 @@
 //! Fixed-step RK4 simulation of one configuration of a plant: the generated rigid-body
-//! kernels plus the joint effects of thesis 3.3–3.5 and Figure 3.5 (DESIGN.md §2).
+//! kernels plus the joint effects of thesis 3.3–3.5 and Figure 3.5 (docs/src/design/digest.md §2).
 //!
 //! Per free joint i the rigid body receives
 //! Q_i = Kp_i·τ'_i − b_i(q_i)·F_i(q̇_i, z_i) − Ks_i (q_i − qeq_i) − offset_i, where τ' is the

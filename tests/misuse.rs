@@ -9,13 +9,13 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+use common::{lockstep, ok};
+
 fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_lockstep"))
 }
 
-fn lockstep(args: &[&str]) -> Output {
-    bin().args(args).output().unwrap()
-}
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -33,15 +33,6 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
-fn ok(o: &Output) -> String {
-    assert!(
-        o.status.success(),
-        "failed: {}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
 
 /// Failed with exit 1 and one line on stderr holding every needle; no panic.
 fn refused(o: &Output, needles: &[&str]) {

@@ -10,30 +10,11 @@ use lockstep::plant::Plant;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn lockstep(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lockstep"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod common;
+use common::{fails, lockstep, ok};
 
-fn ok(o: &Output) -> String {
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
 
-fn fails(o: &Output, needles: &[&str]) {
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
-    for n in needles {
-        assert!(err.contains(n), "'{n}' not in: {err}");
-    }
-}
+
 
 fn plants() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants")

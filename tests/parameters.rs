@@ -18,7 +18,7 @@ fn coupled_plant() -> Plant {
 
 #[test]
 fn freedom6s_isolated_sequence_reproduces_figure_4_2() {
-    // Thesis Figure 4.2 (DESIGN.md §3): first identifications per configuration of the
+    // Thesis Figure 4.2 (docs/src/design/digest.md §3): first identifications per configuration of the
     // isolated-joint sequence, and six symbols that appear nowhere.
     let m = generated::model("freedom6s").unwrap();
     let occ = occurrence(m);

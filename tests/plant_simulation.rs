@@ -393,7 +393,7 @@ fn max_deviation(x: &[Vec<f64>], y: &[Vec<f64>]) -> f64 {
 #[test]
 fn the_thesis_step_diverges_near_the_wrist_singularity_and_halving_it_converges() {
     // k2 (joints 3, 4, 5) with the full coupled-method plant on the Table 4.7 inputs: at the
-    // thesis's 1/6000 s, RK4 leaves its stability region (DESIGN.md §2: a mode of link 7's
+    // thesis's 1/6000 s, RK4 leaves its stability region (docs/src/design/digest.md §2: a mode of link 7's
     // tiny inertia against LuGre damping) and the simulator reports the time and joint;
     // 1/12000 s and below converge.
     let (s, t, tau) = k2_table_4_7(5.0);

@@ -5,12 +5,9 @@ use lockstep::measurement::{Measurement, Table};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn lockstep(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lockstep"))
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod common;
+use common::lockstep;
+
 
 fn coupled_plant() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants/freedom6s_appendix_d_coupled.toml")

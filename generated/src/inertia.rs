@@ -1,5 +1,5 @@
 //! Inertial parameters of one link: barycentric form (m, m·c, inertia about the link-frame
-//! origin; the form in which D, C, φ are linear, thesis 3.2 and DESIGN.md §3) and the thesis's
+//! origin; the form in which D, C, φ are linear, thesis 3.2 and docs/src/design/digest.md §3) and the thesis's
 //! form (m, centroid c, inertia about the centroid, Appendix D), with conversions and the
 //! physical-consistency check.
 //!

@@ -1,8 +1,8 @@
 //! The physical-consistency check on the thesis's Appendix D values for link 4 (thesis
-//! Table D, OCR text checked against DESIGN.md): the coupled-method result has a negative
+//! Table D, OCR text checked against the design digest (docs/src/design/digest.md)): the coupled-method result has a negative
 //! principal moment (I4_33 = −1.7449e-4 kg·m²) and is flagged; the isolated-joint result is
 //! positive definite but violates the triangle inequality (I4_22 > I4_11 + I4_33), as
-//! DESIGN.md reports for every Appendix D link; a physical tensor passes.
+//! the design digest (docs/src/design/digest.md) reports for every Appendix D link; a physical tensor passes.
 
 use generated::inertia::CentroidalInertia;
 

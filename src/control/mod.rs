@@ -1,4 +1,4 @@
-//! Control on the identified plant (thesis 4.5 and Chapter 5; DESIGN.md §4): the closed-loop
+//! Control on the identified plant (thesis 4.5 and Chapter 5; docs/src/design/digest.md §4): the closed-loop
 //! PD verification ([`closedloop`]), and the haptic virtual wall, PD versus fuzzy
 //! ([`wall`], [`fuzzy`]), with automatic tuning of the fuzzy rules ([`tune`]).
 //!
@@ -37,7 +37,7 @@ pub struct InputSpec {
 #[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct FuzzySpec {
-    /// Position membership functions (Table 5.2; peaks per DESIGN.md §4).
+    /// Position membership functions (Table 5.2; peaks per docs/src/design/digest.md §4).
     pub position: InputSpec,
     /// Velocity membership functions.
     pub velocity: InputSpec,

@@ -1,4 +1,4 @@
-//! The haptic virtual wall of thesis Chapter 5 (DESIGN.md §4) with a simulated user.
+//! The haptic virtual wall of thesis Chapter 5 (docs/src/design/digest.md §4) with a simulated user.
 //!
 //! One joint of the plant is free (configuration c6: joint 0); the wall is at q = 0 and the
 //! joint is inside when q < 0. A digital controller samples the encoder at `rate` Hz

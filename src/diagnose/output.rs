@@ -334,7 +334,7 @@ pub fn diagnose_output(
     // sensitivities fitted together leave (reported, not counted in ΔBIC: where much is
     // missing that no candidate describes, the residual stays correlated and counting
     // only its independent samples called a 10 %-off plant's missing spring chance;
-    // docs/independent-data.md).
+    // docs/src/record/independent-data.md).
     let columns: Vec<&[f64]> = best.iter().map(|l| l.column.as_slice()).collect();
     let effective = {
         let left = super::least_squares_residual(&columns, &r).unwrap_or_else(|| r.clone());

@@ -25,3 +25,31 @@ pub const SENSOR_QUANTISATION: f64 = 1e-4;
 pub fn sensor_sigma() -> f64 {
     (SENSOR_NOISE.powi(2) + SENSOR_QUANTISATION.powi(2) / 12.0).sqrt()
 }
+
+/// Runs the `lockstep` binary built for this test run.
+pub fn lockstep(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_lockstep"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// The standard output of a run that must have succeeded (its output and errors shown if not).
+pub fn ok(o: &std::process::Output) -> String {
+    assert!(
+        o.status.success(),
+        "failed: {}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// A run that must have failed with an error that contains every needle.
+pub fn fails(o: &std::process::Output, needles: &[&str]) {
+    assert!(!o.status.success(), "succeeded: {}", String::from_utf8_lossy(&o.stdout));
+    let err = String::from_utf8_lossy(&o.stderr);
+    for n in needles {
+        assert!(err.contains(n), "'{n}' not in: {err}");
+    }
+}

@@ -4,7 +4,7 @@
 //!
 //! Cost (4.2) / (4.3): J(p) = Σ_files Σ_{a ∈ F} Σ_k w_k (λ_a (y_a,k − ŷ_a,k(p)))², with the
 //! time weighting w_k of [`TimeWeighting`] and joint weights λ_a (λ = 50 for the joint of
-//! interest, 1 for the joints already identified; DESIGN.md §3). Bounds on every fitted
+//! interest, 1 for the joints already identified; docs/src/design/digest.md §3). Bounds on every fitted
 //! parameter and Fs ≥ Fc (4.1) hold at every trial point: the optimiser works on
 //! u ∈ [0, 1]ⁿ with p = lo + u (hi − lo), and a fitted Stribeck level as
 //! Fs = max(Fc, lo_Fs) + u (hi_Fs − max(Fc, lo_Fs)).
