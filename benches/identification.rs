@@ -99,7 +99,7 @@ fn bench(c: &mut Criterion) {
             &s.interest,
             OutputErrorOptions {
                 h: 1.0 / 12000.0,
-                ..OutputErrorOptions::default()
+                ..OutputErrorOptions::thesis()
             },
         )
         .unwrap();
@@ -129,31 +129,7 @@ fn sequence(dir: &Path, data: &Path) {
             .join("model/plants/freedom6s_appendix_d_initial_widened.toml"),
     )
     .unwrap();
-    let opts = SequenceOptions {
-        sequence: "coupled".into(),
-        only: None,
-        fit: OutputErrorOptions {
-            h: 1.0 / 12000.0,
-            equation_error: Some(Cutoff::Residual),
-            predictor: vec![100.0, 30.0, 10.0, 3.0, 1.0],
-            horizons: Vec::new(),
-            // The CLI's coupled defaults.
-            jacobian_refresh: 4,
-            predictor_step: Some((1.0 / 2000.0, Integrator::Etdrk4)),
-            predictor_optimiser: StageOptimiser::TrustRegionReflective,
-            least_change: true,
-            estimate_initial_positions: true,
-            ..OutputErrorOptions::default()
-        },
-        locked_tolerance: 0.01,
-        out: dir.join("out"),
-        resume: false,
-        rigid_body: RigidBodyFit::Spanning,
-        joint: JointFitMode::Off,
-        release_held: true,
-        tie_reach: true,
-        balance: true,
-    };
+    let opts = SequenceOptions::preset("coupled", dir.join("out"));
     let report = run(&start, &[data.to_path_buf()], &opts, &|_, _| {}).unwrap();
     println!(
         "step   params  wall s   evaluations  s per evaluation  cost after  RMS per joint (rad)"

@@ -1,5 +1,5 @@
 //! The `lockstep` binary.
-use clap::Parser;
+use clap::{CommandFactory, FromArgMatches};
 
 mod commands;
 
@@ -10,8 +10,11 @@ fn main() {
         lockstep::files::remove_staged_files();
         std::process::exit(130);
     });
-    let cli = commands::Cli::parse();
-    if let Err(e) = commands::run(cli) {
+    let matches = commands::Cli::command().get_matches();
+    let cli = commands::Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    if let Err(e) =
+        commands::refuse_options_of_other_methods(&matches).and_then(|()| commands::run(cli))
+    {
         lockstep::errln!("error: {e:#}");
         std::process::exit(1);
     }

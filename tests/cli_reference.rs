@@ -20,7 +20,11 @@ fn subcommands(help: &str) -> Vec<String> {
                 break;
             }
             let name = line.split_whitespace().next().unwrap_or("");
-            if !name.is_empty() && name != "help" && line.starts_with("  ") && !line.starts_with("   ") {
+            if !name.is_empty()
+                && name != "help"
+                && line.starts_with("  ")
+                && !line.starts_with("   ")
+            {
                 names.push(name.to_string());
             }
         }
@@ -37,7 +41,10 @@ fn render(path: &[String], out: &mut String) {
     } else {
         format!("lockstep {}", path.join(" "))
     };
-    out.push_str(&format!("## `{title}`\n\n```text\n{}\n```\n\n", help.trim_end()));
+    out.push_str(&format!(
+        "## `{title}`\n\n```text\n{}\n```\n\n",
+        help.trim_end()
+    ));
     for sub in subcommands(&help) {
         let mut p = path.to_vec();
         p.push(sub);
@@ -65,7 +72,15 @@ fn the_command_reference_is_the_binarys_help() {
         file.display()
     );
     // Every command of the binary has its section.
-    for cmd in ["identify", "compare", "diagnose", "refit", "effect add", "wall tune", "simulate"] {
+    for cmd in [
+        "identify",
+        "compare",
+        "diagnose",
+        "refit",
+        "effect add",
+        "wall tune",
+        "simulate",
+    ] {
         assert!(text.contains(&format!("## `lockstep {cmd}`")), "{cmd}");
     }
 }

@@ -16,7 +16,6 @@ fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_lockstep"))
 }
 
-
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -32,7 +31,6 @@ fn plant(name: &str) -> String {
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
-
 
 /// Failed with exit 1 and one line on stderr holding every needle; no panic.
 fn refused(o: &Output, needles: &[&str]) {

@@ -13,9 +13,6 @@ use std::process::{Command, Output};
 mod common;
 use common::{fails, lockstep, ok};
 
-
-
-
 fn plants() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants")
 }
@@ -219,7 +216,7 @@ fn problem_of_step(
         &s.interest,
         OutputErrorOptions {
             h: 1.0 / 12000.0,
-            ..OutputErrorOptions::default()
+            ..OutputErrorOptions::thesis()
         },
     )
     .unwrap();
@@ -415,7 +412,7 @@ fn fs_at_least_fc_holds_at_every_trial_point() {
     let rec = read_record(&d.path().join("data/c1_run.csv"), model, conf, 0.01).unwrap();
     let opts = OutputErrorOptions {
         weighting: TimeWeighting::HalfFirst,
-        ..OutputErrorOptions::default()
+        ..OutputErrorOptions::thesis()
     };
     let p = Problem::new(
         &plant,
@@ -733,7 +730,7 @@ fn a_trial_point_that_makes_a_consistent_link_impossible_is_rejected() {
             s.fitted.clone(),
             vec![q_record(d.path(), &s.config, &truth)],
             &s.interest,
-            OutputErrorOptions::default(),
+            OutputErrorOptions::thesis(),
         )
     };
     // Its bounds refuse m7 < 0 (named) before anything is guarded; widen them.
@@ -910,7 +907,7 @@ fn the_prior_picks_the_point_of_an_exact_scale_symmetry_its_centre_prefers() {
         OutputErrorOptions {
             h: 1.0 / 12000.0,
             prior: Some(tau),
-            ..OutputErrorOptions::default()
+            ..OutputErrorOptions::thesis()
         },
     )
     .unwrap();
@@ -972,7 +969,7 @@ fn the_least_change_returns_a_scaled_gain_family_to_the_initial_plant_gain() {
     }
     let options = OutputErrorOptions {
         h: 1.0 / 12000.0,
-        ..OutputErrorOptions::default()
+        ..OutputErrorOptions::thesis()
     };
     let c_truth = Problem::new(
         &at_truth_plant,
@@ -1077,7 +1074,7 @@ fn a_parameter_within_rounding_of_its_bound_does_not_freeze_the_fit() {
     let options = OutputErrorOptions {
         h: 1.0 / 12000.0,
         horizons: vec![1.0],
-        ..OutputErrorOptions::default()
+        ..OutputErrorOptions::thesis()
     };
     let names = vec!["Kp_4".to_string(), "Ks_4".to_string()];
     let fit = Problem::new(&plant, conf, names, vec![rec], &[4], options)
@@ -1161,7 +1158,7 @@ fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
         h: 1.0 / 12000.0,
         horizons: Vec::new(),
         predictor: vec![3.0, 1.0],
-        ..OutputErrorOptions::default()
+        ..OutputErrorOptions::thesis()
     };
     let collapsed = Problem::new(
         &plant,
@@ -1262,7 +1259,7 @@ fn a_stribeck_dip_lost_with_vs_on_its_upper_bound_is_re_seeded_at_the_level_seen
     let lost = [0.9 * fc_truth, fc_truth, vs_upper];
     let options = OutputErrorOptions {
         h: 1.0 / 12000.0,
-        ..OutputErrorOptions::default()
+        ..OutputErrorOptions::thesis()
     };
     let problem = Problem::new(&plant, conf, names, vec![rec], &[4], options).unwrap();
     let (seed, note, _) = problem
@@ -2007,7 +2004,7 @@ fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
         h: 1.0 / 12000.0,
         horizons: vec![1.0],
         estimate_initial_positions: true,
-        ..OutputErrorOptions::default()
+        ..OutputErrorOptions::thesis()
     };
     let files = |k: &str| {
         let conf = truth.model.configuration(k).unwrap();
@@ -2092,7 +2089,7 @@ impl K2Case {
                 h: 1.0 / 12000.0,
                 horizons: vec![1.0],
                 estimate_initial_positions: true,
-                ..OutputErrorOptions::default()
+                ..OutputErrorOptions::thesis()
             },
             file: dir.join("data/k2_run.csv"),
         }

@@ -8,7 +8,6 @@ use std::process::{Command, Output};
 mod common;
 use common::lockstep;
 
-
 fn coupled_plant() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants/freedom6s_appendix_d_coupled.toml")
 }

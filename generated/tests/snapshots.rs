@@ -74,7 +74,10 @@ fn the_summary_lists_every_kernel_and_changes_with_any_body() {
         .1;
     let s = summary(source);
     // Every configuration's seven kernels and the parameter conversion appear once each.
-    let kernels = s.lines().filter(|l| l.trim_start().starts_with("fn ")).count();
+    let kernels = s
+        .lines()
+        .filter(|l| l.trim_start().starts_with("fn "))
+        .count();
     assert_eq!(kernels, 12 * 7 + 1, "{s}");
     assert_eq!(s.matches("fn forward_dynamics:").count(), 12);
     // One changed character in one body changes exactly that kernel's line.

@@ -63,7 +63,7 @@ impl RefitOptions {
             max_iter: self.max_iter,
             starts: self.starts,
             horizons,
-            ..OutputErrorOptions::default()
+            ..OutputErrorOptions::thesis()
         }
     }
 }

@@ -548,6 +548,33 @@ pub struct SequenceOptions {
     pub resume: bool,
 }
 
+impl SequenceOptions {
+    /// The preset of a locking sequence: `sequence` (`isolated` or `coupled`, the model
+    /// file's names) with [`OutputErrorOptions::isolated`] or [`OutputErrorOptions::coupled`]
+    /// (any other name: the coupled fit), every step of it, written to `out`; locked joints
+    /// may move 0.01 rad; spanning rigid-body symbols; no joint fit; held values released,
+    /// ties reached across and the balanced refit after each step.
+    pub fn preset(sequence: &str, out: PathBuf) -> Self {
+        SequenceOptions {
+            sequence: sequence.to_string(),
+            only: None,
+            fit: if sequence == "isolated" {
+                OutputErrorOptions::isolated()
+            } else {
+                OutputErrorOptions::coupled()
+            },
+            locked_tolerance: 0.01,
+            out,
+            rigid_body: RigidBodyFit::Spanning,
+            joint: JointFitMode::Off,
+            release_held: true,
+            tie_reach: true,
+            balance: true,
+            resume: false,
+        }
+    }
+}
+
 /// The report a run of `sequence` left in `out` (`report.json`), if any. Its completed steps
 /// are kept by the next run into `out` (a step run alone with `--config` adds to them, it
 /// does not replace them).

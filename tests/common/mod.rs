@@ -47,7 +47,11 @@ pub fn ok(o: &std::process::Output) -> String {
 
 /// A run that must have failed with an error that contains every needle.
 pub fn fails(o: &std::process::Output, needles: &[&str]) {
-    assert!(!o.status.success(), "succeeded: {}", String::from_utf8_lossy(&o.stdout));
+    assert!(
+        !o.status.success(),
+        "succeeded: {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     for n in needles {
         assert!(err.contains(n), "'{n}' not in: {err}");

@@ -713,7 +713,7 @@ mod tests {
                 y: (0..30)
                     .map(|k| 2.0 * (-0.7 * 0.1 * k as f64).exp())
                     .collect(),
-                options: OutputErrorOptions::default(),
+                options: OutputErrorOptions::thesis(),
             }
         }
     }
@@ -747,7 +747,7 @@ mod tests {
         };
         let start_cost = cost(u);
         // The last predictor stage's rules: the user's (default) tolerances.
-        let config = stage_rules(&OutputErrorOptions::default(), Stage::Predictor(1.0));
+        let config = stage_rules(&OutputErrorOptions::thesis(), Stage::Predictor(1.0));
         let outcome = minimise_trf(
             problem,
             Stage::Predictor(1.0),

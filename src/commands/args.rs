@@ -1,0 +1,316 @@
+//! Options shared by several commands, and their parsers.
+
+use super::*;
+/// Plant edits.
+#[derive(Debug, Subcommand)]
+pub enum EffectAction {
+    /// Add an effect with neutral values (no effect: levels 0, gain and friction-bias
+    /// factor 1); `--set` and `--bound` give values and bounds.
+    Add {
+        /// Kind: viscous, coulomb, asymmetric_friction, offset, gain, stribeck, lugre,
+        /// spring, friction_bias, input_coupling (alias: coupling).
+        kind: String,
+        /// Plant file.
+        #[arg(long)]
+        plant: PathBuf,
+        /// Joint the effect acts on.
+        #[arg(long)]
+        joint: Option<String>,
+        /// input_coupling: the joint whose command is passed on.
+        #[arg(long)]
+        from: Option<String>,
+        /// input_coupling: the joint that receives it.
+        #[arg(long)]
+        to: Option<String>,
+        /// Values, e.g. Ks_3=0.01,qeq_3=0.2 (repeatable).
+        #[arg(long, value_parser = parse_positions)]
+        set: Vec<PositionList>,
+        /// Bounds, e.g. Ks_3=0:0.1 (repeatable).
+        #[arg(long, value_parser = parse_bound)]
+        bound: Vec<(String, f64, f64)>,
+        /// Plant file to write (default: the plant file itself).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+/// Where compare, diagnose and refit work, and the output-space settings.
+#[derive(Debug, Clone, Args)]
+pub struct SpaceArgs {
+    /// auto (torque space for a plant whose effects are all linear in their parameters,
+    /// output space otherwise), torque or output.
+    #[arg(long, default_value = "auto")]
+    pub space: String,
+    /// Output space: integration step (s); fractions such as 1/6000 accepted.
+    #[arg(long, default_value = "1/6000", value_parser = parse_number)]
+    pub step: f64,
+    /// Output space: integrator, rk4 or etdrk4 (exponential RK4 that takes the friction
+    /// damping exactly: stable at steps where RK4 diverges on stiff friction).
+    #[arg(long, default_value = "rk4")]
+    pub integrator: Integrator,
+    /// Output space: samples skipped at the start of each file.
+    #[arg(long, default_value_t = 0)]
+    pub skip: usize,
+    /// Output space: largest motion (rad) allowed of a locked joint in a file.
+    #[arg(value_parser = parse_positive, long, default_value_t = 0.01)]
+    pub locked_tolerance: f64,
+    /// Output space: initial positions `estimate`d from each file (as MATLAB compare) or
+    /// the first `measured` sample.
+    #[arg(long, default_value = "estimate", value_parser = ["estimate", "measured"])]
+    pub initial: String,
+    /// Output space: how the torques were applied between samples: zoh (a digital
+    /// controller's hold), linear, cubic or bandlimited (a continuous signal sampled for
+    /// the file). Default: each file's side file's `hold`, else zoh.
+    #[arg(long)]
+    pub hold: Option<Hold>,
+}
+
+pub fn parse_bound(s: &str) -> Result<(String, f64, f64), String> {
+    let (n, r) = s
+        .split_once('=')
+        .ok_or_else(|| format!("'{s}': expected name=lower:upper, e.g. Ks_3=0:0.1"))?;
+    let (lo, hi) = r
+        .split_once(':')
+        .ok_or_else(|| format!("'{s}': expected name=lower:upper, e.g. Ks_3=0:0.1"))?;
+    Ok((
+        n.trim().to_string(),
+        parse_number(lo.trim()).map_err(|e| format!("'{s}': {e}"))?,
+        parse_number(hi.trim()).map_err(|e| format!("'{s}': {e}"))?,
+    ))
+}
+
+impl Common {
+    pub fn inputs(&self, space: &SpaceArgs) -> Result<(Plant, Inputs)> {
+        let (plant, idim) = self.load_plant()?;
+        if !(space.step > 0.0 && space.step.is_finite()) {
+            bail!(
+                "--step: expected a positive step in seconds, got {}",
+                space.step
+            );
+        }
+        Ok((
+            plant,
+            Inputs {
+                data: self.data.clone(),
+                config: self.config.clone(),
+                space: space.space.clone(),
+                idim,
+                h: space.step,
+                integrator: space.integrator,
+                skip: space.skip,
+                locked_tolerance: space.locked_tolerance,
+                estimate_initial: space.initial == "estimate",
+                hold: space.hold,
+            },
+        ))
+    }
+}
+
+/// What `lockstep wall` does besides the comparison.
+#[derive(Debug, Subcommand)]
+pub enum WallAction {
+    /// Tune the fuzzy rules (one factor per position label for approaching and leaving
+    /// velocities) to minimise chatter under the penetration bound; report the tuned table
+    /// against the hand-made one.
+    Tune {
+        #[command(flatten)]
+        args: WallArgs,
+    },
+}
+
+/// Options of `lockstep wall`.
+#[derive(Debug, Clone, Args)]
+pub struct WallArgs {
+    /// Wall file (plant, loop, PD gains, user, membership functions, rule modifications).
+    #[arg(long, default_value = "model/control/freedom6s_wall.toml")]
+    pub spec: PathBuf,
+    /// Rule table replacing the file's modified one (.fll fuzzylite or .fis MATLAB).
+    #[arg(long)]
+    pub rules: Option<PathBuf>,
+    /// Control rate for the hand sweep and tuning (Hz; default the file's first).
+    #[arg(long, value_parser = parse_positive)]
+    pub rate: Option<f64>,
+    /// Output directory.
+    #[arg(long, default_value = "lockstep-out/wall")]
+    pub out: PathBuf,
+}
+
+/// Joint positions given on the command line.
+#[derive(Debug, Clone, Default)]
+pub struct PositionList(pub std::collections::BTreeMap<String, f64>);
+
+pub fn parse_number(s: &str) -> Result<f64, String> {
+    lockstep::excitation::Value::Expr(s.to_string())
+        .eval()
+        .map_err(|e| format!("{e:#}"))
+}
+
+/// A positive finite number (fractions accepted).
+pub fn parse_positive(s: &str) -> Result<f64, String> {
+    match parse_number(s)? {
+        x if x > 0.0 => Ok(x),
+        x => Err(format!("expected a positive number, got {x}")),
+    }
+}
+
+/// A finite number ≥ 0 (fractions accepted).
+pub fn parse_non_negative(s: &str) -> Result<f64, String> {
+    match parse_number(s)? {
+        x if x >= 0.0 => Ok(x),
+        x => Err(format!("expected a number ≥ 0, got {x}")),
+    }
+}
+
+pub fn parse_positions(s: &str) -> Result<PositionList, String> {
+    let mut m = std::collections::BTreeMap::new();
+    for item in s.split(',').map(str::trim).filter(|x| !x.is_empty()) {
+        let (k, v) = item
+            .split_once('=')
+            .ok_or_else(|| format!("'{item}': expected joint=value, e.g. q0=0.1"))?;
+        let v = parse_number(v.trim()).map_err(|e| format!("'{item}': {e}"))?;
+        if m.insert(k.trim().to_string(), v).is_some() {
+            return Err(format!("'{}' is given twice", k.trim()));
+        }
+    }
+    Ok(PositionList(m))
+}
+
+/// The lists of a repeatable `flag` merged; a name given in two of them is refused.
+pub fn merged(
+    flag: &str,
+    lists: Vec<PositionList>,
+) -> Result<std::collections::BTreeMap<String, f64>> {
+    let mut m = std::collections::BTreeMap::new();
+    for l in lists {
+        for (k, v) in l.0 {
+            if m.insert(k.clone(), v).is_some() {
+                bail!("{flag}: '{k}' is given twice");
+            }
+        }
+    }
+    Ok(m)
+}
+
+pub fn model_named(name: &str) -> Result<&'static generated::Model> {
+    lockstep::util::model(name).map_err(|e| anyhow::anyhow!("--model: {e}"))
+}
+
+/// Options shared by identify and compare.
+#[derive(Debug, Args)]
+pub struct Common {
+    /// Plant file (model + effects + parameter values).
+    #[arg(long)]
+    pub plant: PathBuf,
+    /// Measurement files (CSV or .mat; a side file <name>.toml may map the columns).
+    #[arg(long, required = true, num_args = 1..)]
+    pub data: Vec<PathBuf>,
+    /// Configuration (set of free joints) of the data (IDIM and compare: default `full`);
+    /// with `--method isolated|coupled`, run this step of the sequence only.
+    #[arg(long)]
+    pub config: Option<String>,
+    /// Cut-off of the zero-phase Butterworth on positions (Hz).
+    #[arg(value_parser = parse_positive, long, default_value_t = 100.0)]
+    pub cutoff: f64,
+    /// Order of that Butterworth.
+    #[arg(long, default_value_t = 4)]
+    pub order: usize,
+    /// Parallel decimation factor.
+    #[arg(long, default_value_t = 10)]
+    pub decimate: usize,
+}
+
+impl Common {
+    /// The plant and the IDIM preparation options (checked).
+    pub fn load_plant(&self) -> Result<(Plant, IdimOptions)> {
+        let plant = Plant::load(&self.plant)?;
+        if self.order == 0 || self.order > 12 {
+            bail!("--order: expected 1 to 12, got {}", self.order);
+        }
+        if self.decimate == 0 {
+            bail!("--decimate: expected 1 or more");
+        }
+        Ok((
+            plant,
+            IdimOptions {
+                cutoff_hz: self.cutoff,
+                filter_order: self.order,
+                decimation: self.decimate,
+            },
+        ))
+    }
+
+    pub fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
+        let (plant, opts) = self.load_plant()?;
+        let nj = plant.model.joints.len();
+        let records = lockstep::measurement::expand_data_paths(&self.data)?
+            .iter()
+            .map(|d| Measurement::read(d, nj))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((plant, records, opts))
+    }
+}
+
+/// A default data path of the repository: as given when it exists, else under the crate's
+/// own directory (so the defaults work from any working directory of a source checkout).
+pub fn bundled_path(p: &std::path::Path) -> PathBuf {
+    if p.exists() || p.is_absolute() {
+        return p.to_path_buf();
+    }
+    let alt = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(p);
+    if alt.exists() {
+        alt
+    } else {
+        p.to_path_buf()
+    }
+}
+
+pub fn bundled_wall_args(a: WallArgs) -> lockstep::report::control::WallRun {
+    lockstep::report::control::WallRun {
+        spec: bundled_path(&a.spec),
+        rules: a.rules,
+        rate: a.rate,
+        out: a.out,
+    }
+}
+
+/// What `diagnose --apply` applies: one finding by rank, or the loop.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Apply {
+    /// Finding K (1-based).
+    Finding(usize),
+    /// Apply the leading finding until nothing significant is missing.
+    AllSignificant,
+}
+
+impl std::str::FromStr for Apply {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "all-significant" => Ok(Apply::AllSignificant),
+            _ => match s.parse::<usize>() {
+                Ok(k) if k >= 1 => Ok(Apply::Finding(k)),
+                _ => Err(format!(
+                    "expected a finding's rank (1, 2, …) or 'all-significant', got '{s}'"
+                )),
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Apply;
+
+    #[test]
+    fn apply_takes_a_rank_or_all_significant_and_refuses_the_rest() {
+        assert_eq!("2".parse::<Apply>(), Ok(Apply::Finding(2)));
+        assert_eq!(
+            "all-significant".parse::<Apply>(),
+            Ok(Apply::AllSignificant)
+        );
+        for bad in ["0", "-1", "all", ""] {
+            let e = bad.parse::<Apply>().unwrap_err();
+            assert!(e.contains("all-significant") && e.contains(bad), "{e}");
+        }
+    }
+}
