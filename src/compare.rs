@@ -338,8 +338,6 @@ fn comparison(file: &Path, joint: &str, s: Signals, unit: &'static str) -> Compa
     let imax = (0..e.len())
         .max_by(|&a, &b| e[a].abs().total_cmp(&e[b].abs()))
         .unwrap_or(0);
-    let mean = s.y.iter().sum::<f64>() / s.y.len().max(1) as f64;
-    let spread: Vec<f64> = s.y.iter().map(|x| x - mean).collect();
     let tests = residual_tests(&e, &s.inputs, s.dt, 25);
     Comparison {
         file: file.to_path_buf(),
@@ -349,7 +347,7 @@ fn comparison(file: &Path, joint: &str, s: Signals, unit: &'static str) -> Compa
         max_error: (e[imax], s.t[imax], s.qd[imax]),
         max_error_q: s.q[imax],
         sign_step: sign_fit(&e, &s.qd),
-        nrmse_fit: 100.0 * (1.0 - norm(&e) / norm(&spread).max(1e-300)),
+        nrmse_fit: crate::util::nrmse_fit(&s.y, &s.yhat),
         dt: s.dt,
         inputs: s.inputs,
         unit,

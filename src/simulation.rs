@@ -930,17 +930,6 @@ impl PlantModel {
         out
     }
 
-    /// One step of length `h` of the model's [`Integrator`] with the torques held over the step.
-    pub fn rk4_step(&self, x: &State, tau: &[f64], h: f64) -> State {
-        let mut w = Scratch::new(self.nf(), &self.q_locked);
-        for s in &mut w.tau {
-            s.copy_from_slice(tau);
-        }
-        let mut y = x.clone();
-        self.step_in_place(&mut y, h, &mut w);
-        y
-    }
-
     /// One step of the model's [`Integrator`] on `x` with the stage torques in `w.tau` (at
     /// t, t + h/2, t + h).
     fn step_in_place(&self, x: &mut State, h: f64, w: &mut Scratch) {

@@ -256,3 +256,23 @@ impl<'de> serde::de::MapAccess<'de> for NanMap {
         seed.deserialize(NanAsNull(v))
     }
 }
+
+/// NRMSE fit in percent of a simulated or predicted signal against a measured one, as MATLAB's
+/// `compare`: 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖), from the sums of squares `sse` = ‖y − ŷ‖² and
+/// `sst` = ‖y − ȳ‖² (a constant measurement, `sst` = 0, gives −∞ unless `sse` = 0 too).
+pub fn nrmse_fit_from_sums(sse: f64, sst: f64) -> f64 {
+    100.0 * (1.0 - (sse / sst.max(1e-300)).sqrt())
+}
+
+/// NRMSE fit in percent of `sim` against `meas` ([`nrmse_fit_from_sums`]) over their common
+/// length.
+pub fn nrmse_fit(meas: &[f64], sim: &[f64]) -> f64 {
+    let n = meas.len().min(sim.len());
+    let mean = meas[..n].iter().sum::<f64>() / n.max(1) as f64;
+    let (mut sse, mut sst) = (0.0, 0.0);
+    for k in 0..n {
+        sse += (meas[k] - sim[k]).powi(2);
+        sst += (meas[k] - mean).powi(2);
+    }
+    nrmse_fit_from_sums(sse, sst)
+}

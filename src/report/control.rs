@@ -431,18 +431,6 @@ fn closedloop_figure(
     figure(stem, &panels, 1100).map(|_| ())
 }
 
-/// NRMSE fit % of `sim` against `meas`: 100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖).
-pub fn nrmse_fit(meas: &[f64], sim: &[f64]) -> f64 {
-    let n = meas.len().min(sim.len());
-    let mean = meas[..n].iter().sum::<f64>() / n.max(1) as f64;
-    let (mut sse, mut sst) = (0.0, 0.0);
-    for k in 0..n {
-        sse += (meas[k] - sim[k]).powi(2);
-        sst += (meas[k] - mean).powi(2);
-    }
-    100.0 * (1.0 - (sse / sst.max(1e-300)).sqrt())
-}
-
 /// `lockstep closedloop`.
 ///
 /// # Errors
@@ -505,7 +493,7 @@ pub fn closedloop_command(
             let fit = meas.as_ref().map_or("—".to_string(), |m| {
                 format!(
                     "{:.1}",
-                    nrmse_fit(&m.q[run.joints[a]][..run.t.len()], &run.q[a])
+                    crate::util::nrmse_fit(&m.q[run.joints[a]][..run.t.len()], &run.q[a])
                 )
             });
             let _ = writeln!(

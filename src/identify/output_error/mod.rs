@@ -807,16 +807,6 @@ impl Problem {
         Ok(self)
     }
 
-    /// The released values ([`Problem::with_released`]) with their prior's standard
-    /// deviation (SI), in the order of [`Problem::names`].
-    pub fn released_prior(&self) -> Vec<(String, f64)> {
-        self.names
-            .iter()
-            .filter(|n| self.released.contains(n))
-            .filter_map(|n| Some((n.clone(), self.prior_standard_error(n)?)))
-            .collect()
-    }
-
     /// s̄: the root mean square of a residual from the measurement noise alone, √(mean of
     /// w λ² σ̂²) over the weighted samples and the free joints (the residuals' units: rad
     /// times √w λ). The scale of the prior's weights.

@@ -314,7 +314,7 @@ impl Problem {
             jf.noise = self.noise[a];
             jf.rms = (jf.sse / jf.n.max(1) as f64).sqrt();
             jf.rms_fitted = (jf.sse_fitted / jf.n_fitted.max(1) as f64).sqrt();
-            jf.nrmse_fit = 100.0 * (1.0 - (jf.sse / jf.sst.max(1e-300)).sqrt());
+            jf.nrmse_fit = crate::util::nrmse_fit_from_sums(jf.sse, jf.sst);
         }
         joint
     }
