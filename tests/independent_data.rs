@@ -176,6 +176,7 @@ fn the_truth_sits_at_the_noise_floor_on_independent_data() {
 
 /// With nothing missing, the diagnosis says so on independent data, with its defaults.
 #[test]
+#[ignore = "slow end-to-end diagnosis (minutes); cargo test --release -- --ignored"]
 fn nothing_is_missing_from_the_truth_on_independent_data() {
     let truth = common::appendix_d_coupled();
     for (config, table, test, _) in CASES {
@@ -411,6 +412,7 @@ fn hidden_gain_error_on_independent_data_c4() {
 /// the couplings must be significant from the start, and the joint refits must end with
 /// both at the truth and the stand-in removed.
 #[test]
+#[ignore = "slow end-to-end diagnosis (minutes); cargo test --release -- --ignored"]
 fn hidden_tendon_coupling_on_independent_data_k1() {
     let truth = common::appendix_d_coupled();
     let mut start = truth.clone();
@@ -498,6 +500,7 @@ fn ten_percent_off(plant: &Plant, joints: &[usize], seed: u64) -> Plant {
 /// its joint refit with the configuration's values stops at qeq = −0.56 (truth 0.375),
 /// 9 σ̂: the loop stops as unexplained (issue 53's acceptance for this start is not met).
 #[test]
+#[ignore = "slow end-to-end diagnosis (minutes); cargo test --release -- --ignored"]
 fn from_a_start_ten_percent_off_the_loop_never_calls_a_misfit_complete_c3() {
     let truth = common::appendix_d_coupled();
     let mut start = truth.clone();

@@ -8,7 +8,6 @@ use lockstep::identify::output_error::{OutputErrorOptions, Problem, TimeWeightin
 use lockstep::identify::sequence::{plan, read_record};
 use lockstep::plant::Plant;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 mod common;
 use common::{fails, lockstep, ok};
@@ -292,6 +291,7 @@ fn column<T: serde::de::DeserializeOwned>(fit: &serde_json::Value, path: &[&str]
 /// c1 determines only as m7·x7 and m7·y7 — could be called identifiable by the linearised
 /// statistics alone.) One fit serves every assertion: it takes about a minute and a half.
 #[test]
+#[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn isolated_step_c1_reaches_the_noise_floor_and_recovers_everything_it_calls_identifiable() {
     let d = tempfile::tempdir().unwrap();
     let (fit, truth, out_dir) = fit_c1(d.path());
@@ -863,6 +863,7 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
 /// (an analytic reference independent of the fit); the parameters outside the family (vs_4,
 /// qeq_4) stay where the data put them, and the cost stays at the noise floor.
 #[test]
+#[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn the_prior_picks_the_point_of_an_exact_scale_symmetry_its_centre_prefers() {
     let d = tempfile::tempdir().unwrap();
     let truth_file = truth(d.path());
@@ -934,6 +935,71 @@ fn the_prior_picks_the_point_of_an_exact_scale_symmetry_its_centre_prefers() {
         assert!(j.rms < 1.5 * 2e-4, "{}: RMS {:.3e}", j.joint, j.rms);
     }
     assert!(fit.prior_penalty > 0.0);
+}
+
+/// The prior's mechanism, fast (the default test set; the fit itself is the ignored test
+/// above): on c1's exact scale symmetry the data cost is the same at every α on the line
+/// α × truth, and the prior's term is smallest at the analytic α* = Σ ρ_i / Σ ρ_i² (ρ_i = t_i /
+/// c_i, the prior's centre c = the start), larger 2 % either side and at the truth (α = 1).
+#[test]
+fn the_prior_term_is_least_at_the_analytic_point_of_a_scale_symmetry() {
+    let d = tempfile::tempdir().unwrap();
+    let truth_file = truth(d.path());
+    let truth = Plant::load(&truth_file).unwrap();
+    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "5");
+    let family = [
+        ("Kp_4", 0.30),
+        ("sigma0_4", 0.20),
+        ("sigma1_4", 0.40),
+        ("sigma2_4", 0.25),
+        ("Fc_4", 0.30),
+        ("Fs_4", 0.35),
+        ("Ks_4", 0.20),
+        ("m7", 0.30),
+        ("I7_33", 0.25),
+    ];
+    let names: Vec<String> = family.iter().map(|(n, _)| n.to_string()).collect();
+    let start = d.path().join("start.toml");
+    perturbed_start(&truth_file, &names, &start);
+    let mut plant = Plant::load(&start).unwrap();
+    for (n, delta) in family {
+        plant
+            .parameters
+            .insert(n.into(), truth.parameters[n] * (1.0 + delta));
+    }
+    let (conf, rec) = c1_record(d.path(), &truth);
+    let p = Problem::new(
+        &plant,
+        conf,
+        names.clone(),
+        vec![rec],
+        &[4],
+        OutputErrorOptions {
+            h: 1.0 / 12000.0,
+            prior: Some(0.1),
+            weighting: lockstep::identify::output_error::TimeWeighting::SkipTransient(100),
+            ..OutputErrorOptions::thesis()
+        },
+    )
+    .unwrap();
+    let rho: Vec<f64> = family
+        .iter()
+        .map(|(_, delta)| 1.0 / (1.0 + delta))
+        .collect();
+    let alpha = rho.iter().sum::<f64>() / rho.iter().map(|r| r * r).sum::<f64>();
+    let on_line = |a: f64| -> Vec<f64> { names.iter().map(|n| a * truth.parameters[n]).collect() };
+    let penalty = |a: f64| p.prior_penalty(&p.to_scaled(&on_line(a)));
+    let (at, below, above, truth_point) = (
+        penalty(alpha),
+        penalty(0.98 * alpha),
+        penalty(1.02 * alpha),
+        penalty(1.0),
+    );
+    eprintln!("prior term: α* {at:.4e}, 0.98 α* {below:.4e}, 1.02 α* {above:.4e}, α = 1 {truth_point:.4e}");
+    assert!(at > 0.0 && at < below && at < above && at < truth_point);
+    // The data cannot tell the points of the line apart: the same cost to rounding.
+    let (c_star, c_one) = (p.cost(&on_line(alpha)), p.cost(&on_line(1.0)));
+    assert!((c_star / c_one - 1.0).abs() < 1e-6, "{c_star} vs {c_one}");
 }
 
 /// The least change's plant-gain scale move: in c1 (x7, y7 held) the fit cannot tell the
@@ -1132,6 +1198,7 @@ fn slow_dip_c1(
 /// truth's cost, the dip at least half the truth's, vs_4 within 10 %, the rest within 1 %
 /// (and whatever the statistics call identifiable within 5 %).
 #[test]
+#[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
     let d = tempfile::tempdir().unwrap();
     let (truth, conf, rec) = slow_dip_c1(d.path());
@@ -1376,6 +1443,7 @@ fn the_equation_error_holds_at_the_truth_and_keeps_the_gain_scale_symmetry() {
 /// at 1/2000 s, 89 s): output error 3.74e3 at the equation error's estimate; ω = 3:
 /// 3.10 → 0.287 (output error 0.583); ω = 1: → 0.292 (0.336); whole files 0.295.
 #[test]
+#[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn the_prediction_error_homotopy_takes_c4_from_the_equation_error_to_the_noise_floor() {
     use lockstep::identify::equation_error::{Cutoff, DEFAULT_CUTOFF};
     let d = tempfile::tempdir().unwrap();
@@ -1731,6 +1799,7 @@ fn a_spanning_symbol_on_its_bound_reaches_its_base_parameter_through_the_held_ti
 /// kind of start the fit ended at 2.96 σ̂; from c4's fitted plant on 40 s it reached 0.98 σ̂,
 /// where all 52 parameters with their exact ties stalled at 3.02 σ̂.
 #[test]
+#[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn c5_fits_the_symbols_that_span_its_base_parameters_and_reaches_the_noise_floor() {
     let d = tempfile::tempdir().unwrap();
     let truth_file = truth(d.path());
@@ -1896,6 +1965,7 @@ fn the_true_parameters_reach_the_noise_floor_of_k4_only_from_estimated_initial_p
 /// joint's estimate − first sample is listed. (On k1 the
 /// estimate is not taken: it does not lower the cost there, which skips the first 10 s.)
 #[test]
+#[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn the_fit_estimates_initial_positions_and_reports_them() {
     let d = tempfile::tempdir().unwrap();
     let (p, at_truth, _) = problem_of_step(d.path(), "coupled", "4.7", None, |steps| {
@@ -1988,6 +2058,7 @@ fn truth_within_bounds(dir: &Path, truth: &Path, moved: &[(&str, f64)]) -> PathB
 /// standard errors, and a parameter simulates only the configurations it enters (joint 3's
 /// friction not k1, where joint 3 is locked).
 #[test]
+#[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
     use lockstep::identify::identifiability::occurrence;
     use lockstep::identify::joint::JointProblem;
@@ -2220,6 +2291,7 @@ fn a_held_value_the_step_sees_better_is_released_and_the_floor_reached() {
 /// undetermined; report.md has the joint fit's section. Without k1's file the run is
 /// refused before any fit, naming the step.
 #[test]
+#[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
     let d = tempfile::tempdir().unwrap();
     let truth_file = truth(d.path());
@@ -2291,6 +2363,67 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
     }
     for n in &tied {
         assert!(written.undetermined.contains(n), "{n}");
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("## Joint fit of every step's files: free q3, q4, q5"));
+}
+
+/// The joint fit's mechanism, fast (the default test set; the ignored test above runs it on
+/// 30 s files from the warm-ups): `--joint-fit only` on 4 s of k1 and k2 from the truth,
+/// the whole files at once. No step runs alone; every parameter k1 and k2 fit is fitted or
+/// held as a tie; every joint ends at the noise floor; the plant written holds the fitted
+/// values; report.md has the joint fit's section.
+#[test]
+fn the_joint_fit_fits_every_steps_parameters_on_every_steps_files() {
+    let d = tempfile::tempdir().unwrap();
+    let truth_file = truth(d.path());
+    let truth = Plant::load(&truth_file).unwrap();
+    for k in ["k1", "k2"] {
+        make_data(d.path(), &truth_file, "4.7", None, k, "4");
+    }
+    let start = truth_within_bounds(d.path(), &truth_file, &[]);
+    let out = d.path().join("out");
+    ok(&lockstep(&[
+        "identify",
+        "--method",
+        "coupled",
+        "--config",
+        "k2",
+        "--joint-fit",
+        "only",
+        "--equation-error",
+        "off",
+        "--predictor",
+        "none",
+        "--horizons",
+        "1",
+        "--skip",
+        "100",
+        "--plant",
+        start.to_str().unwrap(),
+        "--data",
+        d.path().join("data").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]));
+    let report = read_report(&out);
+    assert_eq!(report["steps"].as_array().unwrap().len(), 0);
+    let fit = &report["joint"]["fit"];
+    let names: Vec<String> = column(fit, &["names"]);
+    let tied: Vec<String> = column(&report["joint"], &["step", "tied_held"]);
+    let steps = plan(&truth, "coupled").unwrap();
+    for n in steps[0].fitted.iter().chain(&steps[1].fitted) {
+        assert!(
+            names.contains(n) || tied.contains(n),
+            "{n} neither fitted nor held"
+        );
+    }
+    let above: Vec<String> = column(fit, &["statistics", "above_floor"]);
+    assert!(above.is_empty(), "{above:?}");
+    let fitted: Vec<f64> = column(fit, &["fitted"]);
+    let written = Plant::load(&out.join("plant.toml")).unwrap();
+    for (n, v) in names.iter().zip(&fitted) {
+        assert_eq!(written.parameters[n], *v, "{n}");
     }
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("## Joint fit of every step's files: free q3, q4, q5"));
