@@ -20,11 +20,8 @@
 
 use criterion::{criterion_group, Criterion};
 use lockstep::excitation::Excitations;
-use lockstep::identify::equation_error::Cutoff;
-use lockstep::identify::output_error::{OutputErrorOptions, Problem, StageOptimiser};
-use lockstep::identify::sequence::{
-    plan, read_record, run, JointFitMode, RigidBodyFit, SequenceOptions,
-};
+use lockstep::identify::output_error::{OutputErrorOptions, Problem};
+use lockstep::identify::sequence::{plan, read_record, run, SequenceOptions};
 use lockstep::plant::Plant;
 use lockstep::simulation::Integrator;
 use lockstep::synthetic::{excite, simulate_file, SimulateOptions};

@@ -3,7 +3,7 @@
 
 use lockstep::measurement::{Measurement, Table};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 mod common;
 use common::lockstep;

@@ -20,13 +20,12 @@ pub struct OutputErrorArgs {
     /// Joint weight of the joint(s) of interest (others 1).
     #[arg(value_parser = parse_positive, long, default_value_t = 50.0)]
     pub weight: f64,
-    /// Integration step (s); fractions such as 1/12000 accepted. The thesis's 1/6000 s leaves
-    /// RK4's stability region on the Freedom 6S wrist (joint 4's friction damping over link
-    /// 7's small inertia needs h < 1/9600 s), hence the default.
+    /// Integration step (s); fractions such as 1/12000 accepted. The step must keep RK4
+    /// stable on the stiffest joint (a light link with strong friction damping).
     #[arg(long, default_value = "1/12000", value_parser = parse_number)]
     pub step: f64,
-    /// Integrator, rk4 or etdrk4 (exponential RK4 that takes the friction damping exactly:
-    /// the Freedom 6S's wrist runs at 1/2000 s, where RK4 needs below 1/9600 s).
+    /// Integrator, rk4 or etdrk4 (exponential RK4 that takes the friction damping exactly,
+    /// stable at far larger steps on a stiff joint).
     #[arg(long, default_value = "rk4")]
     pub integrator: Integrator,
     /// How the torques were applied between samples: zoh, linear, cubic or bandlimited
@@ -53,8 +52,7 @@ pub struct OutputErrorArgs {
     /// iterations of a stage, Broyden's rank-one update from the step taken between them;
     /// a step that did not lower the cost, and the end of every stage, take a fresh one.
     /// Both optimisers (--predictor-optimiser, --whole-files-optimiser). 1: finite
-    /// differences at every iteration. Default: 4 for the coupled method (the Freedom 6S's
-    /// k1 and k2 at 20 % and 50 % fewer simulations, the identification record), 1 for the
+    /// differences at every iteration. Default: 4 for the coupled method, 1 for the
     /// isolated.
     #[arg(long, value_name = "N")]
     pub jacobian_refresh: Option<usize>,
@@ -110,16 +108,14 @@ pub struct OutputErrorArgs {
     /// held ties (rigid-body symbols an earlier step left undetermined) can carry within
     /// their bounds, the result spread back over every symbol's own bounds, then fitted
     /// there; kept when lower, the held ties moved in the plant written. `off`: the held
-    /// ties stay where they are (c6 of the Freedom 6S then ends at 26 σ̂).
+    /// ties stay where they are.
     #[arg(long, value_enum, default_value = "on")]
     pub tie_reach: Switch,
     /// Balanced refit after each step whose joints of interest are weighted apart (--weight):
     /// the whole files once more with every free joint weighted 1, from the step's result;
     /// kept when the worst free joint's RMS / σ̂ falls. The thesis's weight 50 lets a step
     /// leave a misfit on the other joints that costs it 1/2500 of the same on a joint of
-    /// interest (the Freedom 6S's seed-7 sequence: k3's q4 at 1.55 σ, k5's at 1.75 σ;
-    /// balanced, every joint of every step within 1.01 σ, the record). `off`: the thesis's
-    /// weights to the end
+    /// interest. `off`: the thesis's weights to the end.
     #[arg(long, value_enum, default_value = "on")]
     pub balance: Switch,
     /// Equation-error warm start: one more start from the plant's values first fits the
@@ -147,16 +143,15 @@ pub struct OutputErrorArgs {
     /// injection keeps an early error from growing along the file, so the stages that move
     /// the parameters most of the way run far coarser than the whole files need. `none`:
     /// the predictor's stages on --step and --integrator. Default: 1/2000 for the coupled
-    /// method, none for the isolated. With `--predictor-optimiser lm`, k1 of the Freedom 6S
-    /// stalls on the coarse step (whole files 4.19, the identification record): pass none.
+    /// method, none for the isolated. The Levenberg–Marquardt (`--predictor-optimiser lm`)
+    /// can stall on the coarse step: pass none with it.
     #[arg(long, value_name = "STEP")]
     pub predictor_step: Option<String>,
     /// Optimiser of the predictor's stages: `lm`, rmpfit's bounded Levenberg–Marquardt
     /// (every other stage's), or `trf`, basin's trust-region-reflective method, which
     /// follows a descent that the Levenberg–Marquardt stops on with a collapsed trust
-    /// region (k3 of the Freedom 6S at ω = 100 rad/s: 0.148 → 0.110 where it stopped at
-    /// 0.147), at one Jacobian per accepted step (finite differences, or Broyden's update
-    /// between them with --jacobian-refresh). Default: trf.
+    /// region, at one Jacobian per accepted step (finite differences, or Broyden's update
+    /// between them with --jacobian-refresh).
     #[arg(long, value_enum, default_value = "trf")]
     pub predictor_optimiser: OptimiserArg,
     /// Optimiser of the whole files' stage (the cost itself) and of the refit that
@@ -167,8 +162,7 @@ pub struct OutputErrorArgs {
     /// Initial positions of the free joints in every file: `estimate`d with the parameters
     /// at the whole files' stage (as MATLAB `oe`/`pem` with `InitialCondition = 'estimate'`;
     /// the first sample carries the sensor noise, which a trajectory sensitive to its start
-    /// carries to every later sample: the Freedom 6S's k4 at the true parameters has q5 at
-    /// 1.52 σ from the first sample, 1.01 σ from the estimate) or the first `measured`
+    /// carries to every later sample) or the first `measured`
     /// sample, as the thesis. Default: estimate for the coupled method, measured for the
     /// isolated.
     #[arg(long, value_enum)]
@@ -195,8 +189,7 @@ pub struct OutputErrorArgs {
     /// configuration's base parameters where its files hold the locked joints, by column
     /// pivoting on ∂β/∂s; the others held at their values and left undetermined for later
     /// steps: the same reachable dynamics without the exact ties a finite-difference
-    /// Jacobian fills with noise; on the isolated sequence of the Freedom 6S it takes c4
-    /// and c5 to the noise floor where `all` stalls) or `all` (every symbol the step
+    /// Jacobian fills with noise) or `all` (every symbol the step
     /// identifies or carries; the least change resolves their exact ties afterwards).
     #[arg(long, value_enum, default_value = "spanning")]
     pub rigid_body: RigidBodyArg,
@@ -644,6 +637,71 @@ mod method_tests {
         let o = oe.options(method).unwrap();
         assert_eq!(o.horizons, vec![1.0]);
         assert_eq!(format!("{:?}", o.predictor), format!("{:?}", c.predictor));
+    }
+
+    /// The per-method defaults the help states are the presets' values.
+    #[test]
+    fn the_help_states_the_presets_defaults() {
+        let mut cmd = Cli::command();
+        let help = cmd
+            .find_subcommand_mut("identify")
+            .unwrap()
+            .render_long_help()
+            .to_string();
+        let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
+        let (c, i) = (
+            OutputErrorOptions::coupled(),
+            OutputErrorOptions::isolated(),
+        );
+        let list = |v: &[f64]| {
+            if v.is_empty() {
+                "none".to_string()
+            } else {
+                v.iter()
+                    .map(|x| x.to_string())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            }
+        };
+        let on = |b: bool| if b { "on" } else { "off" };
+        let step = |s: Option<(f64, Integrator)>| match s {
+            Some((h, _)) => format!("1/{}", (1.0 / h).round()),
+            None => "none".into(),
+        };
+        let initial = |e: bool| if e { "estimate" } else { "measured" };
+        for stated in [
+            format!(
+                "Default: {} for the coupled method, {} for the isolated",
+                c.jacobian_refresh, i.jacobian_refresh
+            ),
+            format!(
+                "Default: {} for the coupled method, {} for the isolated",
+                list(&c.horizons),
+                list(&i.horizons)
+            ),
+            format!(
+                "Default: {} for the coupled method, {} for the isolated",
+                on(c.equation_error.is_some()),
+                on(i.equation_error.is_some())
+            ),
+            format!(
+                "Default: {} for the coupled method, {} for the isolated",
+                list(&c.predictor),
+                list(&i.predictor)
+            ),
+            format!(
+                "Default: {} for the coupled method, {} for the isolated",
+                step(c.predictor_step),
+                step(i.predictor_step)
+            ),
+            format!(
+                "Default: {} for the coupled method, {} for the isolated",
+                initial(c.estimate_initial_positions),
+                initial(i.estimate_initial_positions)
+            ),
+        ] {
+            assert!(help.contains(&stated), "not in identify --help: {stated}");
+        }
     }
 
     #[test]
