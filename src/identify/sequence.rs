@@ -1077,9 +1077,8 @@ impl StepRefit<'_> {
     /// λ = [`OutputErrorOptions::interest_weight`] (50) against 1 for the others, so a
     /// misfit those others show costs the fit 1/λ² of what the same misfit of a joint of
     /// interest would: where the values earlier steps left are slightly off, the step's
-    /// minimum trades it onto them. On k3 of the Freedom 6S (seed-7 data, q2 of interest)
-    /// the sequence's result had the wrist's q4 at 1.55 σ (1.34 σ̂, the sensor's σ
-    /// 2.02e-4 rad), a cost (4.3) of 0.30523 whose q4 share is 3e-4. This refit fits the
+    /// minimum trades it onto them (the Freedom 6S case is in the identification record).
+    /// This refit fits the
     /// whole files once more from the fit's values with every free joint weighted 1 (no
     /// warm-ups, one start); it is kept when the worst free joint's RMS / σ̂ falls, the
     /// noise-floor criterion itself. None when every free joint already carries the same

@@ -12,14 +12,12 @@ use super::*;
 /// The final stage minimises exactly that cost, so the warm-ups only choose where it
 /// starts. Two ways the warm-ups' end is not the best start:
 /// - a predictor's output injection holds a simulation on the data that runs away without
-///   it: k4 of the Freedom 6S from the seed-7 k3 plant (RK4 warm-ups at 1/12000 s) ended
-///   its predictor stages where the whole files could not be simulated, and the final
-///   stage had no start;
-/// - a predictor stage can raise the whole files' cost: the isolated step c4 with the plant
-///   gains known, the Stribeck re-seed of joint 2 at 0.32039 (vs 0.027 rad/s, the truth's
-///   0.019), its ω = 3 rad/s stage at 0.46297, and the final stage stopped there; the
-///   fit kept instead (0.31497) had Fs_2 38 % below the truth with a standard error that
-///   called it identifiable.
+///   it, so its stages can end where the whole files cannot be simulated, and the final
+///   stage would have no start;
+/// - a predictor stage can raise the whole files' cost, and a final stage started there
+///   can stop in a worse minimum than one started from an earlier stage.
+///
+/// (Both were met on the Freedom 6S; the identification record has the runs.)
 ///
 /// Returns the report's note when the start is not the warm-ups' end.
 pub(super) fn start_final_stage(

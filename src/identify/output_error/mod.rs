@@ -15,14 +15,18 @@
 //! start of [`OutputErrorOptions::equation_error`] — on the torque balance at every sample
 //! ([`super::equation_error`], no simulation); all end on the whole files, the cost itself.
 //!
-//! Optimiser: bounded Levenberg–Marquardt (MINPACK/CMPFIT, crate `rmpfit`) with the
+//! Optimisers ([`StageOptimiser`]): bounded Levenberg–Marquardt (MINPACK/CMPFIT, crate
+//! `rmpfit`) or the trust-region-reflective method (Coleman & Li 1996, crate `basin`), the
 //! Jacobian by forward finite differences, one simulation per column, run in parallel
-//! (rayon). Standard errors from the Jacobian at the solution, correlations above 0.95
-//! flagged, NRMSE fit per joint as MATLAB's `compare`.
+//! (rayon), or Broyden's rank-one updates between finite-difference Jacobians
+//! ([`OutputErrorOptions::jacobian_refresh`]). Standard errors from the Jacobian at the
+//! solution, correlations above 0.95 flagged, NRMSE fit per joint as MATLAB's `compare`.
+//! The defaults are the presets [`OutputErrorOptions::thesis`],
+//! [`OutputErrorOptions::isolated`] and [`OutputErrorOptions::coupled`].
 //!
 //! Files: this one holds the options, the [`Problem`] of a configuration and its residuals,
 //! the least change along ties; `fit.rs` the starts and their stages; `optimiser.rs` the
-//! Levenberg–Marquardt adapter, Broyden's update and the stopping rules; `statistics.rs`
+//! optimisers' adapters, Broyden's update and the stopping rules; `statistics.rs`
 //! the standard errors, exact symmetries, structural ties and fit figures.
 
 use super::equation_error::{Cutoff, EquationError};
