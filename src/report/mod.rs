@@ -1,9 +1,10 @@
 //! Reporting: tables for the terminal and Markdown, figures ([`plot`]), the wall and
 //! closed-loop reports ([`control`]), the model-versus-measurement loop and its HTML report
-//! ([`diagnosis`]).
+//! ([`diagnosis`]), the locking sequences' report ([`sequence`]).
 pub mod control;
 pub mod diagnosis;
 pub mod plot;
+pub mod sequence;
 
 use crate::identify::idim::Fit;
 
