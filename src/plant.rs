@@ -36,96 +36,8 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// `[[effect]]` as written in the file.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct EffectSpec {
-    /// Which effect.
-    pub kind: EffectKind,
-    /// Joint variables it acts on (every kind but `input_coupling`).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub joints: Vec<String>,
-    /// For `input_coupling`: the joint whose command is passed on.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub from: Option<String>,
-    /// For `input_coupling`: the joint that receives it.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub to: Option<String>,
-}
-
-/// The plant file as written.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PlantFile {
-    /// Name of the generated model.
-    pub model: String,
-    /// Free text.
-    #[serde(default)]
-    pub description: String,
-    /// Effects.
-    #[serde(default, rename = "effect")]
-    pub effects: Vec<EffectSpec>,
-    /// Parameter values (SI).
-    #[serde(default)]
-    pub parameters: BTreeMap<String, f64>,
-    /// Parameter bounds `[lower, upper]` (SI); exactly two numbers each.
-    #[serde(
-        default,
-        skip_serializing_if = "BTreeMap::is_empty",
-        deserialize_with = "two_numbers_each"
-    )]
-    pub bounds: BTreeMap<String, [f64; 2]>,
-    /// What was changed and refitted, oldest first (`lockstep diagnose --apply`, `lockstep
-    /// refit`).
-    #[serde(default, rename = "history", skip_serializing_if = "Vec::is_empty")]
-    pub history: Vec<HistoryEntry>,
-    /// Rigid-body symbols a step of a locking sequence fitted but could not determine (not
-    /// called identifiable); the next step where they appear fits them again
-    /// ([`crate::identify::sequence::run`]), also when it is run alone with `--config`.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub undetermined: Vec<String>,
-    /// Standard errors (SI) of fitted values, from the step that last fitted them at the
-    /// noise floor (its Jacobian, the uncertainty of what it held included: what that
-    /// step's data say about them, also where that is not enough to call them
-    /// identifiable). A later step that holds them adds their uncertainty to its own
-    /// standard errors ([`crate::identify::output_error::Statistics::held`]); one that fits
-    /// an undetermined symbol again takes it as a prior with `--carried-prior on`
-    /// ([`crate::identify::output_error::OutputErrorOptions::carried_prior`]).
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub standard_errors: BTreeMap<String, f64>,
-    /// Correlations of values with recorded standard errors that one step fitted together
-    /// (`[correlations.a] b = ρ`, each pair once, a < b; absent pairs 0): the estimates of
-    /// one fit are correlated (a value and what it trades with), and a later step that
-    /// holds both propagates their joint uncertainty Σ_h = D R D, D the standard errors,
-    /// R these correlations (the two-stage estimator needs the first stage's covariance,
-    /// not its diagonal; Murphy and Topel 1985). A step that fits a value again drops its
-    /// pairs.
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub correlations: BTreeMap<String, BTreeMap<String, f64>>,
-}
-
-/// One step of a plant's history: a change (an effect added, parameters refitted), the
-/// data it was fitted on and the RMS position error per joint before and after.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct HistoryEntry {
-    /// What changed, e.g. "added spring on q3".
-    pub change: String,
-    /// Configuration of the data.
-    pub configuration: String,
-    /// Data files.
-    #[serde(default)]
-    pub files: Vec<String>,
-    /// Fitted values (SI).
-    #[serde(default)]
-    pub fitted: BTreeMap<String, f64>,
-    /// RMS position error per joint before the change (rad or m).
-    #[serde(default)]
-    pub rms_before: BTreeMap<String, f64>,
-    /// … and after the refit.
-    #[serde(default)]
-    pub rms_after: BTreeMap<String, f64>,
-}
+mod file;
+pub use file::*;
 
 /// A validated plant: model kernels, effects resolved to joint indices, parameter values.
 #[derive(Debug, Clone)]
@@ -154,24 +66,6 @@ pub struct Plant {
     /// Correlations of recorded values one step fitted together, each pair once with the
     /// lexically smaller name first ([`PlantFile::correlations`], [`Plant::correlation`]).
     pub correlations: BTreeMap<String, BTreeMap<String, f64>>,
-}
-
-/// `[bounds]` entries as `[lower, upper]`, refusing any other length (serde's fixed-size
-/// arrays would drop extra elements silently).
-fn two_numbers_each<'de, D: serde::Deserializer<'de>>(
-    d: D,
-) -> std::result::Result<BTreeMap<String, [f64; 2]>, D::Error> {
-    use serde::de::Error;
-    let raw = BTreeMap::<String, Vec<f64>>::deserialize(d)?;
-    raw.into_iter()
-        .map(|(k, v)| match v.as_slice() {
-            [lo, hi] => Ok((k, [*lo, *hi])),
-            _ => Err(D::Error::custom(format!(
-                "[bounds] '{k}': expected [lower, upper] (two numbers), found {} number(s)",
-                v.len()
-            ))),
-        })
-        .collect()
 }
 
 /// One physical-consistency finding of a link of a plant.

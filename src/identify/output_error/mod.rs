@@ -47,9 +47,11 @@ mod optimiser;
 mod options;
 mod statistics;
 pub use options::*;
+mod held;
 mod least_change;
 mod scaling;
 mod stages;
+pub(crate) use held::*;
 pub use least_change::*;
 pub(crate) use scaling::*;
 
