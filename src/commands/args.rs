@@ -210,12 +210,15 @@ pub struct Common {
     pub config: Option<String>,
     /// Cut-off of the zero-phase Butterworth on positions (Hz).
     #[arg(value_parser = parse_positive, long, default_value_t = 100.0)]
+    #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
     pub cutoff: f64,
     /// Order of that Butterworth.
     #[arg(long, default_value_t = 4)]
+    #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
     pub order: usize,
     /// Parallel decimation factor.
     #[arg(long, default_value_t = 10)]
+    #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
     pub decimate: usize,
 }
 

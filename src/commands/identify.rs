@@ -9,44 +9,56 @@ pub struct OutputErrorArgs {
     /// Continue an interrupted sequence in --out from its last completed step: start from
     /// --out's plant.toml, skip the steps its report lists, add the rest to that report.
     #[arg(long)]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub resume: bool,
     /// Cost: 4.2 (first half of each file weighted 1/2; isolated default) or 4.3 (skip the
     /// first --skip samples; coupled default).
     #[arg(long, value_enum)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub cost: Option<CostArg>,
     /// Samples skipped at the start of each file under cost 4.3.
     #[arg(long, default_value_t = 1000)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub skip: usize,
     /// Joint weight of the joint(s) of interest (others 1).
     #[arg(value_parser = parse_positive, long, default_value_t = 50.0)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub weight: f64,
     /// Integration step (s); fractions such as 1/12000 accepted. The step must keep RK4
     /// stable on the stiffest joint (a light link with strong friction damping).
     #[arg(long, default_value = "1/12000", value_parser = parse_number)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub step: f64,
     /// Integrator, rk4 or etdrk4 (exponential RK4 that takes the friction damping exactly,
     /// stable at far larger steps on a stiff joint).
     #[arg(long, default_value = "rk4")]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub integrator: Integrator,
     /// How the torques were applied between samples: zoh, linear, cubic or bandlimited
     /// (default: each file's side file's `hold`, else zoh).
     #[arg(long)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub hold: Option<Hold>,
     /// Starts per step: the plant's values, then random points inside the bounds (run in
     /// parallel).
     #[arg(long, default_value_t = 1)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub starts: usize,
     /// Seed of the random starts.
     #[arg(long, default_value_t = 1)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub seed: u64,
     /// Stop when the relative parameter step is below this (thesis 2e-6).
     #[arg(value_parser = parse_positive, long, default_value_t = 2e-6)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub xtol: f64,
     /// Stop when the relative cost decrease is below this.
     #[arg(value_parser = parse_positive, long, default_value_t = 1e-6)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub ftol: f64,
     /// Most iterations per start.
     #[arg(long, default_value_t = 100)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub max_iter: usize,
     /// A finite-difference Jacobian (one simulation per fitted parameter) at most every N
     /// iterations of a stage, Broyden's rank-one update from the step taken between them;
@@ -55,6 +67,7 @@ pub struct OutputErrorArgs {
     /// differences at every iteration. Default: 4 for the coupled method, 1 for the
     /// isolated.
     #[arg(long, value_name = "N")]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub jacobian_refresh: Option<usize>,
     /// Multiple-shooting warm-up, e.g. `--segments 1,4`: one more start from the plant's
     /// values fits every file cut into segments of these lengths (s) in turn, each segment
@@ -62,6 +75,7 @@ pub struct OutputErrorArgs {
     /// the whole files; it runs beside the start through the horizons and the lower cost
     /// wins. `none`: only the horizons.
     #[arg(long, default_value = "none")]
+    #[arg(help_heading = "Output error: starts and warm-ups")]
     pub segments: String,
     /// Growing horizons: fit on these fractions of every file in turn (after the skipped
     /// transient), each simulated from the file's start and starting where the last stage
@@ -70,6 +84,7 @@ pub struct OutputErrorArgs {
     /// (`--equation-error`, `--predictor`, `--segments`; one must be set). Default: none for
     /// the coupled method, 0.05,0.1,0.25,0.5,1 for the isolated.
     #[arg(long)]
+    #[arg(help_heading = "Output error: starts and warm-ups")]
     pub horizons: Option<String>,
     /// After each step's fit, move the rigid-body symbols back toward the plant's initial
     /// values along the combinations that step cannot tell apart (its base parameters held
@@ -77,6 +92,7 @@ pub struct OutputErrorArgs {
     /// solution, so the next step starts from the prior, not from where the optimiser
     /// drifted along an exact tie. `off`: keep the minimum as found.
     #[arg(long, value_enum, default_value = "on")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub least_change: Switch,
     /// Prior on each step's fitted parameters (maximum a posteriori, as MATLAB's
     /// regularisation toward the nominal model): Gaussian about the values the step starts
@@ -86,6 +102,7 @@ pub struct OutputErrorArgs {
     /// silent or nearly so, so a step does not hand an arbitrary point of a flat valley to
     /// the next. `none`: the thesis cost alone.
     #[arg(long, default_value = "none", value_name = "TAU")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub prior: String,
     /// Sequential prior on carried symbols: each step records, in the plant it writes, the
     /// standard errors of the rigid-body symbols it fitted at the noise floor but could not
@@ -93,6 +110,7 @@ pub struct OutputErrorArgs {
     /// with those standard errors (what the earlier step's data say about them), instead of
     /// letting its own joint of interest trade them away. Overrides `--prior` for them.
     #[arg(long, value_enum, default_value = "off")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub carried_prior: Switch,
     /// Release held values where a step ends above the noise floor: the values earlier
     /// steps fitted (with a recorded standard error) that this step's data see better than
@@ -102,6 +120,7 @@ pub struct OutputErrorArgs {
     /// error on an earlier configuration can still be off by more than a later one
     /// tolerates. `off`: the thesis's sequence, every earlier value held as fitted.
     #[arg(long, value_enum, default_value = "on")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub release_held: Switch,
     /// Reach across held ties where a step ends above the noise floor with a spanning
     /// rigid-body symbol on a bound: fitted again with that bound moved out by what the
@@ -110,6 +129,7 @@ pub struct OutputErrorArgs {
     /// there; kept when lower, the held ties moved in the plant written. `off`: the held
     /// ties stay where they are.
     #[arg(long, value_enum, default_value = "on")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub tie_reach: Switch,
     /// Balanced refit after each step whose joints of interest are weighted apart (--weight):
     /// the whole files once more with every free joint weighted 1, from the step's result;
@@ -117,6 +137,7 @@ pub struct OutputErrorArgs {
     /// leave a misfit on the other joints that costs it 1/2500 of the same on a joint of
     /// interest. `off`: the thesis's weights to the end.
     #[arg(long, value_enum, default_value = "on")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub balance: Switch,
     /// Equation-error warm start: one more start from the plant's values first fits the
     /// torque balance at every sample (positions low-passed and differentiated, LuGre
@@ -127,6 +148,7 @@ pub struct OutputErrorArgs {
     /// a cut-off fraction of the Nyquist frequency for every joint, such as 0.2; or `off`.
     /// Default: on for the coupled method, off for the isolated.
     #[arg(long, value_name = "on|off|CUTOFF")]
+    #[arg(help_heading = "Output error: starts and warm-ups")]
     pub equation_error: Option<String>,
     /// Prediction-error homotopy, e.g. `--predictor 3,1`: before the whole files, fit the
     /// files simulated with the state pulled toward the measured positions by a critically
@@ -138,6 +160,7 @@ pub struct OutputErrorArgs {
     /// the two bandwidths (twice at most; the report says so). `none`: no such stages.
     /// Default: 100,30,10,3,1 for the coupled method, none for the isolated.
     #[arg(long, value_name = "OMEGAS")]
+    #[arg(help_heading = "Output error: starts and warm-ups")]
     pub predictor: Option<String>,
     /// Step (s) of the predictor's stages, simulated by ETDRK4, e.g. 1/2000: the output
     /// injection keeps an early error from growing along the file, so the stages that move
@@ -146,6 +169,7 @@ pub struct OutputErrorArgs {
     /// method, none for the isolated. The Levenberg–Marquardt (`--predictor-optimiser lm`)
     /// can stall on the coarse step: pass none with it.
     #[arg(long, value_name = "STEP")]
+    #[arg(help_heading = "Output error: starts and warm-ups")]
     pub predictor_step: Option<String>,
     /// Optimiser of the predictor's stages: `lm`, rmpfit's bounded Levenberg–Marquardt
     /// (every other stage's), or `trf`, basin's trust-region-reflective method, which
@@ -153,11 +177,13 @@ pub struct OutputErrorArgs {
     /// region, at one Jacobian per accepted step (finite differences, or Broyden's update
     /// between them with --jacobian-refresh).
     #[arg(long, value_enum, default_value = "trf")]
+    #[arg(help_heading = "Output error: starts and warm-ups")]
     pub predictor_optimiser: OptimiserArg,
     /// Optimiser of the whole files' stage (the cost itself) and of the refit that
     /// releases held values: `lm` or `trf`, as --predictor-optimiser. The horizons',
     /// segments' and equation error's stages run `lm`.
     #[arg(long, value_enum, default_value = "lm")]
+    #[arg(help_heading = "Output error: starts and warm-ups")]
     pub whole_files_optimiser: OptimiserArg,
     /// Initial positions of the free joints in every file: `estimate`d with the parameters
     /// at the whole files' stage (as MATLAB `oe`/`pem` with `InitialCondition = 'estimate'`;
@@ -166,6 +192,7 @@ pub struct OutputErrorArgs {
     /// sample, as the thesis. Default: estimate for the coupled method, measured for the
     /// isolated.
     #[arg(long, value_enum)]
+    #[arg(help_heading = "Output error: starts and warm-ups")]
     pub initial_positions: Option<InitialPositionsArg>,
     /// Joint fit of the sequence's steps: `after` the step-by-step fits, every parameter the
     /// steps fit is refined on every step's files at once (each file in its configuration,
@@ -175,15 +202,18 @@ pub struct OutputErrorArgs {
     /// run wrote). It covers the steps up to --config's (all without it); their files must
     /// be in --data. `off`: the steps alone (the thesis).
     #[arg(long, value_enum, default_value = "off")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub joint_fit: JointFitArg,
     /// The position sensor's noise σ (rad or m) when known, such as 2e-4: used instead of
     /// the σ̂ estimated from each file (robust 5th differences of the positions) for the
     /// noise-floor check, the prior's weight and the predictor step's check. `estimate`:
     /// from the data.
     #[arg(long, default_value = "estimate", value_name = "SIGMA|estimate")]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub noise_sigma: String,
     /// Largest motion (rad) allowed of a locked joint in a file.
     #[arg(value_parser = parse_positive, long, default_value_t = 0.01)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub locked_tolerance: f64,
     /// Rigid-body symbols each step fits: `spanning` (a set of them that spans the
     /// configuration's base parameters where its files hold the locked joints, by column
@@ -192,6 +222,7 @@ pub struct OutputErrorArgs {
     /// Jacobian fills with noise) or `all` (every symbol the step
     /// identifies or carries; the least change resolves their exact ties afterwards).
     #[arg(long, value_enum, default_value = "spanning")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub rigid_body: RigidBodyArg,
 }
 
