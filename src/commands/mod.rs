@@ -42,7 +42,8 @@ pub enum Command {
         #[arg(long, default_value = "lockstep-out/demo")]
         out: PathBuf,
     },
-    /// Fit a plant's parameters to torque-measured data by IDIM-LS.
+    /// Fit a plant's parameters: IDIM-LS on torque measurements, or output error along a
+    /// locking sequence on position measurements (an option of the other method is refused).
     ///
     /// `--method idim` (default): IDIM-LS on torque-measured data. `--method isolated` or
     /// `coupled`: output-error fits along the model's locking sequence on the position
