@@ -21,8 +21,9 @@ use super::identifiability::Occurrence;
 use super::output_error::{
     covariance_statistics, difference_column, enters, feasible_bounds, fitted_companions, held_in,
     minimise, physical_to_scaled, scaled_to_physical, FitResult, GainScaleContext, HeldColumns,
-    LeastSquares, OutputErrorOptions, Problem, Progress, Record, Stage, StageContext, StartSummary,
-    Statistics, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
+    JacobianPolicy, LeastSquares, OutputErrorOptions, Problem, Progress, Record, Stage,
+    StageContext, StartSummary, Statistics, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS,
+    INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
 use crate::simulation::Trajectory;
@@ -293,6 +294,7 @@ impl JointProblem {
             jacobians: &jacobians,
             started,
             progress,
+            jacobian: JacobianPolicy::of(&self.options),
         };
         let frozen = vec![false; self.names.len()];
         let mut u = self.to_scaled(&p0);
@@ -594,9 +596,5 @@ impl LeastSquares for JointProblem {
             cols[i][part.offset..part.offset + part.len()].copy_from_slice(&block);
         }
         cols
-    }
-
-    fn options(&self) -> &OutputErrorOptions {
-        &self.options
     }
 }

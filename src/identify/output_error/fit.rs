@@ -160,6 +160,7 @@ impl Problem {
                     jacobians: &jacobians,
                     started,
                     progress,
+                    jacobian: JacobianPolicy::of(&self.options),
                 };
                 let stages = self.stages(warm_up);
                 self.run_start(&context, u0, warm_up, &stages, equation_error.as_ref())
@@ -182,6 +183,7 @@ impl Problem {
                 jacobians: &jacobians,
                 started,
                 progress,
+                jacobian: JacobianPolicy::of(&self.options),
             };
             let stages = self.stages(WarmUp::StribeckBranch);
             let mut run = self.run_start(&context, u, WarmUp::StribeckBranch, &stages, None);
@@ -841,7 +843,8 @@ impl Problem {
         ee.residuals(&self.to_physical(&u))
             .map_err(|e| anyhow::anyhow!("{}", e.0))?;
         let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
-        let context = StageContext::alone(&evaluations, &jacobians);
+        let context =
+            StageContext::alone(&evaluations, &jacobians, JacobianPolicy::of(&ee.options));
         let outcome = ee.run_stage(Stage::EquationError, &mut u, &context);
         Ok((self.to_physical(&u), outcome.status))
     }

@@ -142,12 +142,18 @@ pub(crate) struct StageContext<'a> {
     pub(crate) jacobians: &'a AtomicUsize,
     pub(crate) started: Instant,
     pub(crate) progress: &'a (dyn Fn(Progress) + Sync),
+    /// How the solvers form the Jacobian.
+    pub(crate) jacobian: JacobianPolicy,
 }
 
 impl<'a> StageContext<'a> {
     /// The context of a lone start (1 of 1) on `evaluations` and `jacobians`, its clock
-    /// started now, no progress display.
-    pub(crate) fn alone(evaluations: &'a AtomicUsize, jacobians: &'a AtomicUsize) -> Self {
+    /// started now, no progress display, the Jacobian by `jacobian`.
+    pub(crate) fn alone(
+        evaluations: &'a AtomicUsize,
+        jacobians: &'a AtomicUsize,
+        jacobian: JacobianPolicy,
+    ) -> Self {
         StageContext {
             start: 0,
             starts: 1,
@@ -155,6 +161,28 @@ impl<'a> StageContext<'a> {
             jacobians,
             started: Instant::now(),
             progress: &|_| {},
+            jacobian,
+        }
+    }
+}
+
+/// How a solver forms the Jacobian of a stage: forward differences with step `fd_step`
+/// (scaled units, toward the interior at an upper bound), taken afresh at most every
+/// `refresh` iterations, Broyden's rank-one updates between (1: finite differences at
+/// every iteration). A value the solver is given, not read back from the problem.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct JacobianPolicy {
+    pub(crate) fd_step: f64,
+    pub(crate) refresh: usize,
+}
+
+impl JacobianPolicy {
+    /// The policy of `options` ([`OutputErrorOptions::fd_step`],
+    /// [`OutputErrorOptions::jacobian_refresh`]).
+    pub(crate) fn of(options: &OutputErrorOptions) -> Self {
+        JacobianPolicy {
+            fd_step: options.fd_step,
+            refresh: options.jacobian_refresh,
         }
     }
 }
@@ -219,8 +247,6 @@ pub(crate) trait LeastSquares: Sync {
             })
             .collect()
     }
-    /// The fit's settings.
-    fn options(&self) -> &OutputErrorOptions;
     /// The prior's weight per parameter (its rows' diagonal), if the fit has a prior.
     fn prior_weight(&self) -> Option<&[f64]> {
         None
@@ -240,9 +266,6 @@ impl LeastSquares for Problem {
     }
     fn to_physical(&self, u: &[f64]) -> Vec<f64> {
         Problem::to_physical(self, u)
-    }
-    fn options(&self) -> &OutputErrorOptions {
-        &self.options
     }
     fn prior_weight(&self) -> Option<&[f64]> {
         self.prior.as_ref().map(|(_, w)| w.as_slice())
@@ -412,7 +435,7 @@ impl<'a> Evaluator<'a> {
         p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
     ) -> Vec<Vec<f64>> {
         let p = self.problem;
-        let h = p.options().fd_step;
+        let h = self.context.jacobian.fd_step;
         let steps: Vec<f64> = x
             .iter()
             .map(|&u| if u + h > 1.0 { -h } else { h })
@@ -466,7 +489,7 @@ impl MPFitter for Fitter<'_> {
         let m = p.residual_count();
         let last = LastJacobian::next(
             self.jacobian.take(),
-            p.options().jacobian_refresh,
+            self.evaluator.context.jacobian.refresh,
             params,
             &r0[..m],
             || {
@@ -588,7 +611,7 @@ pub(crate) fn minimise_trf(
             let mut slot = self.jacobian.lock().unwrap_or_else(|e| e.into_inner());
             let last = LastJacobian::next(
                 slot.take(),
-                p.options().jacobian_refresh,
+                self.evaluator.context.jacobian.refresh,
                 &y,
                 &r0[..m],
                 || {
@@ -733,14 +756,15 @@ mod tests {
         fn to_physical(&self, u: &[f64]) -> Vec<f64> {
             vec![4.0 * u[0], self.b_max * u[1]]
         }
-        fn options(&self) -> &OutputErrorOptions {
-            &self.options
-        }
     }
 
     fn trf(problem: &Decay, frozen: &[bool], u: &mut [f64]) -> StageOutcome {
         let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
-        let context = StageContext::alone(&evaluations, &jacobians);
+        let context = StageContext::alone(
+            &evaluations,
+            &jacobians,
+            JacobianPolicy::of(&problem.options),
+        );
         let cost = |u: &[f64]| -> f64 {
             let r = problem.residuals(&problem.to_physical(u)).unwrap();
             r.iter().map(|x| x * x).sum()
