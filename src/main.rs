@@ -11,7 +11,10 @@ fn main() {
         std::process::exit(130);
     });
     let matches = commands::Cli::command().get_matches();
-    let cli = commands::Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    let mut cli = commands::Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    if let commands::Command::Identify { oe, .. } = &mut cli.command {
+        oe.given = commands::given_identify_options(&matches);
+    }
     if let Err(e) =
         commands::refuse_options_of_other_methods(&matches).and_then(|()| commands::run(cli))
     {

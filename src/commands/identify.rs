@@ -11,6 +11,17 @@ pub struct OutputErrorArgs {
     #[arg(long)]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub resume: bool,
+    /// Output-error options from a file, applied to the method's preset before the flags
+    /// (a flag given on the command line wins): a TOML table of the options' fields
+    /// (e.g. `h = 8.333e-5`, `horizons = [0.1, 1.0]`, `max_speed = 300.0`), or the
+    /// `report.json` of an earlier run, whose recorded options replay it.
+    #[arg(long, value_name = "FILE")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
+    pub profile: Option<PathBuf>,
+    /// The identify options given on the command line (clap ids), set by the binary from
+    /// its matches: the flags that win over `--profile`.
+    #[arg(skip)]
+    pub given: Vec<String>,
     /// Cost: 4.2 (first half of each file weighted 1/2; isolated default) or 4.3 (skip the
     /// first --skip samples; coupled default).
     #[arg(long, value_enum)]
@@ -230,6 +241,37 @@ impl OutputErrorArgs {
     /// The output-error options of `method`: its preset ([`OutputErrorOptions::isolated`],
     /// [`OutputErrorOptions::coupled`]) with the options given on the command line.
     pub fn options(&self, method: Method) -> Result<OutputErrorOptions> {
+        let flags = self.options_from_flags(method)?;
+        let Some(path) = &self.profile else {
+            return Ok(flags);
+        };
+        let preset = if method == Method::Coupled {
+            OutputErrorOptions::coupled()
+        } else {
+            OutputErrorOptions::isolated()
+        };
+        let profiled = with_profile(&preset, path)?;
+        // Each field from the profile unless a flag that sets it was given.
+        let mut merged = serde_json::to_value(&profiled)?;
+        let from_flags = serde_json::to_value(&flags)?;
+        for (field, ids) in FIELD_FLAGS {
+            if ids.iter().any(|id| self.given.iter().any(|g| g == id)) {
+                merged[*field] = from_flags[*field].clone();
+            }
+        }
+        let mut o: OutputErrorOptions = serde_json::from_value(merged)?;
+        o.hold = flags.hold;
+        if !o.fits_the_plant_values() {
+            bail!(
+                "{}: nothing would fit the plant's values (no horizons, equation error, predictor or segments)",
+                path.display()
+            );
+        }
+        Ok(o)
+    }
+
+    /// The method's preset with the flags (every flag: a default is the preset's value).
+    fn options_from_flags(&self, method: Method) -> Result<OutputErrorOptions> {
         use lockstep::identify::output_error::TimeWeighting;
         let coupled = method == Method::Coupled;
         let mut o = if coupled {
@@ -362,6 +404,80 @@ impl OutputErrorArgs {
         opts.balance = self.balance.on();
         Ok(opts)
     }
+}
+
+/// The fields of [`OutputErrorOptions`] each command-line flag sets (clap ids): a given flag
+/// wins over `--profile` for its fields.
+const FIELD_FLAGS: &[(&str, &[&str])] = &[
+    ("weighting", &["cost", "skip"]),
+    ("interest_weight", &["weight"]),
+    ("h", &["step"]),
+    ("integrator", &["integrator"]),
+    ("xtol", &["xtol"]),
+    ("ftol", &["ftol"]),
+    ("max_iter", &["max_iter"]),
+    ("starts", &["starts"]),
+    ("seed", &["seed"]),
+    ("jacobian_refresh", &["jacobian_refresh"]),
+    ("horizons", &["horizons"]),
+    ("segments", &["segments"]),
+    ("least_change", &["least_change"]),
+    ("prior", &["prior"]),
+    ("carried_prior", &["carried_prior"]),
+    ("equation_error", &["equation_error"]),
+    ("predictor", &["predictor"]),
+    ("predictor_step", &["predictor_step"]),
+    ("predictor_optimiser", &["predictor_optimiser"]),
+    ("whole_files_optimiser", &["whole_files_optimiser"]),
+    ("estimate_initial_positions", &["initial_positions"]),
+    ("noise_sigma", &["noise_sigma"]),
+];
+
+/// `preset` with the fields a profile file sets: a TOML table of [`OutputErrorOptions`]
+/// fields, or a `report.json` whose `options` it takes (any other JSON: the object itself).
+///
+/// # Errors
+/// The file cannot be read or parsed; a field that is not an option, or a value of the
+/// wrong type (both named with the file).
+pub fn with_profile(
+    preset: &OutputErrorOptions,
+    path: &std::path::Path,
+) -> Result<OutputErrorOptions> {
+    use anyhow::Context as _;
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read the profile", path.display()))?;
+    let is_json = path.extension().is_some_and(|e| e == "json");
+    let fields: serde_json::Value = if is_json {
+        let v: serde_json::Value = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a JSON file", path.display()))?;
+        v.get("options").cloned().unwrap_or(v)
+    } else {
+        let t: toml::Table =
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        serde_json::to_value(t)?
+    };
+    let Some(fields) = fields.as_object() else {
+        bail!("{}: expected a table of option fields", path.display());
+    };
+    let mut merged = serde_json::to_value(preset)?;
+    let known: Vec<String> = merged
+        .as_object()
+        .map(|m| m.keys().cloned().collect())
+        .unwrap_or_default();
+    for (k, v) in fields {
+        if !known.contains(k) {
+            bail!(
+                "{}: '{k}' is not an output-error option (expected one of: {})",
+                path.display(),
+                known.join(", ")
+            );
+        }
+        merged[k] = v.clone();
+    }
+    let mut o: OutputErrorOptions =
+        serde_json::from_value(merged).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    o.hold = preset.hold;
+    Ok(o)
 }
 
 /// On or off.
@@ -624,10 +740,21 @@ pub fn refuse_options_of_other_methods(matches: &ArgMatches) -> Result<()> {
     Ok(())
 }
 
+/// The `identify` options given on the command line (clap ids); empty for other commands.
+pub fn given_identify_options(matches: &ArgMatches) -> Vec<String> {
+    let Some(("identify", sub)) = matches.subcommand() else {
+        return Vec::new();
+    };
+    sub.ids()
+        .filter(|id| sub.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine))
+        .map(|id| id.to_string())
+        .collect()
+}
+
 #[cfg(test)]
 mod method_tests {
     use super::*;
-    use clap::CommandFactory;
+    use clap::{CommandFactory, FromArgMatches};
 
     fn identify(args: &[&str]) -> (Method, OutputErrorArgs) {
         let cli = Cli::try_parse_from(
@@ -733,6 +860,67 @@ mod method_tests {
         ] {
             assert!(help.contains(&stated), "not in identify --help: {stated}");
         }
+    }
+
+    /// A profile sets fields on the preset, a flag given on the command line wins over it,
+    /// a report.json replays its recorded options, and a field that is not an option is
+    /// refused naming the file and the field.
+    #[test]
+    fn a_profile_sets_the_presets_fields_and_a_given_flag_wins() {
+        let d = tempfile::tempdir().unwrap();
+        let profile = d.path().join("identify.toml");
+        std::fs::write(
+            &profile,
+            "h = 1e-4\nhorizons = [0.5, 1.0]\nmax_speed = 300.0\n",
+        )
+        .unwrap();
+        let p = profile.to_str().unwrap();
+        let parse = |args: &[&str]| {
+            let m = Cli::command()
+                .try_get_matches_from(
+                    [
+                        &["lockstep", "identify", "--plant", "p", "--data", "d"][..],
+                        args,
+                    ]
+                    .concat(),
+                )
+                .unwrap();
+            let cli = Cli::from_arg_matches(&m).unwrap();
+            let Command::Identify { method, mut oe, .. } = cli.command else {
+                unreachable!()
+            };
+            oe.given = given_identify_options(&m);
+            oe.options(method)
+        };
+        let o = parse(&["--method", "coupled", "--profile", p]).unwrap();
+        assert_eq!((o.h, o.max_speed), (1e-4, 300.0));
+        assert_eq!(o.horizons, vec![0.5, 1.0]);
+        assert_eq!(o.predictor, OutputErrorOptions::coupled().predictor);
+        let o = parse(&["--method", "coupled", "--profile", p, "--horizons", "1"]).unwrap();
+        assert_eq!((o.h, o.horizons.clone()), (1e-4, vec![1.0]));
+        // A report's recorded options replay the run.
+        let report = d.path().join("report.json");
+        let mut recorded = OutputErrorOptions::isolated();
+        recorded.seed = 42;
+        recorded.prior = Some(0.2);
+        std::fs::write(
+            &report,
+            serde_json::json!({ "sequence": "isolated", "options": recorded }).to_string(),
+        )
+        .unwrap();
+        let o = parse(&[
+            "--method",
+            "isolated",
+            "--profile",
+            report.to_str().unwrap(),
+        ])
+        .unwrap();
+        assert_eq!(format!("{o:?}"), format!("{recorded:?}"));
+        std::fs::write(&profile, "step = 1e-4\n").unwrap();
+        let e = parse(&["--method", "coupled", "--profile", p])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("identify.toml") && e.contains("'step'"), "{e}");
     }
 
     #[test]
