@@ -389,6 +389,7 @@ impl JointProblem {
                 status,
                 diverged,
                 warm_up: WarmUp::Sequence,
+                stages: Vec::new(),
             }],
             best_start: 0,
             evaluations: evaluations.load(Ordering::Relaxed),

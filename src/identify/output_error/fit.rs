@@ -78,6 +78,41 @@ pub struct StartSummary {
     pub diverged: usize,
     /// How the start was warmed up.
     pub warm_up: WarmUp,
+    /// Each stage as run, in order: the record behind `status`.
+    #[serde(default)]
+    pub stages: Vec<StageRecord>,
+}
+
+/// One stage of a start as run ([`StartSummary::stages`]).
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct StageRecord {
+    /// The stage as the report names it, e.g. "predictor ω = 100 rad/s", "horizon 100 %".
+    pub stage: String,
+    /// The optimiser that ran it; `None`: the stage was skipped or could not start.
+    pub optimiser: Option<StageOptimiser>,
+    /// Iterations.
+    pub iterations: usize,
+    /// Trial points that could not be simulated.
+    pub failures: usize,
+    /// How it ended (the optimiser's stopping reason, or why it did not run).
+    pub outcome: String,
+    /// The whole files' cost (4.2)/(4.3) at its result; `None` after the final stage, or
+    /// where the whole files cannot be simulated from it.
+    pub whole_files_cost: Option<f64>,
+}
+
+impl StageRecord {
+    /// A stage that did not run, and why.
+    fn skipped(stage: Stage, why: String) -> Self {
+        StageRecord {
+            stage: stage.to_string(),
+            optimiser: None,
+            iterations: 0,
+            failures: 0,
+            outcome: why,
+            whole_files_cost: None,
+        }
+    }
 }
 
 /// One predictor stage as run ([`Problem::run_predictor_stage`]): how it ended, the
@@ -348,6 +383,7 @@ impl Problem {
                         status: format!("the start cannot be simulated: {}", why.0),
                         diverged: 0,
                         warm_up,
+                        stages: Vec::new(),
                     },
                     records: None,
                 };
@@ -358,6 +394,7 @@ impl Problem {
         let mut diverged = 0;
         // How each stage ended, for the report.
         let mut ended: Vec<String> = start_note.into_iter().collect();
+        let mut records: Vec<StageRecord> = Vec::new();
         // The records with estimated initial positions, once the whole files' stage ran on
         // them.
         let mut estimated: Option<Problem> = None;
@@ -386,6 +423,14 @@ impl Problem {
                 diverged += outcome.failures;
                 iterations += outcome.iterations;
                 ended.push(format!("{stage}: {}", outcome.status));
+                records.push(StageRecord {
+                    stage: stage.to_string(),
+                    optimiser: Some(self.stage_optimiser(stage)),
+                    iterations: outcome.iterations,
+                    failures: outcome.failures,
+                    outcome: outcome.status.clone(),
+                    whole_files_cost: None,
+                });
                 estimated = Some(problem);
                 if outcome.stop {
                     break;
@@ -404,11 +449,13 @@ impl Problem {
                     // A horizon too short to determine the parameters (a short file)
                     // cannot warm anything up: go on to the next.
                     if staged.residual_count() <= 2 * u.len() {
-                        ended.push(format!(
-                            "{stage}: skipped ({} residuals for {} parameters)",
+                        let why = format!(
+                            "skipped ({} residuals for {} parameters)",
                             staged.residual_count(),
                             u.len()
-                        ));
+                        );
+                        ended.push(format!("{stage}: {why}"));
+                        records.push(StageRecord::skipped(stage, why));
                         continue;
                     }
                     &staged
@@ -418,6 +465,7 @@ impl Problem {
                     Some(Ok(p)) => p,
                     Some(Err(e)) => {
                         ended.push(format!("{stage}: {e:#}"));
+                        records.push(StageRecord::skipped(stage, format!("{e:#}")));
                         continue;
                     }
                     None => continue,
@@ -441,6 +489,7 @@ impl Problem {
             iterations += outcome.iterations;
             // What the warm-up's result is worth on the whole files, which the final stage
             // fits.
+            let mut whole_files_cost = None;
             let whole = if stage.is_final() {
                 String::new()
             } else {
@@ -448,11 +497,20 @@ impl Problem {
                 cost_u = Some(cost);
                 if cost.is_finite() {
                     simulable.push((stage.to_string(), cost, u.clone()));
+                    whole_files_cost = Some(cost);
                     format!(", whole files' cost {cost:.5e}")
                 } else {
                     ", the whole files cannot be simulated from its result".to_string()
                 }
             };
+            records.push(StageRecord {
+                stage: format!("{stage}{step_note}"),
+                optimiser: Some(self.stage_optimiser(stage)),
+                iterations: outcome.iterations,
+                failures: outcome.failures,
+                outcome: outcome.status.clone(),
+                whole_files_cost,
+            });
             ended.push(format!(
                 "{stage}{step_note}: {}{}{whole}",
                 outcome.status,
@@ -476,6 +534,7 @@ impl Problem {
                 status: ended.join("; "),
                 diverged,
                 warm_up,
+                stages: records,
             },
             records: estimated.map(|p| p.records),
         }
@@ -701,6 +760,17 @@ impl Problem {
             .fold(0.0, f64::max)
     }
 
+    /// The optimiser of `stage`: [`OutputErrorOptions::predictor_optimiser`] for the
+    /// predictor's stages, [`OutputErrorOptions::whole_files_optimiser`] for the final one,
+    /// rmpfit's Levenberg–Marquardt elsewhere.
+    pub fn stage_optimiser(&self, stage: Stage) -> StageOptimiser {
+        match stage {
+            Stage::Predictor(_) => self.options.predictor_optimiser,
+            s if s.is_final() => self.options.whole_files_optimiser,
+            _ => StageOptimiser::LevenbergMarquardt,
+        }
+    }
+
     /// One bounded least-squares run of `stage` on this problem from the scaled
     /// parameters `u`, which it updates in place, on the stage's stopping rules
     /// ([`stage_rules`]), by the stage's optimiser
@@ -721,12 +791,7 @@ impl Problem {
         }
         let frozen: Vec<bool> = self.names.iter().map(|n| self.is_frozen(n)).collect();
         let config = stage_rules(&self.options, stage);
-        let optimiser = match stage {
-            Stage::Predictor(_) => self.options.predictor_optimiser,
-            s if s.is_final() => self.options.whole_files_optimiser,
-            _ => StageOptimiser::LevenbergMarquardt,
-        };
-        match optimiser {
+        match self.stage_optimiser(stage) {
             StageOptimiser::TrustRegionReflective => {
                 minimise_trf(self, stage, &frozen, &config, u, context, start_cost)
             }
