@@ -142,7 +142,11 @@ fn trajectories(problem: &Problem, plant: &Plant) -> Result<Vec<Trajectory>> {
     problem
         .records
         .iter()
-        .map(|r| problem.simulate(plant, r).map_err(|e| anyhow!(e.0)))
+        .map(|r| {
+            problem
+                .simulate(plant, r)
+                .map_err(|e| anyhow!(e.to_string()))
+        })
         .collect()
 }
 

@@ -171,7 +171,11 @@ impl Outputs {
         self.problem
             .records
             .iter()
-            .map(|r| self.problem.simulate(plant, r).map_err(|e| anyhow!(e.0)))
+            .map(|r| {
+                self.problem
+                    .simulate(plant, r)
+                    .map_err(|e| anyhow!(e.to_string()))
+            })
             .collect()
     }
 
@@ -245,7 +249,7 @@ pub fn diagnose_output(
     if options.fit.estimate_initial {
         problem = problem
             .with_initial_positions_of(plant)
-            .map_err(|e| anyhow!("the plant itself cannot be simulated: {}", e.0))?;
+            .map_err(|e| anyhow!("the plant itself cannot be simulated: {}", e))?;
     }
     let out = Outputs {
         problem,
@@ -394,7 +398,7 @@ pub fn diagnose_output(
         .and_then(|p| {
             if options.fit.estimate_initial {
                 p.with_initial_positions_of(&start)
-                    .map_err(|e| anyhow!(e.0))
+                    .map_err(|e| anyhow!(e.to_string()))
             } else {
                 Ok(p)
             }

@@ -271,9 +271,9 @@ impl JointProblem {
         let mut notes = Vec::new();
         let mut current = self.clone();
         if self.options.estimate_initial_positions {
-            let (next, moved) = self.with_initial_positions_at(&p0).map_err(|e| {
-                anyhow::anyhow!("joint fit: the start cannot be simulated: {}", e.0)
-            })?;
+            let (next, moved) = self
+                .with_initial_positions_at(&p0)
+                .map_err(|e| anyhow::anyhow!("joint fit: the start cannot be simulated: {}", e))?;
             if next.cost(&p0) < current.cost(&p0) {
                 notes.push(format!(
                     "initial positions estimated at the start (moved up to {moved:.2} σ̂)"
@@ -331,7 +331,7 @@ impl JointProblem {
                 let (next, moved) = match current.with_initial_positions_at(&self.to_physical(&u)) {
                     Ok(estimated) => estimated,
                     Err(why) => {
-                        notes.push(format!("initial positions not re-estimated: {}", why.0));
+                        notes.push(format!("initial positions not re-estimated: {}", why));
                         break;
                     }
                 };
@@ -418,7 +418,7 @@ impl JointProblem {
     pub fn statistics(&self, p: &[f64]) -> Result<Statistics> {
         let trajectories = self
             .trajectories(p)
-            .map_err(|e| anyhow::anyhow!("at the fitted values: {}", e.0))?;
+            .map_err(|e| anyhow::anyhow!("at the fitted values: {}", e))?;
         let n = self.names.len();
         let steps: Vec<f64> = (0..n)
             .map(|i| {

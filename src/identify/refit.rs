@@ -135,10 +135,10 @@ pub fn refit(
         (
             problem
                 .with_initial_positions_of(before)
-                .map_err(|e| anyhow!("the plant before the change: {}", e.0))?,
+                .map_err(|e| anyhow!("the plant before the change: {}", e))?,
             problem
                 .with_initial_positions_of(plant)
-                .map_err(|e| anyhow!("the changed plant: {}", e.0))?,
+                .map_err(|e| anyhow!("the changed plant: {}", e))?,
         )
     } else {
         (problem.clone(), problem)
@@ -148,7 +148,7 @@ pub fn refit(
         .iter()
         .map(|r| before_problem.simulate(before, r))
         .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| anyhow!("the plant before the change: {}", e.0))?;
+        .map_err(|e| anyhow!("the plant before the change: {}", e))?;
     let joints_before = before_problem.joint_fits(&trajectories);
     let fit = problem.fit(&|_| {})?;
     let mut fitted = plant.clone();

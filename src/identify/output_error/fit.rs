@@ -369,7 +369,7 @@ impl Problem {
                 f64::INFINITY,
                 Some(format!(
                     "the start cannot be simulated ({}): warmed up from there",
-                    why.0
+                    why
                 )),
             ),
             Err(why) => {
@@ -380,7 +380,7 @@ impl Problem {
                         start_cost: f64::INFINITY,
                         cost: f64::INFINITY,
                         iterations: 0,
-                        status: format!("the start cannot be simulated: {}", why.0),
+                        status: format!("the start cannot be simulated: {}", why),
                         diverged: 0,
                         warm_up,
                         stages: Vec::new(),
@@ -566,7 +566,7 @@ impl Problem {
                 let rerun = user.run_stage(stage, u, context);
                 note = format!(
                     "{note} (its result could not be simulated on the user's step, {}: rerun there)",
-                    why.0
+                    why
                 );
                 outcome = StageOutcome {
                     iterations: outcome.iterations + rerun.iterations,
@@ -701,7 +701,7 @@ impl Problem {
                 let records = match current.estimate_initial_positions(&self.plant_at(&p)) {
                     Ok(records) => records,
                     Err(why) => {
-                        notes.push(format!("initial positions not estimated: {}", why.0));
+                        notes.push(format!("initial positions not estimated: {}", why));
                         break;
                     }
                 };
@@ -906,7 +906,7 @@ impl Problem {
         let ee = self.equation_error_stage(cutoff)?;
         let mut u = self.to_scaled(&self.initial_values());
         ee.residuals(&self.to_physical(&u))
-            .map_err(|e| anyhow::anyhow!("{}", e.0))?;
+            .map_err(|e| anyhow::anyhow!("{}", e))?;
         let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
         let context =
             StageContext::alone(&evaluations, &jacobians, JacobianPolicy::of(&ee.options));

@@ -281,9 +281,23 @@ pub struct Problem {
     options: OutputErrorOptions,
 }
 
-/// A failed simulation at a trial point.
-#[derive(Debug, Clone)]
-pub struct TrialFailure(pub String);
+/// Why a trial point has no residuals: the optimisers reject it (its step is shortened),
+/// and a start or stage that cannot be evaluated says which of these it met.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TrialFailure {
+    /// The plant cannot be configured for a file at this point (file, reason).
+    #[error("{0}: {1}")]
+    NotConfigured(PathBuf, String),
+    /// The simulation of a file diverged (file, which joint and when).
+    #[error("{0}: {1}")]
+    Diverged(PathBuf, String),
+    /// The point leaves a guarded link physically impossible ([`Problem::guarded_links`]).
+    #[error("physically impossible: {0}")]
+    ImpossibleLink(String),
+    /// The equation error cannot be evaluated at the point.
+    #[error("equation error: {0}")]
+    EquationError(String),
+}
 
 /// The findings no body can have ([`crate::plant::Finding::is_blocking`]: mass ≤ 0,
 /// inertia about the centroid not positive definite) of every link of `plant`; none
@@ -620,10 +634,9 @@ impl Problem {
     /// # Errors
     /// The plant cannot be configured or the simulation diverges (message with the file).
     pub fn simulate(&self, plant: &Plant, r: &Record) -> Result<Trajectory, TrialFailure> {
-        let fail = |e: String| TrialFailure(format!("{}: {e}", r.file.display()));
         let mut sim = plant
             .simulator(self.conf.name, &r.q_all, ConsistencyPolicy::Warn)
-            .map_err(|e| fail(format!("{e:#}")))?;
+            .map_err(|e| TrialFailure::NotConfigured(r.file.clone(), format!("{e:#}")))?;
         sim.model.integrator = self.options.integrator;
         let mut x0 = State::at_rest(self.conf.free.iter().map(|&j| r.q_all[j]).collect());
         if let Some(qd0) = &r.qd0 {
@@ -651,7 +664,7 @@ impl Problem {
             )
             .map_err(|d| {
                 let j = plant.model.joints[self.conf.free[d.joint]];
-                fail(d.message(&format!("'{j}'")))
+                TrialFailure::Diverged(r.file.clone(), d.message(&format!("'{j}'")))
             })
     }
 
@@ -804,13 +817,13 @@ impl Problem {
                 .into_iter()
                 .find(|f| self.guarded_links.contains(&f.link))
             {
-                return Err(TrialFailure(format!("physically impossible: {f}")));
+                return Err(TrialFailure::ImpossibleLink(f.to_string()));
             }
         }
         if let Some(ee) = &self.equation_error {
             return ee
                 .residuals(&self.plant_at(p))
-                .map_err(|e| TrialFailure(format!("equation error: {e:#}")));
+                .map_err(|e| TrialFailure::EquationError(format!("{e:#}")));
         }
         Ok(self.residuals_of(&self.trajectories(p)?))
     }

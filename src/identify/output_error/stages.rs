@@ -223,7 +223,7 @@ impl Problem {
             ),
             Err(why) => (
                 self.predictor_on_user_step(omega),
-                format!(" (on the user's step: {coarse} not checked: {})", why.0),
+                format!(" (on the user's step: {coarse} not checked: {})", why),
             ),
         }
     }

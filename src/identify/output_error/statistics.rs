@@ -152,7 +152,7 @@ impl Problem {
     pub fn statistics(&self, p: &[f64]) -> Result<Statistics> {
         let trajectories = self
             .trajectories(p)
-            .map_err(|e| anyhow::anyhow!("at the fitted values: {}", e.0))?;
+            .map_err(|e| anyhow::anyhow!("at the fitted values: {}", e))?;
         let r = self.residuals_of(&trajectories);
         let n = p.len();
         let steps: Vec<f64> = (0..n)
