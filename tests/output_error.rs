@@ -863,6 +863,57 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
     );
 }
 
+/// The gain family of joint 4 in c1 with the prior's offsets δ_i: scaling the plant gain
+/// with every force-like parameter of the joint leaves the motion exactly unchanged.
+const GAIN_FAMILY_4: [(&str, f64); 9] = [
+    ("Kp_4", 0.30),
+    ("sigma0_4", 0.20),
+    ("sigma1_4", 0.40),
+    ("sigma2_4", 0.25),
+    ("Fc_4", 0.30),
+    ("Fs_4", 0.35),
+    ("Ks_4", 0.20),
+    ("m7", 0.30),
+    ("I7_33", 0.25),
+];
+
+/// c1 on `seconds` of Table 4.3's J4 chirp: the truth, the start (the [`GAIN_FAMILY_4`]
+/// at t_i (1 + δ_i), `others` at the truth, every fitted name with the perturbed start's
+/// bounds), the fitted names (the family, then `others`) and the record.
+fn gain_family_start(
+    d: &Path,
+    seconds: &str,
+    others: &[&str],
+) -> (
+    Plant,
+    Plant,
+    Vec<String>,
+    &'static generated::Configuration,
+    lockstep::identify::output_error::Record,
+) {
+    let truth_file = truth(d);
+    let truth = Plant::load(&truth_file).unwrap();
+    make_data(d, &truth_file, "4.3", Some("J4"), "c1", seconds);
+    let names: Vec<String> = GAIN_FAMILY_4
+        .iter()
+        .map(|(n, _)| n.to_string())
+        .chain(others.iter().map(|n| n.to_string()))
+        .collect();
+    let start = d.join("start.toml");
+    perturbed_start(&truth_file, &names, &start);
+    let mut plant = Plant::load(&start).unwrap();
+    for (n, delta) in GAIN_FAMILY_4 {
+        plant
+            .parameters
+            .insert(n.into(), truth.parameters[n] * (1.0 + delta));
+    }
+    for n in others {
+        plant.parameters.insert((*n).into(), truth.parameters[*n]);
+    }
+    let (conf, rec) = c1_record(d, &truth);
+    (truth, plant, names, conf, rec)
+}
+
 /// The prior decides where the data are silent, and only there. In c1 with x7 and y7 held,
 /// scaling the plant gain with every force-like parameter of joint 4 (LuGre σ0, σ1, σ2, Fc,
 /// Fs, the spring Ks, and m7, I7_33) by α leaves the motion exactly unchanged. With the
@@ -874,38 +925,9 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
 #[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn the_prior_picks_the_point_of_an_exact_scale_symmetry_its_centre_prefers() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    let truth = Plant::load(&truth_file).unwrap();
-    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
-    let family = [
-        ("Kp_4", 0.30),
-        ("sigma0_4", 0.20),
-        ("sigma1_4", 0.40),
-        ("sigma2_4", 0.25),
-        ("Fc_4", 0.30),
-        ("Fs_4", 0.35),
-        ("Ks_4", 0.20),
-        ("m7", 0.30),
-        ("I7_33", 0.25),
-    ];
     let others = ["vs_4", "qeq_4"];
-    let names: Vec<String> = family
-        .iter()
-        .map(|(n, _)| n.to_string())
-        .chain(others.iter().map(|n| n.to_string()))
-        .collect();
-    let start = d.path().join("start.toml");
-    perturbed_start(&truth_file, &names, &start);
-    let mut plant = Plant::load(&start).unwrap();
-    for (n, delta) in family {
-        plant
-            .parameters
-            .insert(n.into(), truth.parameters[n] * (1.0 + delta));
-    }
-    for n in others {
-        plant.parameters.insert(n.into(), truth.parameters[n]);
-    }
-    let (conf, rec) = c1_record(d.path(), &truth);
+    let (truth, plant, names, conf, rec) = gain_family_start(d.path(), "20", &others);
+    let family = GAIN_FAMILY_4;
     let tau = 0.1;
     let p = Problem::new(
         &plant,
@@ -952,30 +974,8 @@ fn the_prior_picks_the_point_of_an_exact_scale_symmetry_its_centre_prefers() {
 #[test]
 fn the_prior_term_is_least_at_the_analytic_point_of_a_scale_symmetry() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    let truth = Plant::load(&truth_file).unwrap();
-    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "5");
-    let family = [
-        ("Kp_4", 0.30),
-        ("sigma0_4", 0.20),
-        ("sigma1_4", 0.40),
-        ("sigma2_4", 0.25),
-        ("Fc_4", 0.30),
-        ("Fs_4", 0.35),
-        ("Ks_4", 0.20),
-        ("m7", 0.30),
-        ("I7_33", 0.25),
-    ];
-    let names: Vec<String> = family.iter().map(|(n, _)| n.to_string()).collect();
-    let start = d.path().join("start.toml");
-    perturbed_start(&truth_file, &names, &start);
-    let mut plant = Plant::load(&start).unwrap();
-    for (n, delta) in family {
-        plant
-            .parameters
-            .insert(n.into(), truth.parameters[n] * (1.0 + delta));
-    }
-    let (conf, rec) = c1_record(d.path(), &truth);
+    let (truth, plant, names, conf, rec) = gain_family_start(d.path(), "5", &[]);
+    let family = GAIN_FAMILY_4;
     let p = Problem::new(
         &plant,
         conf,
@@ -2287,6 +2287,49 @@ fn a_held_value_the_step_sees_better_is_released_and_the_floor_reached() {
     }
 }
 
+/// The joint fit's case: k1 and k2 files of `seconds` of Table 4.7 from the truth under `d`,
+/// the start (the truth within bounds); returns the truth and the start.
+fn joint_fit_case(d: &Path, seconds: &str) -> (Plant, PathBuf) {
+    let truth_file = truth(d);
+    let truth = Plant::load(&truth_file).unwrap();
+    for k in ["k1", "k2"] {
+        make_data(d, &truth_file, "4.7", None, k, seconds);
+    }
+    (truth, truth_within_bounds(d, &truth_file, &[]))
+}
+
+/// What every joint fit up to k2 must show in `out`: no step run alone, every parameter
+/// k1 and k2 fit either fitted or held as a tie (and then left undetermined in the plant),
+/// every joint at the noise floor, the plant written with the fitted values, report.md's
+/// section. Returns the joint fit's JSON.
+fn check_joint_fit(out: &Path, truth: &Plant) -> serde_json::Value {
+    let report = read_report(out);
+    assert_eq!(report["steps"].as_array().unwrap().len(), 0);
+    let fit = report["joint"]["fit"].clone();
+    let names: Vec<String> = column(&fit, &["names"]);
+    let steps = plan(truth, "coupled").unwrap();
+    let tied: Vec<String> = column(&report["joint"], &["step", "tied_held"]);
+    for n in steps[0].fitted.iter().chain(&steps[1].fitted) {
+        assert!(
+            names.contains(n) || tied.contains(n),
+            "{n} neither fitted nor held"
+        );
+    }
+    let above: Vec<String> = column(&fit, &["statistics", "above_floor"]);
+    assert!(above.is_empty(), "{above:?}");
+    let fitted: Vec<f64> = column(&fit, &["fitted"]);
+    let written = Plant::load(&out.join("plant.toml")).unwrap();
+    for (n, v) in names.iter().zip(&fitted) {
+        assert_eq!(written.parameters[n], *v, "{n}");
+    }
+    for n in &tied {
+        assert!(written.undetermined.contains(n), "{n}");
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("## Joint fit of every step's files: free q3, q4, q5"));
+    fit
+}
+
 /// `lockstep identify --method coupled --config k2 --joint-fit only`: the joint fit of the
 /// steps up to k2 on their files (30 s of Table 4.7 each), from the truth (the joint fit
 /// is meant for the values the steps fitted; from 2 % off in a Coulomb level it can end in
@@ -2302,12 +2345,7 @@ fn a_held_value_the_step_sees_better_is_released_and_the_floor_reached() {
 #[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    let truth = Plant::load(&truth_file).unwrap();
-    for k in ["k1", "k2"] {
-        make_data(d.path(), &truth_file, "4.7", None, k, "30");
-    }
-    let start = truth_within_bounds(d.path(), &truth_file, &[]);
+    let (truth, start) = joint_fit_case(d.path(), "30");
     let out = d.path().join("out");
     let run = |data: &Path| {
         lockstep(&[
@@ -2334,20 +2372,8 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
         &["joint fit: step 'k1' has no measurement file"],
     );
     ok(&run(&d.path().join("data")));
-    let report = read_report(&out);
-    assert_eq!(report["steps"].as_array().unwrap().len(), 0);
-    let fit = &report["joint"]["fit"];
+    let fit = &check_joint_fit(&out, &truth);
     let names: Vec<String> = column(fit, &["names"]);
-    let steps = plan(&truth, "coupled").unwrap();
-    let tied: Vec<String> = column(&report["joint"], &["step", "tied_held"]);
-    for n in steps[0].fitted.iter().chain(&steps[1].fitted) {
-        assert!(
-            names.contains(n) || tied.contains(n),
-            "{n} neither fitted nor held"
-        );
-    }
-    let above: Vec<String> = column(fit, &["statistics", "above_floor"]);
-    assert!(above.is_empty(), "{above:?}");
     let fitted: Vec<f64> = column(fit, &["fitted"]);
     let std_err: Vec<Option<f64>> = column(fit, &["statistics", "std_err"]);
     let identifiable: Vec<bool> = column(fit, &["statistics", "identifiable"]);
@@ -2365,15 +2391,6 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
             assert!((v - t).abs() < 4.0 * se, "{n} = {v} ± {se}, truth {t}");
         }
     }
-    let written = Plant::load(&out.join("plant.toml")).unwrap();
-    for (n, v) in names.iter().zip(&fitted) {
-        assert_eq!(written.parameters[n], *v, "{n}");
-    }
-    for n in &tied {
-        assert!(written.undetermined.contains(n), "{n}");
-    }
-    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
-    assert!(md.contains("## Joint fit of every step's files: free q3, q4, q5"));
 }
 
 /// The joint fit's mechanism, fast (the default test set; the ignored test above runs it on
@@ -2384,12 +2401,7 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
 #[test]
 fn the_joint_fit_fits_every_steps_parameters_on_every_steps_files() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    let truth = Plant::load(&truth_file).unwrap();
-    for k in ["k1", "k2"] {
-        make_data(d.path(), &truth_file, "4.7", None, k, "4");
-    }
-    let start = truth_within_bounds(d.path(), &truth_file, &[]);
+    let (truth, start) = joint_fit_case(d.path(), "4");
     let out = d.path().join("out");
     ok(&lockstep(&[
         "identify",
@@ -2414,27 +2426,7 @@ fn the_joint_fit_fits_every_steps_parameters_on_every_steps_files() {
         "--out",
         out.to_str().unwrap(),
     ]));
-    let report = read_report(&out);
-    assert_eq!(report["steps"].as_array().unwrap().len(), 0);
-    let fit = &report["joint"]["fit"];
-    let names: Vec<String> = column(fit, &["names"]);
-    let tied: Vec<String> = column(&report["joint"], &["step", "tied_held"]);
-    let steps = plan(&truth, "coupled").unwrap();
-    for n in steps[0].fitted.iter().chain(&steps[1].fitted) {
-        assert!(
-            names.contains(n) || tied.contains(n),
-            "{n} neither fitted nor held"
-        );
-    }
-    let above: Vec<String> = column(fit, &["statistics", "above_floor"]);
-    assert!(above.is_empty(), "{above:?}");
-    let fitted: Vec<f64> = column(fit, &["fitted"]);
-    let written = Plant::load(&out.join("plant.toml")).unwrap();
-    for (n, v) in names.iter().zip(&fitted) {
-        assert_eq!(written.parameters[n], *v, "{n}");
-    }
-    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
-    assert!(md.contains("## Joint fit of every step's files: free q3, q4, q5"));
+    check_joint_fit(&out, &truth);
 }
 
 /// A start from which the whole files cannot be simulated is warmed up all the same: the

@@ -756,6 +756,19 @@ mod method_tests {
     use super::*;
     use clap::{CommandFactory, FromArgMatches};
 
+    /// The matches of `lockstep identify --plant p --data d ARGS`.
+    fn identify_matches(args: &[&str]) -> ArgMatches {
+        Cli::command()
+            .try_get_matches_from(
+                [
+                    &["lockstep", "identify", "--plant", "p", "--data", "d"][..],
+                    args,
+                ]
+                .concat(),
+            )
+            .unwrap()
+    }
+
     fn identify(args: &[&str]) -> (Method, OutputErrorArgs) {
         let cli = Cli::try_parse_from(
             [
@@ -876,15 +889,7 @@ mod method_tests {
         .unwrap();
         let p = profile.to_str().unwrap();
         let parse = |args: &[&str]| {
-            let m = Cli::command()
-                .try_get_matches_from(
-                    [
-                        &["lockstep", "identify", "--plant", "p", "--data", "d"][..],
-                        args,
-                    ]
-                    .concat(),
-                )
-                .unwrap();
+            let m = identify_matches(args);
             let cli = Cli::from_arg_matches(&m).unwrap();
             let Command::Identify { method, mut oe, .. } = cli.command else {
                 unreachable!()
@@ -926,15 +931,7 @@ mod method_tests {
     #[test]
     fn an_option_of_another_method_is_refused_naming_its_method() {
         let refused = |args: &[&str]| {
-            let m = Cli::command()
-                .try_get_matches_from(
-                    [
-                        &["lockstep", "identify", "--plant", "p", "--data", "d"][..],
-                        args,
-                    ]
-                    .concat(),
-                )
-                .unwrap();
+            let m = identify_matches(args);
             refuse_options_of_other_methods(&m).map_err(|e| e.to_string())
         };
         let e = refused(&["--horizons", "1"]).unwrap_err();
