@@ -831,7 +831,7 @@ impl Plant {
     /// The values of `values` that lie outside this plant's bounds, by name (those without
     /// bounds here are not checked): `(name, value, (lower, upper))`, in name order. A
     /// fit started from this plant cannot reach them (a reference result, the truth of
-    /// synthetic data: Appendix D's coupled m2 lies outside the thesis bounds, README).
+    /// synthetic data: Appendix D's coupled m2, for one, lies outside the thesis bounds).
     pub fn outside_bounds(&self, values: &BTreeMap<String, f64>) -> Vec<(String, f64, (f64, f64))> {
         self.bounds
             .iter()

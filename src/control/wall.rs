@@ -9,7 +9,7 @@
 //! drives the hand toward a target inside the wall along a ramp at the approach speed
 //! ([`Hand`], [`User`]). Plant, hand and arm are integrated together by RK4 at a fixed step.
 //!
-//! Metrics ([`Metrics`], formulas in README "Virtual wall"): peak and steady penetration,
+//! Metrics ([`Metrics`], formulas in the guide's chapter "Control and the virtual wall", docs/src/guide/control.md): peak and steady penetration,
 //! contact losses, restitution, oscillation amplitude and frequency, settling time, and the
 //! energy the wall generates, from the hold-aware passivity observer
 //! E(n) = E(n−1) − F(n−1)·(q(n) − q(n−1)) with F(n−1) the torque the wall applied over

@@ -5,7 +5,7 @@
 //! fitted value. A held value that is off by more than its own standard error — the earlier
 //! step determined it only given values fixed before it — is absorbed by the later step's
 //! parameters, and that step's standard errors, conditional on the held values, do not
-//! show it: on the Freedom 6S's k4 (README) three values called identifiable were 5–93 %
+//! show it: on the Freedom 6S's k4 (the Freedom 6S status in the record) three values called identifiable were 5–93 %
 //! off while k4's own data at the true held values called seven identifiable, all within
 //! 0.83 %. The joint fit refines all of them together from where the sequence ended
 //! (Levenberg–Marquardt on the stacked residuals; the sequence is its initialisation, as a
