@@ -209,19 +209,8 @@ fn kernel(
     }
 }
 
-/// A small deterministic generator for the generation-time checks (xorshift64*; the same
-/// as `generated::inertia::Xorshift`, which the generator cannot use: it builds that crate).
-struct Rng(u64);
-
-impl Rng {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let x = (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64;
-        lo + (hi - lo) * x
-    }
-}
+// The generation-time checks' random generator: lockstep's one xorshift64*.
+use lockstep_rng::Xorshift as Rng;
 
 /// Check a configuration numerically at random states with random physically consistent
 /// inertial parameters: D_FF must be positive definite (else the configuration frees a joint

@@ -10,21 +10,9 @@
 pub const BARYCENTRIC_KINDS: [&str; 10] =
     ["M", "MX", "MY", "MZ", "XX", "XY", "XZ", "YY", "YZ", "ZZ"];
 
-/// A small deterministic random generator (xorshift64*), so that checks and reports that
-/// sample random states and parameters are reproducible.
-#[derive(Debug, Clone)]
-pub struct Xorshift(pub u64);
-
-impl Xorshift {
-    /// A uniform sample in `[lo, hi)`.
-    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let x = (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64;
-        lo + (hi - lo) * x
-    }
-}
+/// The deterministic random generator (xorshift64*) of checks and reports that sample random
+/// states and parameters, shared with the generator.
+pub use lockstep_rng::Xorshift;
 
 /// One link in the thesis's form.
 #[derive(Debug, Clone, Copy, PartialEq)]
