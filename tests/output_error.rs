@@ -2397,12 +2397,35 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
 /// 30 s files from the warm-ups): `--joint-fit only` on 4 s of k1 and k2 from the truth,
 /// the whole files at once. No step runs alone; every parameter k1 and k2 fit is fitted or
 /// held as a tie; every joint ends at the noise floor; the plant written holds the fitted
-/// values; report.md has the joint fit's section.
+/// values; report.md has the joint fit's section. Without k1's file the run is refused
+/// before any fit, naming the step.
 #[test]
 fn the_joint_fit_fits_every_steps_parameters_on_every_steps_files() {
     let d = tempfile::tempdir().unwrap();
     let (truth, start) = joint_fit_case(d.path(), "4");
     let out = d.path().join("out");
+    // Without k1's file the run is refused before any fit, naming the step.
+    let only_k2 = d.path().join("only_k2");
+    std::fs::create_dir_all(&only_k2).unwrap();
+    std::fs::copy(d.path().join("data/k2_run.csv"), only_k2.join("k2_run.csv")).unwrap();
+    fails(
+        &lockstep(&[
+            "identify",
+            "--method",
+            "coupled",
+            "--config",
+            "k2",
+            "--joint-fit",
+            "only",
+            "--plant",
+            start.to_str().unwrap(),
+            "--data",
+            only_k2.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]),
+        &["joint fit: step 'k1' has no measurement file"],
+    );
     ok(&lockstep(&[
         "identify",
         "--method",

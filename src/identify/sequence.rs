@@ -384,6 +384,99 @@ pub enum JointFitMode {
     Only,
 }
 
+/// A run's inputs, checked before the first fit ([`check_inputs`]).
+struct CheckedInputs {
+    /// Each step's problem, on its files, with the plant's values.
+    steps: Vec<Problem>,
+    /// The joint fit's files per configuration.
+    joint: Vec<(&'static Configuration, Vec<Record>)>,
+    /// Files not used, with the reason.
+    ignored: Vec<String>,
+}
+
+/// Everything a run needs, checked before its first fit: every step (and every step of the
+/// joint fit) has measurement files of its configuration in `data`, and each step's
+/// problem can be set up on them (bounds of every fitted value, including the symbols the
+/// plant still lists as undetermined); the files of no step are listed as ignored.
+///
+/// # Errors
+/// A step without files (naming the step, `data` and the files found), or a problem that
+/// cannot be set up (naming the step).
+fn check_inputs(
+    plant: &Plant,
+    data: &[PathBuf],
+    opts: &SequenceOptions,
+    occ: &Occurrence,
+    steps: &[Step],
+    joint_steps: &[Step],
+) -> Result<CheckedInputs> {
+    let model = plant.model;
+    let (files, mut ignored) = discover(data, model)?;
+    let searched = data
+        .iter()
+        .map(|d| d.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
+    let mut checked: Vec<Problem> = Vec::new();
+    for s in steps {
+        let (conf, recs) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
+        if recs.is_empty() {
+            let found = if files.is_empty() {
+                "none".to_string()
+            } else {
+                files
+                    .iter()
+                    .map(|f| format!("{} ({})", f.path.display(), f.config))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            bail!(
+                "step '{}': no measurement file of configuration '{}' in {searched} (files found: {found})",
+                s.config,
+                s.config,
+            );
+        }
+        // With the symbols the plant file says are still undetermined, so that their
+        // bounds are checked here too.
+        let mut fitted = s.fitted.clone();
+        fitted.extend(carried_into(&plant.undetermined, occ, &s.config, &s.fitted));
+        checked.push(
+            Problem::new(plant, conf, fitted, recs, &s.interest, opts.fit.clone())
+                .with_context(|| format!("step '{}'", s.config))?,
+        );
+    }
+    let mut joint = Vec::new();
+    for s in joint_steps {
+        let (conf, recs) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
+        if recs.is_empty() {
+            bail!(
+                "joint fit: step '{}' has no measurement file of its configuration in {searched} (the joint fit covers the steps up to {})",
+                s.config,
+                joint_steps.last().map_or("", |s| s.config.as_str())
+            );
+        }
+        joint.push((conf, recs));
+    }
+    for f in &files {
+        if !steps
+            .iter()
+            .chain(joint_steps)
+            .any(|s| s.config == f.config)
+        {
+            ignored.push(format!(
+                "{}: configuration '{}' is not a step of this run",
+                f.path.display(),
+                f.config
+            ));
+        }
+    }
+    Ok(CheckedInputs {
+        steps: checked,
+        joint,
+        ignored,
+    })
+}
+
 /// Run a locking sequence: check every step's data and bounds first, then fit step by
 /// step, writing the plant and report after each. `progress(step, p)` reports progress.
 ///
@@ -464,75 +557,11 @@ pub fn run(
             );
         }
     }
-    let (files, mut ignored) = discover(data, model)?;
-    // Everything checked before the first fit.
-    let mut checked: Vec<Problem> = Vec::new();
-    for s in &steps {
-        let (conf, recs) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
-        if recs.is_empty() {
-            bail!(
-                "step '{}': no measurement file of configuration '{}' in {} (files found: {})",
-                s.config,
-                s.config,
-                data.iter()
-                    .map(|d| d.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                if files.is_empty() {
-                    "none".to_string()
-                } else {
-                    files
-                        .iter()
-                        .map(|f| format!("{} ({})", f.path.display(), f.config))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                }
-            );
-        }
-        // With the symbols the plant file says are still undetermined, so that their
-        // bounds are checked here too.
-        let mut fitted = s.fitted.clone();
-        fitted.extend(carried_into(
-            &plant.undetermined,
-            &occ,
-            &s.config,
-            &s.fitted,
-        ));
-        checked.push(
-            Problem::new(plant, conf, fitted, recs, &s.interest, opts.fit.clone())
-                .with_context(|| format!("step '{}'", s.config))?,
-        );
-    }
-    // The joint fit's files, checked before any fit too.
-    let mut joint_files: Vec<(&'static Configuration, Vec<Record>)> = Vec::new();
-    for s in &joint_steps {
-        let (conf, recs) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
-        if recs.is_empty() {
-            bail!(
-                "joint fit: step '{}' has no measurement file of its configuration in {} (the joint fit covers the steps up to {})",
-                s.config,
-                data.iter()
-                    .map(|d| d.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                joint_steps.last().map_or("", |s| s.config.as_str())
-            );
-        }
-        joint_files.push((conf, recs));
-    }
-    for f in &files {
-        if !steps
-            .iter()
-            .chain(&joint_steps)
-            .any(|s| s.config == f.config)
-        {
-            ignored.push(format!(
-                "{}: configuration '{}' is not a step of this run",
-                f.path.display(),
-                f.config
-            ));
-        }
-    }
+    let CheckedInputs {
+        steps: checked,
+        joint: joint_files,
+        ignored,
+    } = check_inputs(plant, data, opts, &occ, &steps, &joint_steps)?;
     let mut current = plant.clone();
     // Rigid-body symbols a completed step fitted but did not determine, starting with those
     // the plant file records (a step run alone with `--config` after an earlier run).
