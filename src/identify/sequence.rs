@@ -643,31 +643,13 @@ pub fn run(
             held_ties: &s.tied_held,
             progress: &step_progress,
         };
-        let (fit, tie_reach) = if opts.tie_reach {
-            refit.reach_across_held_ties(&current, fit)?
-        } else {
-            (fit, None)
-        };
-        if let Some(t) = tie_reach.as_ref().filter(|t| t.kept) {
-            for (n, _, v) in &t.moved {
-                current.parameters.insert(n.clone(), *v);
-            }
-        }
-        let (fit, release) = if opts.release_held && !fit.statistics.above_floor.is_empty() {
-            refit.release_held(&current, fit)?
-        } else {
-            (fit, None)
-        };
-        let released: Vec<String> = release
-            .iter()
-            .filter(|r| r.kept)
-            .flat_map(|r| r.values.iter().map(|v| v.0.clone()))
-            .collect();
-        let (fit, balance) = if opts.balance {
-            refit.balance(&current, fit, &released)?
-        } else {
-            (fit, None)
-        };
+        let Refined {
+            fit,
+            tie_reach,
+            release,
+            balance,
+            released,
+        } = refit.refine(&mut current, fit, opts)?;
         let prior_se: Vec<(String, f64)> = released
             .iter()
             .filter_map(|n| Some((n.clone(), current.standard_errors.get(n).copied()?)))

@@ -507,3 +507,65 @@ pub(super) fn merge_refit(
     merged.best_start = fit.best_start;
     merged
 }
+
+/// A step's fit after its refinements ([`StepRefit::refine`]).
+pub(super) struct Refined {
+    /// The fit kept.
+    pub(super) fit: FitResult,
+    /// The reach across held ties, if tried.
+    pub(super) tie_reach: Option<TieReach>,
+    /// The release of held values, if tried.
+    pub(super) release: Option<Release>,
+    /// The balanced refit, if tried.
+    pub(super) balance: Option<Balance>,
+    /// The held values the kept release fitted again.
+    pub(super) released: Vec<String>,
+}
+
+impl StepRefit<'_> {
+    /// The refinements after a step's `fit`, in order, each as `opts` switches it on: the
+    /// reach across held ties (the held ties it moves are set in `current`), the release
+    /// of held values where the step ends above the noise floor, and the balanced refit.
+    ///
+    /// # Errors
+    /// A refinement's problem cannot be set up.
+    pub(super) fn refine(
+        &self,
+        current: &mut Plant,
+        fit: FitResult,
+        opts: &SequenceOptions,
+    ) -> Result<Refined> {
+        let (fit, tie_reach) = if opts.tie_reach {
+            self.reach_across_held_ties(current, fit)?
+        } else {
+            (fit, None)
+        };
+        if let Some(t) = tie_reach.as_ref().filter(|t| t.kept) {
+            for (n, _, v) in &t.moved {
+                current.parameters.insert(n.clone(), *v);
+            }
+        }
+        let (fit, release) = if opts.release_held && !fit.statistics.above_floor.is_empty() {
+            self.release_held(current, fit)?
+        } else {
+            (fit, None)
+        };
+        let released: Vec<String> = release
+            .iter()
+            .filter(|r| r.kept)
+            .flat_map(|r| r.values.iter().map(|v| v.0.clone()))
+            .collect();
+        let (fit, balance) = if opts.balance {
+            self.balance(current, fit, &released)?
+        } else {
+            (fit, None)
+        };
+        Ok(Refined {
+            fit,
+            tie_reach,
+            release,
+            balance,
+            released,
+        })
+    }
+}
