@@ -11,22 +11,9 @@ use lockstep::identify::refit::{refit, RefitOptions};
 use lockstep::identify::sequence::read_record;
 use lockstep::plant::Plant;
 use std::path::Path;
-use std::process::Command;
-
-fn lockstep(args: &[&str]) {
-    let o = Command::new(env!("CARGO_BIN_EXE_lockstep"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
 
 mod common;
+use common::{fails, lockstep, ok};
 
 /// The Appendix D coupled-method plant with I4_33 made positive.
 fn base() -> Plant {
@@ -55,9 +42,9 @@ fn data(dir: &Path, truth: &Plant, config: &str, table: &str, test: Option<&str>
     if let Some(t) = test {
         args.extend(["--test", t]);
     }
-    lockstep(&args);
+    ok(&lockstep(&args));
     let out = dir.join(format!("{config}_run.csv"));
-    lockstep(&[
+    ok(&lockstep(&[
         "simulate",
         "--plant",
         truth_file.to_str().unwrap(),
@@ -71,7 +58,7 @@ fn data(dir: &Path, truth: &Plant, config: &str, table: &str, test: Option<&str>
         "5",
         "-o",
         out.to_str().unwrap(),
-    ]);
+    ]));
     let m = truth.model;
     let conf = m.configurations.iter().find(|c| c.name == config).unwrap();
     read_record(&out, m, conf, 0.01).unwrap()
@@ -219,31 +206,6 @@ fn nothing_missing_is_reported_as_nothing_c3() {
     assert!(text.contains("nothing significant is missing"), "{text}");
 }
 
-fn run(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_lockstep"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn stdout_ok(o: &std::process::Output) -> String {
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn refused(o: &std::process::Output, needles: &[&str]) {
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
-    for n in needles {
-        assert!(err.contains(n), "'{n}' not in: {err}");
-    }
-}
-
 /// The loop as a user runs it: diagnose --apply, the report with its history, and the hand
 /// route effect add → refit; bad edits refused with the item named.
 #[test]
@@ -265,7 +227,7 @@ fn the_loop_on_the_command_line_c3() {
     let s = |p: &Path| p.to_str().unwrap().to_string();
     let run_csv = s(&d.join("c3_run.csv"));
     let fixed = s(&d.join("fixed.toml"));
-    let out = stdout_ok(&run(&[
+    let out = ok(&lockstep(&[
         "diagnose",
         "--plant",
         &s(&start_file),
@@ -285,7 +247,7 @@ fn the_loop_on_the_command_line_c3() {
     assert!((h.fitted["Ks_3"] / 0.0064599 - 1.0).abs() < 0.05, "{h:?}");
     // The report: self-contained (figures inlined, nothing fetched), with the history.
     let rep = d.join("rep");
-    stdout_ok(&run(&[
+    ok(&lockstep(&[
         "report",
         "--plant",
         &fixed,
@@ -308,7 +270,7 @@ fn the_loop_on_the_command_line_c3() {
     assert!(!html.contains("src=\"http") && !html.contains("<link") && !html.contains("<script"));
     // By hand: add the spring with bounds, refit it.
     let hand = s(&d.join("hand.toml"));
-    let o = stdout_ok(&run(&[
+    let o = ok(&lockstep(&[
         "effect",
         "add",
         "spring",
@@ -326,7 +288,7 @@ fn the_loop_on_the_command_line_c3() {
         &hand,
     ]));
     assert!(o.contains("Ks_3 = 0") && o.contains("qeq_3 = 0.1"), "{o}");
-    let o = stdout_ok(&run(&[
+    let o = ok(&lockstep(&[
         "refit",
         "--plant",
         &hand,
@@ -340,8 +302,8 @@ fn the_loop_on_the_command_line_c3() {
     assert!(h.rms_after["q3"] < 0.5 * h.rms_before["q3"], "{o}");
     // Refusals.
     let st = s(&start_file);
-    refused(
-        &run(&[
+    fails(
+        &lockstep(&[
             "effect",
             "add",
             "frobnicate",
@@ -352,32 +314,32 @@ fn the_loop_on_the_command_line_c3() {
         ]),
         &["unknown effect 'frobnicate'", "input_coupling"],
     );
-    refused(
-        &run(&["effect", "add", "spring", "--joint", "q9", "--plant", &st]),
+    fails(
+        &lockstep(&["effect", "add", "spring", "--joint", "q9", "--plant", &st]),
         &["--joint: unknown joint 'q9'"],
     );
-    refused(
-        &run(&["effect", "add", "gain", "--joint", "q3", "--plant", &st]),
+    fails(
+        &lockstep(&["effect", "add", "gain", "--joint", "q3", "--plant", &st]),
         &["conflicts with 'gain'"],
     );
-    refused(
-        &run(&["effect", "add", "coupling", "--plant", &st, "--from", "q5"]),
+    fails(
+        &lockstep(&["effect", "add", "coupling", "--plant", &st, "--from", "q5"]),
         &["needs --from and --to"],
     );
-    refused(
-        &run(&[
+    fails(
+        &lockstep(&[
             "effect", "add", "offset", "--joint", "q3", "--plant", &st, "--set", "Kx_3=1",
         ]),
         &["--set Kx_3", "offset_3"],
     );
-    refused(
-        &run(&[
+    fails(
+        &lockstep(&[
             "refit", "--plant", &st, "--data", &run_csv, "--params", "Fs_9",
         ]),
         &["Fs_9"],
     );
-    refused(
-        &run(&[
+    fails(
+        &lockstep(&[
             "refit", "--plant", &st, "--data", &run_csv, "--params", "Fc_3",
         ]),
         &["'Fc_3'", "no bounds"],
@@ -433,7 +395,7 @@ fn compare_uses_the_whole_of_a_short_file_and_its_skip_c2() {
         &s(&run_csv),
     ]);
     let compare = |skip: &str| {
-        run(&[
+        lockstep(&[
             "compare",
             "--plant",
             &s(&truth_file),
@@ -449,7 +411,7 @@ fn compare_uses_the_whole_of_a_short_file_and_its_skip_c2() {
     };
     // (fit %, RMSE) of q5's row.
     let q5_row = |skip: &str| {
-        let out = stdout_ok(&compare(skip));
+        let out = ok(&compare(skip));
         let row: Vec<&str> = out
             .lines()
             .find(|l| l.split_whitespace().nth(1) == Some("q5"))
@@ -466,7 +428,7 @@ fn compare_uses_the_whole_of_a_short_file_and_its_skip_c2() {
         assert!(fit > 99.0, "skip {skip}: fit {fit} %");
         assert!((1.7e-4..2.4e-4).contains(&rmse), "skip {skip}: RMSE {rmse}");
     }
-    refused(
+    fails(
         &compare("501"),
         &["c2_run.csv", "--skip 501 leaves no samples", "501"],
     );

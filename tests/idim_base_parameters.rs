@@ -8,11 +8,12 @@
 //! equations of motion, the base count of `identifiability::base_parameters` (a different
 //! algorithm on random samples), and the truth's own torques.
 
+mod common;
+use common::{lockstep, ok};
 use lockstep::identify::idim::{observation, predict, IdimOptions};
 use lockstep::measurement::Measurement;
 use lockstep::plant::Plant;
 use std::path::Path;
-use std::process::Command;
 
 const TRUTH: &str = r#"model = "planar2r"
 description = "test truth"
@@ -31,20 +32,6 @@ I2 = 0.01
 Fv_0 = 0.05
 Fv_1 = 0.03
 "#;
-
-fn lockstep(args: &[&str]) -> String {
-    let o = Command::new(env!("CARGO_BIN_EXE_lockstep"))
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        o.status.success(),
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
@@ -86,7 +73,7 @@ fn a_rank_deficient_regressor_is_fitted_on_its_base_parameters() {
     std::fs::write(&tau, csv).unwrap();
     let run = d.path().join("run.csv");
     // The textbook links carry only ZZ: not a full rigid body, hence --allow-inconsistent.
-    lockstep(&[
+    ok(&lockstep(&[
         "simulate",
         "--plant",
         s(&truth),
@@ -101,9 +88,9 @@ fn a_rank_deficient_regressor_is_fitted_on_its_base_parameters() {
         "--allow-inconsistent",
         "-o",
         s(&run),
-    ]);
+    ]));
     let fitted = d.path().join("fitted.toml");
-    let out = lockstep(&[
+    let out = ok(&lockstep(&[
         "identify",
         "--plant",
         s(&start),
@@ -112,7 +99,7 @@ fn a_rank_deficient_regressor_is_fitted_on_its_base_parameters() {
         "--out",
         s(&fitted),
         "--allow-inconsistent",
-    ]);
+    ]));
 
     // As many base parameters as the independent rank computation finds, plus the two
     // viscous coefficients.

@@ -10,6 +10,7 @@ use lockstep::identify::output_error::{
 use lockstep::identify::sequence::{plan, read_record};
 use lockstep::plant::Plant;
 use std::path::{Path, PathBuf};
+use std::process::Output;
 
 mod common;
 use common::{fails, lockstep, ok};
@@ -2298,6 +2299,39 @@ fn joint_fit_case(d: &Path, seconds: &str) -> (Plant, PathBuf) {
     (truth, truth_within_bounds(d, &truth_file, &[]))
 }
 
+/// `lockstep identify --method coupled --config k2 --joint-fit only` from `start` on
+/// `data` into `out`, with `extra` options.
+fn joint_fit_only(start: &Path, data: &Path, out: &Path, extra: &[&str]) -> Output {
+    let args = [
+        "identify",
+        "--method",
+        "coupled",
+        "--config",
+        "k2",
+        "--joint-fit",
+        "only",
+        "--plant",
+        start.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    lockstep(&[&args[..], extra].concat())
+}
+
+/// A run of [`joint_fit_only`] on k2's file alone (under `d`) is refused before any fit,
+/// naming the step without files.
+fn joint_fit_refused_without_k1(d: &Path, start: &Path, out: &Path) {
+    let only_k2 = d.join("only_k2");
+    std::fs::create_dir_all(&only_k2).unwrap();
+    std::fs::copy(d.join("data/k2_run.csv"), only_k2.join("k2_run.csv")).unwrap();
+    fails(
+        &joint_fit_only(start, &only_k2, out, &[]),
+        &["joint fit: step 'k1' has no measurement file"],
+    );
+}
+
 /// What every joint fit up to k2 must show in `out`: no step run alone, every parameter
 /// k1 and k2 fit either fitted or held as a tie (and then left undetermined in the plant),
 /// every joint at the noise floor, the plant written with the fitted values, report.md's
@@ -2347,31 +2381,8 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
     let d = tempfile::tempdir().unwrap();
     let (truth, start) = joint_fit_case(d.path(), "30");
     let out = d.path().join("out");
-    let run = |data: &Path| {
-        lockstep(&[
-            "identify",
-            "--method",
-            "coupled",
-            "--config",
-            "k2",
-            "--joint-fit",
-            "only",
-            "--plant",
-            start.to_str().unwrap(),
-            "--data",
-            data.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-    };
-    let only_k2 = d.path().join("only_k2");
-    std::fs::create_dir_all(&only_k2).unwrap();
-    std::fs::copy(d.path().join("data/k2_run.csv"), only_k2.join("k2_run.csv")).unwrap();
-    fails(
-        &run(&only_k2),
-        &["joint fit: step 'k1' has no measurement file"],
-    );
-    ok(&run(&d.path().join("data")));
+    joint_fit_refused_without_k1(d.path(), &start, &out);
+    ok(&joint_fit_only(&start, &d.path().join("data"), &out, &[]));
     let fit = &check_joint_fit(&out, &truth);
     let names: Vec<String> = column(fit, &["names"]);
     let fitted: Vec<f64> = column(fit, &["fitted"]);
@@ -2404,51 +2415,22 @@ fn the_joint_fit_fits_every_steps_parameters_on_every_steps_files() {
     let d = tempfile::tempdir().unwrap();
     let (truth, start) = joint_fit_case(d.path(), "4");
     let out = d.path().join("out");
-    // Without k1's file the run is refused before any fit, naming the step.
-    let only_k2 = d.path().join("only_k2");
-    std::fs::create_dir_all(&only_k2).unwrap();
-    std::fs::copy(d.path().join("data/k2_run.csv"), only_k2.join("k2_run.csv")).unwrap();
-    fails(
-        &lockstep(&[
-            "identify",
-            "--method",
-            "coupled",
-            "--config",
-            "k2",
-            "--joint-fit",
-            "only",
-            "--plant",
-            start.to_str().unwrap(),
-            "--data",
-            only_k2.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]),
-        &["joint fit: step 'k1' has no measurement file"],
-    );
-    ok(&lockstep(&[
-        "identify",
-        "--method",
-        "coupled",
-        "--config",
-        "k2",
-        "--joint-fit",
-        "only",
-        "--equation-error",
-        "off",
-        "--predictor",
-        "none",
-        "--horizons",
-        "1",
-        "--skip",
-        "100",
-        "--plant",
-        start.to_str().unwrap(),
-        "--data",
-        d.path().join("data").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]));
+    joint_fit_refused_without_k1(d.path(), &start, &out);
+    ok(&joint_fit_only(
+        &start,
+        &d.path().join("data"),
+        &out,
+        &[
+            "--equation-error",
+            "off",
+            "--predictor",
+            "none",
+            "--horizons",
+            "1",
+            "--skip",
+            "100",
+        ],
+    ));
     check_joint_fit(&out, &truth);
 }
 
