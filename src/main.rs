@@ -15,9 +15,7 @@ fn main() {
     if let commands::Command::Identify { oe, .. } = &mut cli.command {
         oe.given = commands::given_identify_options(&matches);
     }
-    if let Err(e) =
-        commands::refuse_options_of_other_methods(&matches).and_then(|()| commands::run(cli))
-    {
+    if let Err(e) = commands::run(cli) {
         lockstep::errln!("error: {e:#}");
         std::process::exit(1);
     }

@@ -19,12 +19,9 @@ fn subcommands(help: &str) -> Vec<String> {
             if !line.starts_with("  ") {
                 break;
             }
+            // A subcommand's line is indented by two; a wrapped description by more.
             let name = line.split_whitespace().next().unwrap_or("");
-            if !name.is_empty()
-                && name != "help"
-                && line.starts_with("  ")
-                && !line.starts_with("   ")
-            {
+            if !line.starts_with("   ") && !name.is_empty() && name != "help" {
                 names.push(name.to_string());
             }
         }

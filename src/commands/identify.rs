@@ -245,12 +245,7 @@ impl OutputErrorArgs {
         let Some(path) = &self.profile else {
             return Ok(flags);
         };
-        let preset = if method == Method::Coupled {
-            OutputErrorOptions::coupled()
-        } else {
-            OutputErrorOptions::isolated()
-        };
-        let profiled = with_profile(&preset, path)?;
+        let profiled = with_profile(&method.preset(), path)?;
         // Each field from the profile unless a flag that sets it was given.
         let mut merged = serde_json::to_value(&profiled)?;
         let from_flags = serde_json::to_value(&flags)?;
@@ -274,11 +269,7 @@ impl OutputErrorArgs {
     fn options_from_flags(&self, method: Method) -> Result<OutputErrorOptions> {
         use lockstep::identify::output_error::TimeWeighting;
         let coupled = method == Method::Coupled;
-        let mut o = if coupled {
-            OutputErrorOptions::coupled()
-        } else {
-            OutputErrorOptions::isolated()
-        };
+        let mut o = method.preset();
         o.weighting = match (self.cost, o.weighting) {
             (Some(CostArg::HalfFirst), _) => TimeWeighting::HalfFirst,
             (Some(CostArg::SkipTransient), _) | (None, TimeWeighting::SkipTransient(_)) => {
@@ -507,6 +498,16 @@ pub enum Method {
 }
 
 impl Method {
+    /// The output-error preset of the method ([`OutputErrorOptions::coupled`], else
+    /// [`OutputErrorOptions::isolated`]).
+    pub fn preset(self) -> OutputErrorOptions {
+        if self == Method::Coupled {
+            OutputErrorOptions::coupled()
+        } else {
+            OutputErrorOptions::isolated()
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Method::Idim => "idim",
@@ -700,27 +701,21 @@ impl From<OptimiserArg> for StageOptimiser {
     }
 }
 
-/// Refuses an `identify` option of another method than the one given, naming the method it
+/// Refuses an `identify` option of another method than `method` among those `given` on the
+/// command line ([`given_identify_options`]), naming the method it
 /// belongs to (a flag that would be ignored is an error, not a silent no-op).
 ///
 /// # Errors
 /// An output-error option with `--method idim`, or an IDIM option with an output-error method.
-pub fn refuse_options_of_other_methods(matches: &ArgMatches) -> Result<()> {
-    let Some(("identify", sub)) = matches.subcommand() else {
-        return Ok(());
-    };
-    let method = sub
-        .get_one::<Method>("method")
-        .copied()
-        .unwrap_or(Method::Idim);
-    let given = |id: &str| sub.value_source(id) == Some(clap::parser::ValueSource::CommandLine);
+pub fn refuse_options_of_other_methods(method: Method, given: &[String]) -> Result<()> {
+    let is_given = |id: &str| given.iter().any(|g| g == id);
     let flag = |id: &str| format!("--{}", id.replace('_', "-"));
     if method == Method::Idim {
         let output_error = OutputErrorArgs::augment_args(clap::Command::new("identify"));
         let first = output_error
             .get_arguments()
             .map(|a| a.get_id().to_string())
-            .find(|id| given(id));
+            .find(|id| is_given(id));
         if let Some(id) = first {
             bail!(
                 "{}: an option of `identify --method isolated|coupled` (output error); IDIM-LS (`--method idim`, the default) does not use it",
@@ -729,7 +724,7 @@ pub fn refuse_options_of_other_methods(matches: &ArgMatches) -> Result<()> {
         }
     } else if let Some(id) = ["cutoff", "order", "decimate", "allow_inconsistent"]
         .into_iter()
-        .find(|id| given(id))
+        .find(|id| is_given(id))
     {
         bail!(
             "{}: an option of `identify --method idim` (IDIM-LS); output error (`--method {}`) does not use it",
@@ -932,7 +927,12 @@ mod method_tests {
     fn an_option_of_another_method_is_refused_naming_its_method() {
         let refused = |args: &[&str]| {
             let m = identify_matches(args);
-            refuse_options_of_other_methods(&m).map_err(|e| e.to_string())
+            let method = m
+                .subcommand_matches("identify")
+                .and_then(|sub| sub.get_one::<Method>("method").copied())
+                .unwrap();
+            refuse_options_of_other_methods(method, &given_identify_options(&m))
+                .map_err(|e| e.to_string())
         };
         let e = refused(&["--horizons", "1"]).unwrap_err();
         assert!(

@@ -309,6 +309,7 @@ fn run_command(cli: Cli) -> Result<()> {
             allow_inconsistent,
             oe,
         } => {
+            refuse_options_of_other_methods(method, &oe.given)?;
             if method != Method::Idim {
                 return identify_sequence(&common, method, out, &oe);
             }

@@ -102,6 +102,24 @@ pub struct StageRecord {
 }
 
 impl StageRecord {
+    /// A stage `stage` (its report name) that `optimiser` ran, ending as `outcome`, the
+    /// whole files' cost at its result where known.
+    fn ran(
+        stage: String,
+        optimiser: StageOptimiser,
+        outcome: &StageOutcome,
+        whole_files_cost: Option<f64>,
+    ) -> Self {
+        StageRecord {
+            stage,
+            optimiser: Some(optimiser),
+            iterations: outcome.iterations,
+            failures: outcome.failures,
+            outcome: outcome.status.clone(),
+            whole_files_cost,
+        }
+    }
+
     /// A stage that did not run, and why.
     fn skipped(stage: Stage, why: String) -> Self {
         StageRecord {
@@ -423,14 +441,12 @@ impl Problem {
                 diverged += outcome.failures;
                 iterations += outcome.iterations;
                 ended.push(format!("{stage}: {}", outcome.status));
-                records.push(StageRecord {
-                    stage: stage.to_string(),
-                    optimiser: Some(self.stage_optimiser(stage)),
-                    iterations: outcome.iterations,
-                    failures: outcome.failures,
-                    outcome: outcome.status.clone(),
-                    whole_files_cost: None,
-                });
+                records.push(StageRecord::ran(
+                    stage.to_string(),
+                    self.stage_optimiser(stage),
+                    &outcome,
+                    None,
+                ));
                 estimated = Some(problem);
                 if outcome.stop {
                     break;
@@ -503,14 +519,12 @@ impl Problem {
                     ", the whole files cannot be simulated from its result".to_string()
                 }
             };
-            records.push(StageRecord {
-                stage: format!("{stage}{step_note}"),
-                optimiser: Some(self.stage_optimiser(stage)),
-                iterations: outcome.iterations,
-                failures: outcome.failures,
-                outcome: outcome.status.clone(),
+            records.push(StageRecord::ran(
+                format!("{stage}{step_note}"),
+                self.stage_optimiser(stage),
+                &outcome,
                 whole_files_cost,
-            });
+            ));
             ended.push(format!(
                 "{stage}{step_note}: {}{}{whole}",
                 outcome.status,
