@@ -245,17 +245,13 @@ impl OutputErrorArgs {
         let Some(path) = &self.profile else {
             return Ok(flags);
         };
-        let profiled = with_profile(&method.preset(), path)?;
-        // Each field from the profile unless a flag that sets it was given.
-        let mut merged = serde_json::to_value(&profiled)?;
-        let from_flags = serde_json::to_value(&flags)?;
-        for (field, ids) in FIELD_FLAGS {
-            if ids.iter().any(|id| self.given.iter().any(|g| g == id)) {
-                merged[*field] = from_flags[*field].clone();
-            }
-        }
-        let mut o: OutputErrorOptions = serde_json::from_value(merged)?;
-        o.hold = flags.hold;
+        // The profile's fields on the flags' options, but for those a given flag sets.
+        let set_by_a_flag = |field: &str| {
+            FIELD_FLAGS.iter().any(|(f, ids)| {
+                *f == field && ids.iter().any(|id| self.given.iter().any(|g| g == id))
+            })
+        };
+        let o = with_profile(&flags, path, &set_by_a_flag)?;
         if !o.fits_the_plant_values() {
             bail!(
                 "{}: nothing would fit the plant's values (no horizons, equation error, predictor or segments)",
@@ -424,15 +420,17 @@ const FIELD_FLAGS: &[(&str, &[&str])] = &[
     ("noise_sigma", &["noise_sigma"]),
 ];
 
-/// `preset` with the fields a profile file sets: a TOML table of [`OutputErrorOptions`]
-/// fields, or a `report.json` whose `options` it takes (any other JSON: the object itself).
+/// `base` with the fields a profile file sets, but for those `kept` names: a TOML table of
+/// [`OutputErrorOptions`] fields, or a `report.json` whose `options` it takes (any other
+/// JSON: the object itself).
 ///
 /// # Errors
 /// The file cannot be read or parsed; a field that is not an option, or a value of the
 /// wrong type (both named with the file).
 pub fn with_profile(
-    preset: &OutputErrorOptions,
+    base: &OutputErrorOptions,
     path: &std::path::Path,
+    kept: &dyn Fn(&str) -> bool,
 ) -> Result<OutputErrorOptions> {
     use anyhow::Context as _;
     let text = std::fs::read_to_string(path)
@@ -450,7 +448,7 @@ pub fn with_profile(
     let Some(fields) = fields.as_object() else {
         bail!("{}: expected a table of option fields", path.display());
     };
-    let mut merged = serde_json::to_value(preset)?;
+    let mut merged = serde_json::to_value(base)?;
     let known: Vec<String> = merged
         .as_object()
         .map(|m| m.keys().cloned().collect())
@@ -463,11 +461,13 @@ pub fn with_profile(
                 known.join(", ")
             );
         }
-        merged[k] = v.clone();
+        if !kept(k) {
+            merged[k] = v.clone();
+        }
     }
     let mut o: OutputErrorOptions =
         serde_json::from_value(merged).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    o.hold = preset.hold;
+    o.hold = base.hold;
     Ok(o)
 }
 
