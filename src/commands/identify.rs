@@ -498,14 +498,9 @@ pub enum Method {
 }
 
 impl Method {
-    /// The output-error preset of the method ([`OutputErrorOptions::coupled`], else
-    /// [`OutputErrorOptions::isolated`]).
+    /// The output-error preset of the method's sequence ([`OutputErrorOptions::for_sequence`]).
     pub fn preset(self) -> OutputErrorOptions {
-        if self == Method::Coupled {
-            OutputErrorOptions::coupled()
-        } else {
-            OutputErrorOptions::isolated()
-        }
+        OutputErrorOptions::for_sequence(self.name())
     }
 
     pub fn name(self) -> &'static str {

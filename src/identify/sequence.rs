@@ -310,11 +310,7 @@ impl SequenceOptions {
         SequenceOptions {
             sequence: sequence.to_string(),
             only: None,
-            fit: if sequence == "isolated" {
-                OutputErrorOptions::isolated()
-            } else {
-                OutputErrorOptions::coupled()
-            },
+            fit: OutputErrorOptions::for_sequence(sequence),
             locked_tolerance: 0.01,
             out,
             rigid_body: RigidBodyFit::Spanning,

@@ -278,6 +278,16 @@ impl OutputErrorOptions {
 }
 
 impl OutputErrorOptions {
+    /// The preset of the locking sequence named `sequence` in a model file: `isolated`
+    /// ([`OutputErrorOptions::isolated`]), any other ([`OutputErrorOptions::coupled`]).
+    pub fn for_sequence(sequence: &str) -> Self {
+        if sequence == "isolated" {
+            Self::isolated()
+        } else {
+            Self::coupled()
+        }
+    }
+
     /// `identify --method isolated`: the method of isolated joints (thesis 4.3.1) with the
     /// thesis's cost (4.2) (first half of each file weighted ½) and growing horizons, RK4 at
     /// 1/12000 s (the thesis's 1/6000 s leaves RK4's stability region on the Freedom 6S
