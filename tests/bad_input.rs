@@ -38,7 +38,7 @@ fn csv_with_bad_row(n: usize, k: usize, bad: &str) -> String {
 fn run_identify(data: &Path, out: &Path) -> std::process::Output {
     let plant = Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants/emps_symmetric.toml");
     Command::new(env!("CARGO_BIN_EXE_lockstep"))
-        .args(["identify", "--plant"])
+        .args(["identify", "idim", "--plant"])
         .arg(&plant)
         .arg("--data")
         .arg(data)

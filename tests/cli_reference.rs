@@ -1,5 +1,6 @@
 //! The command reference in the book (`docs/src/reference/cli.md`) is the binary's own
-//! `--help` text for every command and subcommand, so it cannot drift from the code.
+//! `--help` text (`--help-long` where a command has it) for every command and subcommand,
+//! so it cannot drift from the code.
 //! `LOCKSTEP_UPDATE_DOCS=1 cargo test --release --test cli_reference` rewrites it.
 
 mod common;
@@ -32,7 +33,13 @@ fn subcommands(help: &str) -> Vec<String> {
 fn render(path: &[String], out: &mut String) {
     let mut args: Vec<&str> = path.iter().map(String::as_str).collect();
     args.push("--help");
-    let help = ok(&lockstep(&args));
+    let mut help = ok(&lockstep(&args));
+    // A command whose --help is the short one: its details in the reference.
+    if help.contains("--help-long") {
+        args.pop();
+        args.push("--help-long");
+        help = ok(&lockstep(&args));
+    }
     let title = if path.is_empty() {
         "lockstep".to_string()
     } else {

@@ -92,6 +92,7 @@ fn a_rank_deficient_regressor_is_fitted_on_its_base_parameters() {
     let fitted = d.path().join("fitted.toml");
     let out = ok(&lockstep(&[
         "identify",
+        "idim",
         "--plant",
         s(&start),
         "--data",

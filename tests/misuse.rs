@@ -307,9 +307,10 @@ fn a_1e308_cell_and_extreme_cutoffs_end_with_a_message() {
     .unwrap();
     let emps = plant("emps_symmetric.toml");
     let limit = Duration::from_secs(60);
-    for cmd in ["identify", "diagnose", "compare"] {
+    for cmd in ["identify idim", "diagnose", "compare"] {
         let mut c = bin();
-        c.args([cmd, "--plant", &emps, "--data", s(&data)]);
+        c.args(cmd.split(' '));
+        c.args(["--plant", &emps, "--data", s(&data)]);
         if cmd == "compare" {
             c.args(["--out", s(&d.path().join("cmp"))]);
         }
@@ -319,6 +320,7 @@ fn a_1e308_cell_and_extreme_cutoffs_end_with_a_message() {
         let mut c = bin();
         c.args([
             "identify",
+            "idim",
             "--plant",
             &emps,
             "--data",
@@ -330,6 +332,7 @@ fn a_1e308_cell_and_extreme_cutoffs_end_with_a_message() {
     }
     let o = lockstep(&[
         "identify",
+        "idim",
         "--plant",
         &emps,
         "--data",
@@ -470,6 +473,7 @@ fn identify_refuses_to_write_a_plant_that_is_not_a_body() {
     let emps = plant("emps_symmetric.toml");
     let o = lockstep(&[
         "identify",
+        "idim",
         "--plant",
         &emps,
         "--data",
@@ -491,6 +495,7 @@ fn identify_refuses_to_write_a_plant_that_is_not_a_body() {
     assert!(!out.exists());
     let o = lockstep(&[
         "identify",
+        "idim",
         "--plant",
         &emps,
         "--data",
@@ -516,7 +521,8 @@ fn an_unusable_output_directory_is_refused_before_the_first_fit() {
     let started = Instant::now();
     let o = lockstep(&[
         "identify",
-        "--method",
+        "sequence",
+        "--preset",
         "isolated",
         "--plant",
         &plant("freedom6s_appendix_d_initial_widened.toml"),
@@ -689,7 +695,8 @@ fn a_step_run_alone_adds_to_the_report_and_resume_skips_completed_steps() {
     let run = |plant: &str, more: &[&str]| {
         let mut a = vec![
             "identify",
-            "--method",
+            "sequence",
+            "--preset",
             "isolated",
             "--plant",
             plant,
@@ -782,6 +789,7 @@ fn a_data_directory_works_in_torque_space() {
     // IDIM works in torque space only.
     let out = ok(&lockstep(&[
         "identify",
+        "idim",
         "--plant",
         &plant("emps_symmetric.toml"),
         "--data",

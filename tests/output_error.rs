@@ -225,13 +225,14 @@ fn problem_of_step(
     (p, at_truth, off)
 }
 
-/// Run `lockstep identify --method isolated` on `start` with the files in `dir/data`, step
+/// Run `lockstep identify sequence --preset isolated` on `start` with the files in `dir/data`, step
 /// `config`, options `more`, output to `dir/out`; returns the report (`report.json`).
 fn identify_isolated(dir: &Path, start: &Path, config: &str, more: &[&str]) -> serde_json::Value {
     let (data, out) = (dir.join("data"), dir.join("out"));
     let mut args = vec![
         "identify",
-        "--method",
+        "sequence",
+        "--preset",
         "isolated",
         "--plant",
         start.to_str().unwrap(),
@@ -505,7 +506,8 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
     let run_with = |plant: &Path, data: &Path, config: &str, more: &[&str]| {
         let mut args = vec![
             "identify",
-            "--method",
+            "sequence",
+            "--preset",
             "coupled",
             "--plant",
             plant.to_str().unwrap(),
@@ -847,7 +849,8 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
     let identify = |more: &[&str]| {
         let mut args = vec![
             "identify",
-            "--method",
+            "sequence",
+            "--preset",
             "isolated",
             "--plant",
             plant,
@@ -2299,12 +2302,13 @@ fn joint_fit_case(d: &Path, seconds: &str) -> (Plant, PathBuf) {
     (truth, truth_within_bounds(d, &truth_file, &[]))
 }
 
-/// `lockstep identify --method coupled --config k2 --joint-fit only` from `start` on
+/// `lockstep identify sequence --preset coupled --config k2 --joint-fit only` from `start` on
 /// `data` into `out`, with `extra` options.
 fn joint_fit_only(start: &Path, data: &Path, out: &Path, extra: &[&str]) -> Output {
     let args = [
         "identify",
-        "--method",
+        "sequence",
+        "--preset",
         "coupled",
         "--config",
         "k2",
@@ -2364,7 +2368,7 @@ fn check_joint_fit(out: &Path, truth: &Plant) -> serde_json::Value {
     fit
 }
 
-/// `lockstep identify --method coupled --config k2 --joint-fit only`: the joint fit of the
+/// `lockstep identify sequence --preset coupled --config k2 --joint-fit only`: the joint fit of the
 /// steps up to k2 on their files (30 s of Table 4.7 each), from the truth (the joint fit
 /// is meant for the values the steps fitted; from 2 % off in a Coulomb level it can end in
 /// a local minimum, see `JointProblem::fit`). No step runs alone; the joint fit fits every

@@ -204,8 +204,7 @@ pub struct Common {
     /// Measurement files (CSV or .mat; a side file <name>.toml may map the columns).
     #[arg(long, required = true, num_args = 1..)]
     pub data: Vec<PathBuf>,
-    /// Configuration (set of free joints) of the data (IDIM and compare: default `full`);
-    /// with `--method isolated|coupled`, run this step of the sequence only.
+    /// Configuration (set of free joints) of the data (default `full`).
     #[arg(long)]
     pub config: Option<String>,
     /// Cut-off of the zero-phase Butterworth on positions (Hz).

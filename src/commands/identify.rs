@@ -1,271 +1,293 @@
-//! `identify --method isolated|coupled`: the output-error options on the command line, built
-//! on the presets of the library ([`OutputErrorOptions::isolated`],
-//! [`OutputErrorOptions::coupled`], [`SequenceOptions::preset`]).
+//! `identify idim` and `identify sequence --preset isolated|coupled`: the methods'
+//! subcommands, and the output-error options on the command line, built on the presets of
+//! the library ([`OutputErrorOptions::isolated`], [`OutputErrorOptions::coupled`],
+//! [`SequenceOptions::preset`]).
 
 use super::*;
-/// Settings of output-error identification (`identify --method isolated|coupled`).
+
+/// `lockstep identify`'s methods: each takes only its own options (one of the other is
+/// refused naming the subcommand it belongs to, [`misplaced_option`]).
+#[derive(Debug, Subcommand)]
+pub enum IdentifyMethod {
+    /// IDIM-LS: the inverse dynamic model, linear least squares on torque-measured data
+    /// (positions filtered and differentiated), fitted on the base parameters where the
+    /// regressor is rank-deficient.
+    Idim {
+        #[command(flatten)]
+        common: Common,
+        /// Write the plant with the fitted values to this file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Write the fitted plant even when a link's mass or inertia is not physical or a
+        /// value leaves its bounds (refused by default, with the reasons).
+        #[arg(long)]
+        allow_inconsistent: bool,
+    },
+    /// Output error along the model's locking sequence (thesis 4.3) on the position
+    /// measurements in `--data` (files or directories), writing `plant.toml`, `report.md`
+    /// and `report.json` to `--out` after every step.
+    #[command(disable_help_flag = true)]
+    Sequence(Box<SequenceArgs>),
+}
+
+/// `lockstep identify sequence`.
+#[derive(Debug, Args)]
+pub struct SequenceArgs {
+    /// The method, its locking sequence and its defaults: `isolated` (the method of
+    /// isolated joints, thesis 4.3.1) or `coupled` (of coupling joints, 4.3.2).
+    #[arg(long, value_enum)]
+    pub preset: Preset,
+    /// Plant file (model + effects + parameter values): the start.
+    #[arg(long)]
+    pub plant: PathBuf,
+    /// Measurement files or directories of them (CSV or .mat, each with a side file
+    /// naming its configuration).
+    #[arg(long, required = true, num_args = 1..)]
+    pub data: Vec<PathBuf>,
+    /// Run this step of the sequence only (the plant must hold the earlier steps' values).
+    #[arg(long)]
+    pub config: Option<String>,
+    /// Output directory.
+    #[arg(long, default_value = "lockstep-out/identify")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub oe: OutputErrorArgs,
+    /// Print help: every option and its default (--help-long: with each option's details).
+    #[arg(short = 'h', long, action = clap::ArgAction::HelpShort)]
+    help: Option<bool>,
+    /// Print help with each option's details.
+    #[arg(long, action = clap::ArgAction::HelpLong)]
+    help_long: Option<bool>,
+}
+
+/// Settings of output-error identification (`identify sequence`).
 #[derive(Debug, Args)]
 pub struct OutputErrorArgs {
-    /// Continue an interrupted sequence in --out from its last completed step: start from
-    /// --out's plant.toml, skip the steps its report lists, add the rest to that report.
+    /// Continue an interrupted sequence in --out from its last completed step.
+    ///
+    /// Starts from --out's plant.toml, skips the steps its report lists and adds the rest to that report.
     #[arg(long)]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub resume: bool,
-    /// Output-error options from a file, applied to the method's preset before the flags
-    /// (a flag given on the command line wins): a TOML table of the options' fields
-    /// (e.g. `h = 8.333e-5`, `horizons = [0.1, 1.0]`, `max_speed = 300.0`), or the
-    /// `report.json` of an earlier run, whose recorded options replay it.
+    /// Options from a file: a TOML table of option fields, or an earlier run's report.json (replays it).
+    ///
+    /// Applied to the preset after the flags' defaults; a flag given on the command line wins. Fields as in `report.json`'s `options`, e.g. `h = 8.333e-5`, `horizons = [0.1, 1.0]`, `max_speed = 300.0`.
     #[arg(long, value_name = "FILE")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub profile: Option<PathBuf>,
+    /// One option by its field name, e.g. `--set max_speed=300` (a TOML value; repeatable).
+    ///
+    /// Applied after --profile, e.g. `--set 'horizons=[0.5, 1.0]'`; a field a given flag also sets is refused.
+    #[arg(long, value_name = "FIELD=VALUE")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
+    pub set: Vec<String>,
     /// The identify options given on the command line (clap ids), set by the binary from
     /// its matches: the flags that win over `--profile`.
     #[arg(skip)]
     pub given: Vec<String>,
-    /// Cost: 4.2 (first half of each file weighted 1/2; isolated default) or 4.3 (skip the
-    /// first --skip samples; coupled default).
+    /// Cost: 4.2 (first half of each file weighted ½) or 4.3 (first --skip samples skipped). Default: 4.3 for the coupled method, 4.2 for the isolated
     #[arg(long, value_enum)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub cost: Option<CostArg>,
-    /// Samples skipped at the start of each file under cost 4.3.
+    /// Samples skipped at the start of each file under cost 4.3
     #[arg(long, default_value_t = 1000)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub skip: usize,
-    /// Joint weight of the joint(s) of interest (others 1).
+    /// Weight of the joints of interest (the others 1; thesis 50)
     #[arg(value_parser = parse_positive, long, default_value_t = 50.0)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub weight: f64,
-    /// Integration step (s); fractions such as 1/12000 accepted. The step must keep RK4
-    /// stable on the stiffest joint (a light link with strong friction damping).
+    /// Integration step (s), e.g. 1/12000
+    ///
+    /// It must keep RK4 stable on the stiffest joint (a light link with strong friction damping); etdrk4 allows far larger steps there.
     #[arg(long, default_value = "1/12000", value_parser = parse_number)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub step: f64,
-    /// Integrator, rk4 or etdrk4 (exponential RK4 that takes the friction damping exactly,
-    /// stable at far larger steps on a stiff joint).
+    /// Integrator: rk4, or etdrk4 (exponential RK4, exact on the friction damping)
     #[arg(long, default_value = "rk4")]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub integrator: Integrator,
-    /// How the torques were applied between samples: zoh, linear, cubic or bandlimited
-    /// (default: each file's side file's `hold`, else zoh).
+    /// Input between samples: zoh, linear, cubic or bandlimited (default: the side file's `hold`, else zoh)
     #[arg(long)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub hold: Option<Hold>,
-    /// Starts per step: the plant's values, then random points inside the bounds (run in
-    /// parallel).
+    /// Starts per step: the plant's values, then random points inside the bounds (in parallel)
     #[arg(long, default_value_t = 1)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub starts: usize,
-    /// Seed of the random starts.
+    /// Seed of the random starts
     #[arg(long, default_value_t = 1)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub seed: u64,
-    /// Stop when the relative parameter step is below this (thesis 2e-6).
+    /// Stop when the relative parameter step is below this (thesis 2e-6)
     #[arg(value_parser = parse_positive, long, default_value_t = 2e-6)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub xtol: f64,
-    /// Stop when the relative cost decrease is below this.
+    /// Stop when the relative cost decrease is below this
     #[arg(value_parser = parse_positive, long, default_value_t = 1e-6)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub ftol: f64,
-    /// Most iterations per start.
+    /// Most iterations per start and stage
     #[arg(long, default_value_t = 100)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub max_iter: usize,
-    /// A finite-difference Jacobian (one simulation per fitted parameter) at most every N
-    /// iterations of a stage, Broyden's rank-one update from the step taken between them;
-    /// a step that did not lower the cost, and the end of every stage, take a fresh one.
-    /// Both optimisers (--predictor-optimiser, --whole-files-optimiser). 1: finite
-    /// differences at every iteration. Default: 4 for the coupled method, 1 for the
-    /// isolated.
+    /// Finite-difference Jacobian at most every N iterations, Broyden updates between. Default: 4 for the coupled method, 1 for the isolated
+    ///
+    /// A step that did not lower the cost, and the end of every stage, take a fresh one; both optimisers. 1: finite differences at every iteration.
     #[arg(long, value_name = "N")]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub jacobian_refresh: Option<usize>,
-    /// Multiple-shooting warm-up, e.g. `--segments 1,4`: one more start from the plant's
-    /// values fits every file cut into segments of these lengths (s) in turn, each segment
-    /// simulated from the measured state at its start (velocities from the positions), then
-    /// the whole files; it runs beside the start through the horizons and the lower cost
-    /// wins. `none`: only the horizons.
+    /// Multiple-shooting warm-up: segment lengths (s) such as 1,4, or none
+    ///
+    /// One more start from the plant's values fits every file cut into segments of these lengths in turn (each from the measured state at its start), then the whole files; the lower cost wins.
     #[arg(long, default_value = "none")]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub segments: String,
-    /// Growing horizons: fit on these fractions of every file in turn (after the skipped
-    /// transient), each simulated from the file's start and starting where the last stage
-    /// ended; the last must be 1 (`--horizons 1`: the whole files at once). `none`: no
-    /// start from the plant's values through the horizons, only the warm-ups
-    /// (`--equation-error`, `--predictor`, `--segments`; one must be set). Default: none for
-    /// the coupled method, 0.05,0.1,0.25,0.5,1 for the isolated.
+    /// Growing horizons: fractions of every file fitted in turn, ending with 1, or none. Default: none for the coupled method, 0.05,0.1,0.25,0.5,1 for the isolated
+    ///
+    /// Each horizon is simulated from the file's start and starts where the last ended. `none`: only the warm-ups (--equation-error, --predictor, --segments; one must be set).
     #[arg(long)]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub horizons: Option<String>,
-    /// After each step's fit, move the rigid-body symbols back toward the plant's initial
-    /// values along the combinations that step cannot tell apart (its base parameters held
-    /// exactly; kept if the cost rises by less than one noise variance): the least-change
-    /// solution, so the next step starts from the prior, not from where the optimiser
-    /// drifted along an exact tie. `off`: keep the minimum as found.
+    /// Least change: after each step, move the rigid-body symbols back toward the plant's values along the ties the step cannot tell apart
+    ///
+    /// Its base parameters are held exactly; kept if the cost rises by less than one noise variance, so the next step starts from the prior, not from where the optimiser drifted.
     #[arg(long, value_enum, default_value = "on")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub least_change: Switch,
-    /// Prior on each step's fitted parameters (maximum a posteriori, as MATLAB's
-    /// regularisation toward the nominal model): Gaussian about the values the step starts
-    /// from, with spread TAU × each value (× the bound width for a value near zero; 0.1:
-    /// the initial values are good to about 10 %), weighed against the noise
-    /// each file shows (estimated from its positions). It decides only where the data are
-    /// silent or nearly so, so a step does not hand an arbitrary point of a flat valley to
-    /// the next. `none`: the thesis cost alone.
+    /// Gaussian prior about each step's start with relative spread TAU, such as 0.1, or none (maximum a posteriori)
+    ///
+    /// Weighed against each file's noise, it decides only where the data are silent (as MATLAB's regularisation toward the nominal model).
     #[arg(long, default_value = "none", value_name = "TAU")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub prior: String,
-    /// Sequential prior on carried symbols: each step records, in the plant it writes, the
-    /// standard errors of the rigid-body symbols it fitted at the noise floor but could not
-    /// determine; with `on`, the next step that fits them again holds them to those values
-    /// with those standard errors (what the earlier step's data say about them), instead of
-    /// letting its own joint of interest trade them away. Overrides `--prior` for them.
+    /// Hold the rigid-body symbols an earlier step left undetermined to that step's values and standard errors
+    ///
+    /// Each step records them in the plant it writes; overrides --prior for them.
     #[arg(long, value_enum, default_value = "off")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub carried_prior: Switch,
-    /// Release held values where a step ends above the noise floor: the values earlier
-    /// steps fitted (with a recorded standard error) that this step's data see better than
-    /// those steps did are fitted again with the step's parameters, from its result, under a
-    /// Gaussian prior about their held values with their standard errors (the sequential
-    /// estimate); kept when cost + prior term is lower. A value fitted within its standard
-    /// error on an earlier configuration can still be off by more than a later one
-    /// tolerates. `off`: the thesis's sequence, every earlier value held as fitted.
+    /// Where a step ends above the noise floor, refit the values earlier steps fixed that its data see better
+    ///
+    /// Under a Gaussian prior about their held values with their standard errors (the sequential estimate); kept when cost + prior term is lower.
     #[arg(long, value_enum, default_value = "on")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub release_held: Switch,
-    /// Reach across held ties where a step ends above the noise floor with a spanning
-    /// rigid-body symbol on a bound: fitted again with that bound moved out by what the
-    /// held ties (rigid-body symbols an earlier step left undetermined) can carry within
-    /// their bounds, the result spread back over every symbol's own bounds, then fitted
-    /// there; kept when lower, the held ties moved in the plant written. `off`: the held
-    /// ties stay where they are.
+    /// Where a step ends above the floor with a spanning symbol on a bound, widen that bound by what the held ties can carry
+    ///
+    /// The result is spread back over every symbol's own bounds and fitted there; kept when lower.
     #[arg(long, value_enum, default_value = "on")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub tie_reach: Switch,
-    /// Balanced refit after each step whose joints of interest are weighted apart (--weight):
-    /// the whole files once more with every free joint weighted 1, from the step's result;
-    /// kept when the worst free joint's RMS / σ̂ falls. The thesis's weight 50 lets a step
-    /// leave a misfit on the other joints that costs it 1/2500 of the same on a joint of
-    /// interest. `off`: the thesis's weights to the end.
+    /// Balanced refit: after a step with weighted joints of interest, the whole files once more with every joint weighted 1
+    ///
+    /// Kept when the worst free joint's RMS / σ̂ falls (the thesis's weight 50 lets a step leave a misfit on the other joints).
     #[arg(long, value_enum, default_value = "on")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub balance: Switch,
-    /// Equation-error warm start: one more start from the plant's values first fits the
-    /// torque balance at every sample (positions low-passed and differentiated, LuGre
-    /// bristles driven by the estimated velocities; no simulation, so no drift), then the
-    /// whole files; it runs beside the other starts and the lower cost wins. `on`: the
-    /// position filter's cut-off per joint by residual analysis (the lowest that removes
-    /// no more than the noise: high for a light, fast wrist, low for a heavy base joint);
-    /// a cut-off fraction of the Nyquist frequency for every joint, such as 0.2; or `off`.
-    /// Default: on for the coupled method, off for the isolated.
+    /// Equation-error warm start: on (filter cut-off per joint by residual analysis), off, or a cut-off fraction of Nyquist such as 0.2. Default: on for the coupled method, off for the isolated
+    ///
+    /// One more start fits the torque balance at every sample (positions low-passed and differentiated; no simulation, so no drift), then the whole files; the lower cost wins.
     #[arg(long, value_name = "on|off|CUTOFF")]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub equation_error: Option<String>,
-    /// Prediction-error homotopy, e.g. `--predictor 3,1`: before the whole files, fit the
-    /// files simulated with the state pulled toward the measured positions by a critically
-    /// damped output injection of each bandwidth ω (rad/s) in turn (a Luenberger observer:
-    /// at large ω a low-passed equation error, smooth in the parameters; ω → 0 is the
-    /// output error). It follows the equation error when `--equation-error` is on, or is one
-    /// more start from the plant's values. A stage that ends above twice the larger of the
-    /// noise floor and the previous stage's end is run again through the geometric mean of
-    /// the two bandwidths (twice at most; the report says so). `none`: no such stages.
-    /// Default: 100,30,10,3,1 for the coupled method, none for the isolated.
+    /// Prediction-error homotopy: observer bandwidths ω (rad/s) fitted in turn, such as 3,1, or none. Default: 100,30,10,3,1 for the coupled method, none for the isolated
+    ///
+    /// Each stage simulates the files with a critically damped output injection of bandwidth ω (a Luenberger observer; ω → 0 is the output error). A stage that ends above twice the larger of the noise floor and the previous stage's end runs again at the geometric mean of the two bandwidths (twice at most).
     #[arg(long, value_name = "OMEGAS")]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub predictor: Option<String>,
-    /// Step (s) of the predictor's stages, simulated by ETDRK4, e.g. 1/2000: the output
-    /// injection keeps an early error from growing along the file, so the stages that move
-    /// the parameters most of the way run far coarser than the whole files need. `none`:
-    /// the predictor's stages on --step and --integrator. Default: 1/2000 for the coupled
-    /// method, none for the isolated. The Levenberg–Marquardt (`--predictor-optimiser lm`)
-    /// can stall on the coarse step: pass none with it.
+    /// Step (s) of the predictor's stages, simulated by ETDRK4, or none (--step). Default: 1/2000 for the coupled method, none for the isolated
+    ///
+    /// The Levenberg–Marquardt (--predictor-optimiser lm) can stall on the coarse step: pass none with it.
     #[arg(long, value_name = "STEP")]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub predictor_step: Option<String>,
-    /// Optimiser of the predictor's stages: `lm`, rmpfit's bounded Levenberg–Marquardt
-    /// (every other stage's), or `trf`, basin's trust-region-reflective method, which
-    /// follows a descent that the Levenberg–Marquardt stops on with a collapsed trust
-    /// region, at one Jacobian per accepted step (finite differences, or Broyden's update
-    /// between them with --jacobian-refresh).
+    /// Optimiser of the predictor's stages: lm (bounded Levenberg–Marquardt) or trf (trust-region-reflective)
     #[arg(long, value_enum, default_value = "trf")]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub predictor_optimiser: OptimiserArg,
-    /// Optimiser of the whole files' stage (the cost itself) and of the refit that
-    /// releases held values: `lm` or `trf`, as --predictor-optimiser. The horizons',
-    /// segments' and equation error's stages run `lm`.
+    /// Optimiser of the whole files' stage and of the release of held values: lm or trf
+    ///
+    /// The horizons', segments' and equation error's stages run lm.
     #[arg(long, value_enum, default_value = "lm")]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub whole_files_optimiser: OptimiserArg,
-    /// Initial positions of the free joints in every file: `estimate`d with the parameters
-    /// at the whole files' stage (as MATLAB `oe`/`pem` with `InitialCondition = 'estimate'`;
-    /// the first sample carries the sensor noise, which a trajectory sensitive to its start
-    /// carries to every later sample) or the first `measured`
-    /// sample, as the thesis. Default: estimate for the coupled method, measured for the
-    /// isolated.
+    /// Initial positions of the free joints: estimate (as MATLAB's InitialCondition = 'estimate') or the first measured sample. Default: estimate for the coupled method, measured for the isolated
     #[arg(long, value_enum)]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub initial_positions: Option<InitialPositionsArg>,
-    /// Joint fit of the sequence's steps: `after` the step-by-step fits, every parameter the
-    /// steps fit is refined on every step's files at once (each file in its configuration,
-    /// every free joint weighted 1), from the values the steps left; its standard errors
-    /// and identifiable calls are those of all the data, not conditional on values earlier
-    /// steps fixed. `only`: the joint fit alone from the plant's values (a plant a sequence
-    /// run wrote). It covers the steps up to --config's (all without it); their files must
-    /// be in --data. `off`: the steps alone (the thesis).
+    /// Joint fit: after the steps, refine every parameter they fit on all their files at once (after); that fit alone (only); or off
+    ///
+    /// Each file in its configuration, every free joint weighted 1; its standard errors are those of all the data. It covers the steps up to --config's (all without it); their files must be in --data.
     #[arg(long, value_enum, default_value = "off")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub joint_fit: JointFitArg,
-    /// The position sensor's noise σ (rad or m) when known, such as 2e-4: used instead of
-    /// the σ̂ estimated from each file (robust 5th differences of the positions) for the
-    /// noise-floor check, the prior's weight and the predictor step's check. `estimate`:
-    /// from the data.
+    /// Position sensor noise σ (rad or m), such as 2e-4, or estimate (robust 5th differences of each file)
+    ///
+    /// Used for the noise-floor check, the prior's weight and the predictor step's check.
     #[arg(long, default_value = "estimate", value_name = "SIGMA|estimate")]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub noise_sigma: String,
-    /// Largest motion (rad) allowed of a locked joint in a file.
+    /// Largest motion (rad) allowed of a locked joint in a file
     #[arg(value_parser = parse_positive, long, default_value_t = 0.01)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub locked_tolerance: f64,
-    /// Rigid-body symbols each step fits: `spanning` (a set of them that spans the
-    /// configuration's base parameters where its files hold the locked joints, by column
-    /// pivoting on ∂β/∂s; the others held at their values and left undetermined for later
-    /// steps: the same reachable dynamics without the exact ties a finite-difference
-    /// Jacobian fills with noise) or `all` (every symbol the step
-    /// identifies or carries; the least change resolves their exact ties afterwards).
+    /// Rigid-body symbols each step fits: spanning (a set spanning its base parameters) or all
+    ///
+    /// `spanning` pivots on ∂β/∂s and holds the others for later steps; `all` fits every symbol the step identifies and leaves the ties to the least change.
     #[arg(long, value_enum, default_value = "spanning")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub rigid_body: RigidBodyArg,
 }
 
 impl OutputErrorArgs {
-    /// The output-error options of `method`: its preset ([`OutputErrorOptions::isolated`],
-    /// [`OutputErrorOptions::coupled`]) with the options given on the command line.
-    pub fn options(&self, method: Method) -> Result<OutputErrorOptions> {
-        let flags = self.options_from_flags(method)?;
-        let Some(path) = &self.profile else {
-            return Ok(flags);
+    /// The output-error options of `preset` ([`OutputErrorOptions::isolated`],
+    /// [`OutputErrorOptions::coupled`]) with the flags, then `--profile`'s fields but for
+    /// those a given flag sets, then `--set`'s.
+    ///
+    /// # Errors
+    /// A flag's value out of range; a profile or `--set` field that is not an option, or of
+    /// the wrong type; a `--set` field a given flag also sets; nothing left to fit the
+    /// plant's values.
+    pub fn options(&self, preset: Preset) -> Result<OutputErrorOptions> {
+        let mut o = self.options_from_flags(preset)?;
+        let flag_of = |field: &str| {
+            FIELD_FLAGS
+                .iter()
+                .filter(|(f, _)| *f == field)
+                .flat_map(|(_, ids)| ids.iter())
+                .find(|id| self.given.iter().any(|g| g == *id))
+                .map(|id| format!("--{}", id.replace('_', "-")))
         };
-        // The profile's fields on the flags' options, but for those a given flag sets.
-        let set_by_a_flag = |field: &str| {
-            FIELD_FLAGS.iter().any(|(f, ids)| {
-                *f == field && ids.iter().any(|id| self.given.iter().any(|g| g == id))
-            })
-        };
-        let o = with_profile(&flags, path, &set_by_a_flag)?;
-        if !o.fits_the_plant_values() {
+        let mut origin = String::new();
+        if let Some(path) = &self.profile {
+            origin = path.display().to_string();
+            let fields = profile_fields(path)?;
+            o = with_fields(&o, &fields, &origin, &|f| flag_of(f).is_some())?;
+        }
+        for kv in &self.set {
+            origin = format!("--set {kv}");
+            let (k, v) = set_field(kv)?;
+            if let Some(flag) = flag_of(&k) {
+                bail!("--set {k}: {flag} sets it too; give one of them");
+            }
+            let fields = serde_json::Map::from_iter([(k, v)]);
+            o = with_fields(&o, &fields, &origin, &|_| false)?;
+        }
+        if !origin.is_empty() && !o.fits_the_plant_values() {
             bail!(
-                "{}: nothing would fit the plant's values (no horizons, equation error, predictor or segments)",
-                path.display()
+                "{origin}: nothing would fit the plant's values (no horizons, equation error, predictor or segments)"
             );
         }
         Ok(o)
     }
 
     /// The method's preset with the flags (every flag: a default is the preset's value).
-    fn options_from_flags(&self, method: Method) -> Result<OutputErrorOptions> {
+    fn options_from_flags(&self, preset: Preset) -> Result<OutputErrorOptions> {
         use lockstep::identify::output_error::TimeWeighting;
-        let coupled = method == Method::Coupled;
-        let mut o = method.preset();
+        let coupled = preset == Preset::Coupled;
+        let mut o = preset.options();
         o.weighting = match (self.cost, o.weighting) {
             (Some(CostArg::HalfFirst), _) => TimeWeighting::HalfFirst,
             (Some(CostArg::SkipTransient), _) | (None, TimeWeighting::SkipTransient(_)) => {
@@ -364,17 +386,17 @@ impl OutputErrorArgs {
         Ok(o)
     }
 
-    /// The sequence options of `method`: its preset ([`SequenceOptions::preset`]) with the
-    /// options given on the command line.
+    /// The sequence options of `preset` ([`SequenceOptions::preset`]) with the options
+    /// given on the command line.
     pub fn sequence_options(
         &self,
-        method: Method,
+        preset: Preset,
         only: Option<String>,
         out: PathBuf,
     ) -> Result<SequenceOptions> {
-        let mut opts = SequenceOptions::preset(method.name(), out);
+        let mut opts = SequenceOptions::preset(preset.name(), out);
         opts.only = only;
-        opts.fit = self.options(method)?;
+        opts.fit = self.options(preset)?;
         opts.locked_tolerance = self.locked_tolerance;
         opts.resume = self.resume;
         opts.rigid_body = match self.rigid_body {
@@ -420,18 +442,12 @@ const FIELD_FLAGS: &[(&str, &[&str])] = &[
     ("noise_sigma", &["noise_sigma"]),
 ];
 
-/// `base` with the fields a profile file sets, but for those `kept` names: a TOML table of
-/// [`OutputErrorOptions`] fields, or a `report.json` whose `options` it takes (any other
-/// JSON: the object itself).
+/// The option fields a profile file sets: a TOML table of [`OutputErrorOptions`] fields,
+/// or a `report.json` whose `options` it takes (any other JSON: the object itself).
 ///
 /// # Errors
-/// The file cannot be read or parsed; a field that is not an option, or a value of the
-/// wrong type (both named with the file).
-pub fn with_profile(
-    base: &OutputErrorOptions,
-    path: &std::path::Path,
-    kept: &dyn Fn(&str) -> bool,
-) -> Result<OutputErrorOptions> {
+/// The file cannot be read or parsed, or is not a table.
+fn profile_fields(path: &std::path::Path) -> Result<serde_json::Map<String, serde_json::Value>> {
     use anyhow::Context as _;
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read the profile", path.display()))?;
@@ -445,9 +461,40 @@ pub fn with_profile(
             toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         serde_json::to_value(t)?
     };
-    let Some(fields) = fields.as_object() else {
-        bail!("{}: expected a table of option fields", path.display());
+    match fields {
+        serde_json::Value::Object(m) => Ok(m),
+        _ => bail!("{}: expected a table of option fields", path.display()),
+    }
+}
+
+/// One `--set FIELD=VALUE`: the field and its value read as TOML (a bare word that is not
+/// TOML, such as `Etdrk4`, as a string).
+///
+/// # Errors
+/// No `=`, or an empty field name.
+fn set_field(kv: &str) -> Result<(String, serde_json::Value)> {
+    let Some((k, v)) = kv.split_once('=').filter(|(k, _)| !k.trim().is_empty()) else {
+        bail!("--set '{kv}': expected FIELD=VALUE, e.g. max_speed=300");
     };
+    let (k, v) = (k.trim(), v.trim());
+    let value = match toml::from_str::<toml::Table>(&format!("x = {v}")) {
+        Ok(mut t) => serde_json::to_value(t.remove("x"))?,
+        Err(_) => serde_json::Value::String(v.to_string()),
+    };
+    Ok((k.to_string(), value))
+}
+
+/// `base` with `fields` (named [`OutputErrorOptions`] fields and their values; `origin`,
+/// a file or `--set`, names them in errors), but for those `kept` names.
+///
+/// # Errors
+/// A field that is not an option, or a value of the wrong type (both named with `origin`).
+fn with_fields(
+    base: &OutputErrorOptions,
+    fields: &serde_json::Map<String, serde_json::Value>,
+    origin: &str,
+    kept: &dyn Fn(&str) -> bool,
+) -> Result<OutputErrorOptions> {
     let mut merged = serde_json::to_value(base)?;
     let known: Vec<String> = merged
         .as_object()
@@ -456,8 +503,7 @@ pub fn with_profile(
     for (k, v) in fields {
         if !known.contains(k) {
             bail!(
-                "{}: '{k}' is not an output-error option (expected one of: {})",
-                path.display(),
+                "{origin}: '{k}' is not an output-error option (expected one of: {})",
                 known.join(", ")
             );
         }
@@ -466,7 +512,7 @@ pub fn with_profile(
         }
     }
     let mut o: OutputErrorOptions =
-        serde_json::from_value(merged).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        serde_json::from_value(merged).map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
     o.hold = base.hold;
     Ok(o)
 }
@@ -486,28 +532,28 @@ impl Switch {
     }
 }
 
-/// `identify --method`.
+/// `identify sequence --preset`: the method whose locking sequence and defaults a run
+/// takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Method {
-    /// IDIM-LS: inverse-dynamic model, linear least squares on torque-measured data.
-    Idim,
-    /// Output error along the method of isolated joints' locking sequence (thesis 4.3.1).
+pub enum Preset {
+    /// The method of isolated joints (thesis 4.3.1).
     Isolated,
-    /// Output error along the method of coupling joints' locking sequence (thesis 4.3.2).
+    /// The method of coupling joints (thesis 4.3.2).
     Coupled,
 }
 
-impl Method {
-    /// The output-error preset of the method's sequence ([`OutputErrorOptions::for_sequence`]).
-    pub fn preset(self) -> OutputErrorOptions {
+impl Preset {
+    /// The output-error options of the preset's sequence
+    /// ([`OutputErrorOptions::for_sequence`]).
+    pub fn options(self) -> OutputErrorOptions {
         OutputErrorOptions::for_sequence(self.name())
     }
 
+    /// The name of the preset, and of its sequence in the model file.
     pub fn name(self) -> &'static str {
         match self {
-            Method::Idim => "idim",
-            Method::Isolated => "isolated",
-            Method::Coupled => "coupled",
+            Preset::Isolated => "isolated",
+            Preset::Coupled => "coupled",
         }
     }
 }
@@ -568,15 +614,64 @@ pub fn positive_list(flag: &str, value: &str, what: &str) -> Result<Vec<f64>> {
     }
 }
 
-/// Output-error identification along a locking sequence, with a progress line.
-pub fn identify_sequence(
+/// `identify idim`: IDIM-LS on the base parameters; the fitted plant written to `out` if
+/// given.
+pub fn identify_idim(
     common: &Common,
-    method: Method,
     out: Option<PathBuf>,
-    oe: &OutputErrorArgs,
+    allow_inconsistent: bool,
 ) -> Result<()> {
-    let out = out.unwrap_or_else(|| PathBuf::from("lockstep-out/identify"));
-    let mut plant = Plant::load(&common.plant)?;
+    let config = common.config.as_deref().unwrap_or("full");
+    if let Some(out) = &out {
+        lockstep::files::check_writable(&[out])?;
+    }
+    let (mut plant, records, opts) = common.load()?;
+    let obs = observation(&plant, config, &records, &opts)?;
+    // A rank-deficient regressor (every serial arm's) is fitted on its base parameters,
+    // grouped at the records' locked positions; the dependent ones keep the plant's values.
+    let conf = lockstep::util::configuration(plant.model, config)?;
+    let values = plant.values_with_barycentric()?;
+    let locked_at: Vec<Vec<f64>> = records
+        .iter()
+        .map(|r| r.q.iter().map(|q| q[0]).collect())
+        .collect();
+    let fit =
+        lockstep::identify::idim::least_squares_base(&obs, plant.model, conf, &locked_at, &|n| {
+            values.get(n).copied()
+        })?;
+    lockstep::outln!(
+        "IDIM-LS, plant {}, configuration {}, {} record(s)",
+        common.plant.display(),
+        config,
+        records.len()
+    );
+    lockstep::out!("{}", fit_table(&fit));
+    if let Some(out) = out {
+        fit.apply(&mut plant)?;
+        let reasons = lockstep::identify::idim::implausible(&plant, conf)?;
+        if !reasons.is_empty() {
+            if !allow_inconsistent {
+                bail!(
+                    "{} not written: the fitted values are not a physical body: {} (check the data for spikes and the filter cut-off; --allow-inconsistent writes them anyway)",
+                    out.display(),
+                    reasons.join("; ")
+                );
+            }
+            for r in &reasons {
+                lockstep::errln!("warning: {r}");
+            }
+        }
+        plant.save(&out)?;
+        lockstep::outln!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+/// `identify sequence`: output-error identification along a locking sequence, with a
+/// progress line.
+pub fn identify_sequence(args: &SequenceArgs) -> Result<()> {
+    let (out, oe) = (args.out.clone(), &args.oe);
+    let mut plant = Plant::load(&args.plant)?;
     if oe.resume {
         let current = lockstep::identify::sequence::resume_plant(&out)?;
         if current.model.name != plant.model.name {
@@ -593,13 +688,13 @@ pub fn identify_sequence(
         );
         plant = current;
     }
-    let opts = oe.sequence_options(method, common.config.clone(), out)?;
+    let opts = oe.sequence_options(args.preset, args.config.clone(), out)?;
     let bar = indicatif::ProgressBar::new_spinner();
     bar.enable_steady_tick(std::time::Duration::from_millis(250));
     // Without a terminal (logs, CI) one line per iteration instead of a spinner.
     let plain = bar.is_hidden();
     let last = std::sync::Mutex::new((String::new(), usize::MAX));
-    let report = lockstep::identify::sequence::run(&plant, &common.data, &opts, &|step, p| {
+    let report = lockstep::identify::sequence::run(&plant, &args.data, &opts, &|step, p| {
         let msg = format!(
             "{step} · start {}/{} · {} · iteration {} · {} evaluations · cost {:.4e} · {:.0} s",
             p.start + 1,
@@ -696,43 +791,43 @@ impl From<OptimiserArg> for StageOptimiser {
     }
 }
 
-/// Refuses an `identify` option of another method than `method` among those `given` on the
-/// command line ([`given_identify_options`]), naming the method it
-/// belongs to (a flag that would be ignored is an error, not a silent no-op).
-///
-/// # Errors
-/// An output-error option with `--method idim`, or an IDIM option with an output-error method.
-pub fn refuse_options_of_other_methods(method: Method, given: &[String]) -> Result<()> {
-    let is_given = |id: &str| given.iter().any(|g| g == id);
-    let flag = |id: &str| format!("--{}", id.replace('_', "-"));
-    if method == Method::Idim {
-        let output_error = OutputErrorArgs::augment_args(clap::Command::new("identify"));
-        let first = output_error
-            .get_arguments()
-            .map(|a| a.get_id().to_string())
-            .find(|id| is_given(id));
-        if let Some(id) = first {
-            bail!(
-                "{}: an option of `identify --method isolated|coupled` (output error); IDIM-LS (`--method idim`, the default) does not use it",
-                flag(&id)
-            );
-        }
-    } else if let Some(id) = ["cutoff", "order", "decimate", "allow_inconsistent"]
-        .into_iter()
-        .find(|id| is_given(id))
-    {
-        bail!(
-            "{}: an option of `identify --method idim` (IDIM-LS); output error (`--method {}`) does not use it",
-            flag(id),
-            method.name()
-        );
+/// Where clap refused an unknown option `--x` in `lockstep identify M` that another
+/// method's subcommand takes: the message naming the subcommand it belongs to (a flag that
+/// would be ignored is an error, and the user learns where it goes). `args` is the command
+/// line; None for any other error.
+pub fn misplaced_option(error: &clap::Error, args: &[String]) -> Option<String> {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    if error.kind() != ErrorKind::UnknownArgument {
+        return None;
     }
-    Ok(())
+    let Some(ContextValue::String(given)) = error.get(ContextKind::InvalidArg) else {
+        return None;
+    };
+    let flag = given.split('=').next()?.trim_start_matches('-');
+    let at = args.iter().position(|a| a == "identify")?;
+    let used = args.get(at + 1)?;
+    let cli = <Cli as clap::CommandFactory>::command();
+    let identify = cli.find_subcommand("identify")?;
+    let owner = identify.get_subcommands().find(|sub| {
+        sub.get_name() != used && sub.get_arguments().any(|a| a.get_long() == Some(flag))
+    })?;
+    let what = match owner.get_name() {
+        "idim" => "IDIM-LS, on torque measurements",
+        _ => "output error, on position measurements",
+    };
+    Some(format!(
+        "--{flag} is an option of `lockstep identify {}` ({what}); `lockstep identify {used}` does not take it",
+        owner.get_name()
+    ))
 }
 
-/// The `identify` options given on the command line (clap ids); empty for other commands.
+/// The `identify sequence` options given on the command line (clap ids); empty for other
+/// commands.
 pub fn given_identify_options(matches: &ArgMatches) -> Vec<String> {
-    let Some(("identify", sub)) = matches.subcommand() else {
+    let Some(("identify", identify)) = matches.subcommand() else {
+        return Vec::new();
+    };
+    let Some(("sequence", sub)) = identify.subcommand() else {
         return Vec::new();
     };
     sub.ids()
@@ -746,43 +841,45 @@ mod method_tests {
     use super::*;
     use clap::{CommandFactory, FromArgMatches};
 
-    /// The matches of `lockstep identify --plant p --data d ARGS`.
-    fn identify_matches(args: &[&str]) -> ArgMatches {
-        Cli::command()
-            .try_get_matches_from(
-                [
-                    &["lockstep", "identify", "--plant", "p", "--data", "d"][..],
-                    args,
-                ]
-                .concat(),
-            )
-            .unwrap()
+    /// `lockstep identify sequence --preset PRESET --plant p --data d ARGS`.
+    fn sequence_line(preset: &str, args: &[&str]) -> Vec<String> {
+        [
+            &[
+                "lockstep", "identify", "sequence", "--preset", preset, "--plant", "p", "--data",
+                "d",
+            ][..],
+            args,
+        ]
+        .concat()
+        .into_iter()
+        .map(String::from)
+        .collect()
     }
 
-    fn identify(args: &[&str]) -> (Method, OutputErrorArgs) {
-        let cli = Cli::try_parse_from(
-            [
-                &[
-                    "lockstep", "identify", "--plant", "p.toml", "--data", "d.csv",
-                ][..],
-                args,
-            ]
-            .concat(),
-        )
-        .unwrap();
-        match cli.command {
-            Command::Identify { method, oe, .. } => (method, *oe),
-            _ => unreachable!(),
-        }
+    /// The sequence arguments of `sequence_line(preset, args)`, with the given flags set as
+    /// the binary sets them.
+    fn sequence(preset: &str, args: &[&str]) -> SequenceArgs {
+        let m = Cli::command()
+            .try_get_matches_from(sequence_line(preset, args))
+            .unwrap();
+        let cli = Cli::from_arg_matches(&m).unwrap();
+        let Command::Identify {
+            method: IdentifyMethod::Sequence(mut a),
+        } = cli.command
+        else {
+            unreachable!()
+        };
+        a.oe.given = given_identify_options(&m);
+        *a
     }
 
     #[test]
     fn the_cli_builds_its_options_from_the_presets() {
         for name in ["coupled", "isolated"] {
-            let (method, oe) = identify(&["--method", name]);
-            let built = oe
-                .sequence_options(method, None, PathBuf::from("out"))
-                .unwrap();
+            let a = sequence(name, &[]);
+            let built =
+                a.oe.sequence_options(a.preset, None, PathBuf::from("out"))
+                    .unwrap();
             let preset = SequenceOptions::preset(name, PathBuf::from("out"));
             assert_eq!(format!("{built:?}"), format!("{preset:?}"), "{name}");
         }
@@ -794,10 +891,28 @@ mod method_tests {
         assert!(c.horizons.is_empty() && !i.horizons.is_empty());
         assert!(c.equation_error.is_some() && i.equation_error.is_none());
         // A flag changes only its field.
-        let (method, oe) = identify(&["--method", "coupled", "--horizons", "1"]);
-        let o = oe.options(method).unwrap();
+        let a = sequence("coupled", &["--horizons", "1"]);
+        let o = a.oe.options(a.preset).unwrap();
         assert_eq!(o.horizons, vec![1.0]);
         assert_eq!(format!("{:?}", o.predictor), format!("{:?}", c.predictor));
+    }
+
+    /// `identify sequence --help` fits on two screens (100 lines of 100 columns).
+    #[test]
+    fn the_sequence_help_fits_on_two_screens() {
+        let mut cmd = Cli::command();
+        let help = cmd
+            .find_subcommand_mut("identify")
+            .and_then(|c| c.find_subcommand_mut("sequence"))
+            .unwrap()
+            .render_help()
+            .to_string();
+        let rows: usize = help
+            .lines()
+            .map(|l| l.chars().count().div_ceil(100).max(1))
+            .sum();
+        assert!(rows <= 110, "{rows} rows:\n{help}");
+        assert!(help.contains("--help-long"));
     }
 
     /// The per-method defaults the help states are the presets' values.
@@ -806,6 +921,7 @@ mod method_tests {
         let mut cmd = Cli::command();
         let help = cmd
             .find_subcommand_mut("identify")
+            .and_then(|c| c.find_subcommand_mut("sequence"))
             .unwrap()
             .render_long_help()
             .to_string();
@@ -879,19 +995,15 @@ mod method_tests {
         .unwrap();
         let p = profile.to_str().unwrap();
         let parse = |args: &[&str]| {
-            let m = identify_matches(args);
-            let cli = Cli::from_arg_matches(&m).unwrap();
-            let Command::Identify { method, mut oe, .. } = cli.command else {
-                unreachable!()
-            };
-            oe.given = given_identify_options(&m);
-            oe.options(method)
+            let (preset, rest) = args.split_first().unwrap();
+            let a = sequence(preset, rest);
+            a.oe.options(a.preset)
         };
-        let o = parse(&["--method", "coupled", "--profile", p]).unwrap();
+        let o = parse(&["coupled", "--profile", p]).unwrap();
         assert_eq!((o.h, o.max_speed), (1e-4, 300.0));
         assert_eq!(o.horizons, vec![0.5, 1.0]);
         assert_eq!(o.predictor, OutputErrorOptions::coupled().predictor);
-        let o = parse(&["--method", "coupled", "--profile", p, "--horizons", "1"]).unwrap();
+        let o = parse(&["coupled", "--profile", p, "--horizons", "1"]).unwrap();
         assert_eq!((o.h, o.horizons.clone()), (1e-4, vec![1.0]));
         // A report's recorded options replay the run.
         let report = d.path().join("report.json");
@@ -903,40 +1015,79 @@ mod method_tests {
             serde_json::json!({ "sequence": "isolated", "options": recorded }).to_string(),
         )
         .unwrap();
-        let o = parse(&[
-            "--method",
-            "isolated",
-            "--profile",
-            report.to_str().unwrap(),
-        ])
-        .unwrap();
+        let o = parse(&["isolated", "--profile", report.to_str().unwrap()]).unwrap();
         assert_eq!(format!("{o:?}"), format!("{recorded:?}"));
         std::fs::write(&profile, "step = 1e-4\n").unwrap();
-        let e = parse(&["--method", "coupled", "--profile", p])
+        let e = parse(&["coupled", "--profile", p]).unwrap_err().to_string();
+        assert!(e.contains("identify.toml") && e.contains("'step'"), "{e}");
+        // --set: after the profile; TOML values; a field a given flag sets is refused.
+        std::fs::write(&profile, "h = 1e-4\nmax_speed = 300.0\n").unwrap();
+        let o = parse(&[
+            "coupled",
+            "--profile",
+            p,
+            "--set",
+            "max_speed=250",
+            "--set",
+            "horizons=[0.5, 1]",
+            "--set",
+            "integrator=etdrk4",
+        ])
+        .unwrap();
+        assert_eq!((o.h, o.max_speed), (1e-4, 250.0));
+        assert_eq!(o.horizons, vec![0.5, 1.0]);
+        assert_eq!(o.integrator, Integrator::Etdrk4);
+        let e = parse(&["coupled", "--step", "1e-4", "--set", "h=2e-4"])
             .unwrap_err()
             .to_string();
-        assert!(e.contains("identify.toml") && e.contains("'step'"), "{e}");
+        assert!(e.contains("--set h") && e.contains("--step"), "{e}");
+        let e = parse(&["coupled", "--set", "speed=3"])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--set") && e.contains("'speed'"), "{e}");
+        let e = parse(&["coupled", "--set", "max_speed"])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("FIELD=VALUE"), "{e}");
+        let e = parse(&["coupled", "--set", "integrator=Euler"])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("--set integrator=Euler") && e.contains("rk4"),
+            "{e}"
+        );
     }
 
     #[test]
-    fn an_option_of_another_method_is_refused_naming_its_method() {
+    fn an_option_of_another_method_is_refused_naming_its_subcommand() {
         let refused = |args: &[&str]| {
-            let m = identify_matches(args);
-            let method = m
-                .subcommand_matches("identify")
-                .and_then(|sub| sub.get_one::<Method>("method").copied())
-                .unwrap();
-            refuse_options_of_other_methods(method, &given_identify_options(&m))
-                .map_err(|e| e.to_string())
+            let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+            match Cli::command().try_get_matches_from(&args) {
+                Ok(_) => None,
+                Err(e) => Some(misplaced_option(&e, &args).unwrap_or_else(|| e.to_string())),
+            }
         };
-        let e = refused(&["--horizons", "1"]).unwrap_err();
+        let idim = [
+            "lockstep", "identify", "idim", "--plant", "p", "--data", "d",
+        ];
+        let e = refused(&[&idim[..], &["--horizons", "1"]].concat()).unwrap();
         assert!(
-            e.contains("--horizons") && e.contains("--method isolated|coupled"),
+            e.contains("--horizons") && e.contains("`lockstep identify sequence`"),
             "{e}"
         );
-        let e = refused(&["--method", "coupled", "--cutoff", "5"]).unwrap_err();
-        assert!(e.contains("--cutoff") && e.contains("--method idim"), "{e}");
-        assert!(refused(&["--cutoff", "5"]).is_ok());
-        assert!(refused(&["--method", "coupled", "--horizons", "1"]).is_ok());
+        let line = sequence_line("coupled", &["--cutoff", "5"]);
+        let line: Vec<&str> = line.iter().map(String::as_str).collect();
+        let e = refused(&line).unwrap();
+        assert!(
+            e.contains("--cutoff") && e.contains("`lockstep identify idim`"),
+            "{e}"
+        );
+        assert!(refused(&[&idim[..], &["--cutoff", "5"]].concat()).is_none());
+        let line = sequence_line("coupled", &["--horizons", "1"]);
+        let line: Vec<&str> = line.iter().map(String::as_str).collect();
+        assert!(refused(&line).is_none());
+        // An option no method takes: clap's own message.
+        let e = refused(&[&idim[..], &["--speed", "1"]].concat()).unwrap();
+        assert!(e.contains("unexpected argument '--speed'"), "{e}");
     }
 }

@@ -42,30 +42,13 @@ pub enum Command {
         #[arg(long, default_value = "lockstep-out/demo")]
         out: PathBuf,
     },
-    /// Fit a plant's parameters: IDIM-LS on torque measurements, or output error along a
-    /// locking sequence on position measurements (an option of the other method is refused).
-    ///
-    /// `--method idim` (default): IDIM-LS on torque-measured data. `--method isolated` or
-    /// `coupled`: output-error fits along the model's locking sequence on the position
-    /// measurements in `--data` (files or directories), writing `plant.toml`, `report.md`
-    /// and `report.json` to `--out` (a directory) after every step.
+    /// Fit a plant's parameters: `identify idim` (IDIM-LS on torque measurements) or
+    /// `identify sequence --preset isolated|coupled` (output error along a locking sequence
+    /// on position measurements).
     Identify {
-        #[command(flatten)]
-        common: Common,
-        /// Method: idim (IDIM-LS), isolated or coupled (output error along the locking
-        /// sequence of the method of isolated joints or of coupling joints).
-        #[arg(long, value_enum, default_value = "idim")]
-        method: Method,
-        /// IDIM: write the plant with the fitted values to this file. Output error: the
-        /// output directory (default lockstep-out/identify).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// IDIM: write the fitted plant even when a link's mass or inertia is not physical
-        /// or a value leaves its bounds (refused by default, with the reasons).
-        #[arg(long)]
-        allow_inconsistent: bool,
-        #[command(flatten)]
-        oe: Box<OutputErrorArgs>,
+        /// The method.
+        #[command(subcommand)]
+        method: IdentifyMethod,
     },
     /// Compare a plant with measurements (MATLAB compare and resid): fit, errors and where
     /// they occur, residual CSVs, plots (residual vs time, position, velocity, torques;
@@ -285,8 +268,12 @@ pub fn run(cli: Cli) -> Result<()> {
     // A command's outputs are written together at its end, or not at all
     // ([`lockstep::files::all_or_nothing`]); the identification sequences instead keep each
     // completed step's files, so that an interrupted run can be resumed.
-    let keeps_each_step =
-        matches!(&cli.command, Command::Identify { method, .. } if *method != Method::Idim);
+    let keeps_each_step = matches!(
+        &cli.command,
+        Command::Identify {
+            method: IdentifyMethod::Sequence(_)
+        }
+    );
     if keeps_each_step {
         run_command(cli)
     } else {
@@ -302,65 +289,14 @@ fn run_command(cli: Cli) -> Result<()> {
             lockstep::out!("{}", r.text);
             lockstep::outln!("\nOutputs (plant files, residual CSVs, plots as PNG and SVG, summary.txt) are in {}", r.out.display());
         }
-        Command::Identify {
-            common,
-            method,
-            out,
-            allow_inconsistent,
-            oe,
-        } => {
-            refuse_options_of_other_methods(method, &oe.given)?;
-            if method != Method::Idim {
-                return identify_sequence(&common, method, out, &oe);
-            }
-            let config = common.config.as_deref().unwrap_or("full");
-            if let Some(out) = &out {
-                lockstep::files::check_writable(&[out])?;
-            }
-            let (mut plant, records, opts) = common.load()?;
-            let obs = observation(&plant, config, &records, &opts)?;
-            // A rank-deficient regressor (every serial arm's) is fitted on its base
-            // parameters, grouped at the records' locked positions; the dependent ones keep
-            // the plant's values.
-            let conf = lockstep::util::configuration(plant.model, config)?;
-            let values = plant.values_with_barycentric()?;
-            let locked_at: Vec<Vec<f64>> = records
-                .iter()
-                .map(|r| r.q.iter().map(|q| q[0]).collect())
-                .collect();
-            let fit = lockstep::identify::idim::least_squares_base(
-                &obs,
-                plant.model,
-                conf,
-                &locked_at,
-                &|n| values.get(n).copied(),
-            )?;
-            lockstep::outln!(
-                "IDIM-LS, plant {}, configuration {}, {} record(s)",
-                common.plant.display(),
-                config,
-                records.len()
-            );
-            lockstep::out!("{}", fit_table(&fit));
-            if let Some(out) = out {
-                fit.apply(&mut plant)?;
-                let reasons = lockstep::identify::idim::implausible(&plant, conf)?;
-                if !reasons.is_empty() {
-                    if !allow_inconsistent {
-                        bail!(
-                            "{} not written: the fitted values are not a physical body: {} (check the data for spikes and the filter cut-off; --allow-inconsistent writes them anyway)",
-                            out.display(),
-                            reasons.join("; ")
-                        );
-                    }
-                    for r in &reasons {
-                        lockstep::errln!("warning: {r}");
-                    }
-                }
-                plant.save(&out)?;
-                lockstep::outln!("wrote {}", out.display());
-            }
-        }
+        Command::Identify { method } => match method {
+            IdentifyMethod::Idim {
+                common,
+                out,
+                allow_inconsistent,
+            } => identify_idim(&common, out, allow_inconsistent)?,
+            IdentifyMethod::Sequence(args) => identify_sequence(&args)?,
+        },
         Command::Compare { common, space, out } => {
             lockstep::files::check_output_dir(&out)?;
             let (plant, inputs) = common.inputs(&space)?;

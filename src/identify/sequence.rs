@@ -52,7 +52,7 @@ pub struct Step {
     pub tied_held: Vec<String>,
 }
 
-/// Which rigid-body symbols a step fits (`lockstep identify --rigid-body`, default
+/// Which rigid-body symbols a step fits (`lockstep identify sequence --rigid-body`, default
 /// [`RigidBodyFit::Spanning`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub enum RigidBodyFit {
@@ -365,7 +365,7 @@ pub fn resume_plant(out: &Path) -> Result<Plant> {
     Plant::load(&path)
 }
 
-/// The joint fit of a sequence's steps (`lockstep identify --joint-fit`,
+/// The joint fit of a sequence's steps (`lockstep identify sequence --joint-fit`,
 /// [`super::joint::JointProblem`]): every parameter the steps fit, on every step's files at
 /// once, from the values the steps left. It covers the steps of the sequence up to the
 /// last one run (all, or up to `--config`'s).

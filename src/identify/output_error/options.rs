@@ -98,7 +98,7 @@ pub struct OutputErrorOptions {
     /// closest to the initial values, so that the next
     /// step of a locking sequence starts from prior knowledge and not from where the
     /// optimiser drifted. Off by default (refits of a few named parameters); on in
-    /// `lockstep identify --method isolated|coupled`.
+    /// `lockstep identify sequence --preset isolated|coupled`.
     pub least_change: bool,
     /// Prior on the fitted parameters (maximum a posteriori, as MATLAB's
     /// `Regularization.Nominal = 'model'`): Gaussian about the plant's values p₀ with
@@ -237,8 +237,8 @@ impl OutputErrorOptions {
     }
 }
 
-/// The presets: the only home of the output-error defaults. The CLI (`identify --method
-/// isolated|coupled`), the benches and the tests start from one of them and change fields.
+/// The presets: the only home of the output-error defaults. The CLI (`identify sequence
+/// --preset isolated|coupled`), the benches and the tests start from one of them and change fields.
 impl OutputErrorOptions {
     /// The thesis's output-error fit (Chapter 4, cost (4.3)): RK4 at the thesis's 1/6000 s,
     /// the growing horizons 5 %, 10 %, 25 %, 50 %, 100 %, joints of interest weighted 50,
@@ -288,7 +288,7 @@ impl OutputErrorOptions {
         }
     }
 
-    /// `identify --method isolated`: the method of isolated joints (thesis 4.3.1) with the
+    /// `identify sequence --preset isolated`: the method of isolated joints (thesis 4.3.1) with the
     /// thesis's cost (4.2) (first half of each file weighted ½) and growing horizons, RK4 at
     /// 1/12000 s (the thesis's 1/6000 s leaves RK4's stability region on the Freedom 6S
     /// wrist: the digest §2), the predictor's stages (if any are asked for) by the
@@ -303,7 +303,7 @@ impl OutputErrorOptions {
         }
     }
 
-    /// `identify --method coupled`: the method of coupling joints (thesis 4.3.2) with cost
+    /// `identify sequence --preset coupled`: the method of coupling joints (thesis 4.3.2) with cost
     /// (4.3) (the first 1000 samples skipped), RK4 at 1/12000 s, and the warm-ups in place
     /// of the horizons: the equation-error start (cut-off by residual analysis), then the
     /// prediction-error homotopy at ω = 100, 30, 10, 3, 1 rad/s on a coarse ETDRK4 step of
