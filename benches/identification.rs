@@ -20,7 +20,7 @@
 
 use criterion::{criterion_group, Criterion};
 use lockstep::excitation::Excitations;
-use lockstep::identify::output_error::{OutputErrorOptions, Problem};
+use lockstep::identify::output_error::{OutputErrorOptions, Problem, Residuals};
 use lockstep::identify::sequence::{plan, read_record, run, SequenceOptions};
 use lockstep::plant::Plant;
 use lockstep::simulation::Integrator;

@@ -5,7 +5,7 @@
 
 use lockstep::identify::equation_error::Cutoff;
 use lockstep::identify::output_error::{
-    OutputErrorOptions, Problem, StageOptimiser, StageRecord, TimeWeighting, WarmUp,
+    OutputErrorOptions, Problem, Residuals, StageOptimiser, StageRecord, TimeWeighting, WarmUp,
 };
 use lockstep::identify::sequence::{plan, read_record};
 use lockstep::plant::Plant;

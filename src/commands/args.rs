@@ -91,7 +91,7 @@ impl Common {
         Ok((
             plant,
             Inputs {
-                data: self.data.clone(),
+                data: self.files.data.clone(),
                 config: self.config.clone(),
                 space: space.space.clone(),
                 idim,
@@ -195,15 +195,23 @@ pub fn model_named(name: &str) -> Result<&'static generated::Model> {
     lockstep::util::model(name).map_err(|e| anyhow::anyhow!("--model: {e}"))
 }
 
-/// Options shared by identify and compare.
-#[derive(Debug, Args)]
-pub struct Common {
+/// The plant and the measurements a command works on.
+#[derive(Debug, Clone, Args)]
+pub struct PlantAndData {
     /// Plant file (model + effects + parameter values).
     #[arg(long)]
     pub plant: PathBuf,
-    /// Measurement files (CSV or .mat; a side file <name>.toml may map the columns).
+    /// Measurement files (CSV or .mat; a side file <name>.toml may map the columns and name
+    /// the configuration), or directories of them.
     #[arg(long, required = true, num_args = 1..)]
     pub data: Vec<PathBuf>,
+}
+
+/// Options shared by identify idim, compare, diagnose and refit.
+#[derive(Debug, Args)]
+pub struct Common {
+    #[command(flatten)]
+    pub files: PlantAndData,
     /// Configuration (set of free joints) of the data (default `full`).
     #[arg(long)]
     pub config: Option<String>,
@@ -224,7 +232,7 @@ pub struct Common {
 impl Common {
     /// The plant and the IDIM preparation options (checked).
     pub fn load_plant(&self) -> Result<(Plant, IdimOptions)> {
-        let plant = Plant::load(&self.plant)?;
+        let plant = Plant::load(&self.files.plant)?;
         if self.order == 0 || self.order > 12 {
             bail!("--order: expected 1 to 12, got {}", self.order);
         }
@@ -244,7 +252,7 @@ impl Common {
     pub fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
         let (plant, opts) = self.load_plant()?;
         let nj = plant.model.joints.len();
-        let records = lockstep::measurement::expand_data_paths(&self.data)?
+        let records = lockstep::measurement::expand_data_paths(&self.files.data)?
             .iter()
             .map(|d| Measurement::read(d, nj))
             .collect::<Result<Vec<_>, _>>()?;
@@ -314,5 +322,82 @@ mod tests {
             let e = bad.parse::<Apply>().unwrap_err();
             assert!(e.contains("all-significant") && e.contains(bad), "{e}");
         }
+    }
+}
+
+/// Options of `lockstep simulate`.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Plant file.
+    #[arg(long)]
+    pub plant: PathBuf,
+    /// Torque file (.csv or .mat): t and tau{j} of the free joints.
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Configuration (default: the input's side file's).
+    #[arg(long)]
+    pub config: Option<String>,
+    /// Locked-joint positions, e.g. q0=0.1,q1=-0.2 (rad or m; default 0 or the side
+    /// file's; repeatable).
+    #[arg(long, value_parser = parse_positions)]
+    pub locked: Vec<PositionList>,
+    /// Initial positions of free joints, e.g. q4=0.3 (default 0; at rest, z = 0;
+    /// repeatable).
+    #[arg(long, value_parser = parse_positions)]
+    pub initial: Vec<PositionList>,
+    /// Integration step (s), a number or a fraction such as 1/6000.
+    #[arg(long, default_value = "1/6000", value_parser = parse_number)]
+    pub step: f64,
+    /// Integrator: rk4 or etdrk4 (exponential RK4 taking the friction damping exactly).
+    #[arg(long, default_value = "rk4")]
+    pub integrator: Integrator,
+    /// How the torques are applied between samples: zoh, linear, cubic or bandlimited
+    /// (default: the input's side file's `hold`, else zoh). Recorded in the output's side
+    /// file.
+    #[arg(long)]
+    pub hold: Option<Hold>,
+    /// Gaussian position noise σ (rad or m).
+    #[arg(value_parser = parse_non_negative, long, default_value_t = 0.0)]
+    pub noise: f64,
+    /// Position quantisation step (rad or m).
+    #[arg(value_parser = parse_non_negative, long, default_value_t = 0.0)]
+    pub quantisation: f64,
+    /// Noise seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Report divergence when a speed exceeds this (rad/s or m/s).
+    #[arg(value_parser = parse_positive, long, default_value_t = 100.0)]
+    pub max_speed: f64,
+    /// Simulate even with physically impossible rigid-body parameters.
+    #[arg(long)]
+    pub allow_inconsistent: bool,
+    /// Output measurement file (.csv or .mat); a side file .toml is written beside it.
+    #[arg(long, short)]
+    pub out: PathBuf,
+}
+
+impl SimulateArgs {
+    /// The simulation options of the flags.
+    ///
+    /// # Errors
+    /// A joint given twice in `--locked` or `--initial`.
+    pub fn options(&self) -> Result<lockstep::synthetic::SimulateOptions> {
+        Ok(lockstep::synthetic::SimulateOptions {
+            config: self.config.clone(),
+            locked: merged("--locked", self.locked.clone())?,
+            initial: merged("--initial", self.initial.clone())?,
+            h: self.step,
+            integrator: self.integrator,
+            hold: self.hold,
+            noise: self.noise,
+            quantisation: self.quantisation,
+            seed: self.seed,
+            max_speed: self.max_speed,
+            policy: if self.allow_inconsistent {
+                lockstep::plant::ConsistencyPolicy::Warn
+            } else {
+                lockstep::plant::ConsistencyPolicy::Refuse
+            },
+        })
     }
 }

@@ -19,8 +19,10 @@ use std::path::PathBuf;
 
 mod args;
 mod identify;
+mod profile;
 pub use args::*;
 pub use identify::*;
+use profile::*;
 
 /// lockstep: symbolic robot models to Rust kernels; identification, model-vs-measurement
 /// diagnosis and haptic control.
@@ -153,54 +155,7 @@ pub enum Command {
     },
     /// Run a plant on a torque file (RK4 or ETDRK4) and write a measurement file, optionally with
     /// position noise and quantisation: synthetic data with any effect switched on.
-    Simulate {
-        /// Plant file.
-        #[arg(long)]
-        plant: PathBuf,
-        /// Torque file (.csv or .mat): t and tau{j} of the free joints.
-        #[arg(long)]
-        input: PathBuf,
-        /// Configuration (default: the input's side file's).
-        #[arg(long)]
-        config: Option<String>,
-        /// Locked-joint positions, e.g. q0=0.1,q1=-0.2 (rad or m; default 0 or the side
-        /// file's; repeatable).
-        #[arg(long, value_parser = parse_positions)]
-        locked: Vec<PositionList>,
-        /// Initial positions of free joints, e.g. q4=0.3 (default 0; at rest, z = 0;
-        /// repeatable).
-        #[arg(long, value_parser = parse_positions)]
-        initial: Vec<PositionList>,
-        /// Integration step (s), a number or a fraction such as 1/6000.
-        #[arg(long, default_value = "1/6000", value_parser = parse_number)]
-        step: f64,
-        /// Integrator: rk4 or etdrk4 (exponential RK4 taking the friction damping exactly).
-        #[arg(long, default_value = "rk4")]
-        integrator: Integrator,
-        /// How the torques are applied between samples: zoh, linear, cubic or bandlimited
-        /// (default: the input's side file's `hold`, else zoh). Recorded in the output's side
-        /// file.
-        #[arg(long)]
-        hold: Option<Hold>,
-        /// Gaussian position noise σ (rad or m).
-        #[arg(value_parser = parse_non_negative, long, default_value_t = 0.0)]
-        noise: f64,
-        /// Position quantisation step (rad or m).
-        #[arg(value_parser = parse_non_negative, long, default_value_t = 0.0)]
-        quantisation: f64,
-        /// Noise seed.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Report divergence when a speed exceeds this (rad/s or m/s).
-        #[arg(value_parser = parse_positive, long, default_value_t = 100.0)]
-        max_speed: f64,
-        /// Simulate even with physically impossible rigid-body parameters.
-        #[arg(long)]
-        allow_inconsistent: bool,
-        /// Output measurement file (.csv or .mat); a side file .toml is written beside it.
-        #[arg(long, short)]
-        out: PathBuf,
-    },
+    Simulate(Box<SimulateArgs>),
     /// Check a plant: physical consistency of every link (mass, positive-definite inertia,
     /// triangle inequality) and, per configuration, what a simulation needs.
     Check {
@@ -352,7 +307,7 @@ fn run_command(cli: Cli) -> Result<()> {
             change,
             out,
         } => {
-            let out = out.unwrap_or_else(|| common.plant.clone());
+            let out = out.unwrap_or_else(|| common.files.plant.clone());
             lockstep::files::check_writable(&[&out])?;
             let (plant, inputs) = common.inputs(&space)?;
             let change = change.unwrap_or_else(|| format!("refitted {}", params.join(", ")));
@@ -454,43 +409,15 @@ fn run_command(cli: Cli) -> Result<()> {
                 out.with_extension("toml").display()
             );
         }
-        Command::Simulate {
-            plant,
-            input,
-            config,
-            locked,
-            initial,
-            step,
-            integrator,
-            hold,
-            noise,
-            quantisation,
-            seed,
-            max_speed,
-            allow_inconsistent,
-            out,
-        } => {
-            lockstep::measurement::check_side_file_target(&out, &[&plant, &input])?;
-            let p = Plant::load(&plant)?;
-            let opts = lockstep::synthetic::SimulateOptions {
-                config,
-                locked: merged("--locked", locked)?,
-                initial: merged("--initial", initial)?,
-                h: step,
-                integrator,
-                hold,
-                noise,
-                quantisation,
-                seed,
-                max_speed,
-                policy: if allow_inconsistent {
-                    lockstep::plant::ConsistencyPolicy::Warn
-                } else {
-                    lockstep::plant::ConsistencyPolicy::Refuse
-                },
-            };
+        Command::Simulate(args) => {
+            let SimulateArgs {
+                plant, input, out, ..
+            } = &*args;
+            lockstep::measurement::check_side_file_target(out, &[plant, input])?;
+            let p = Plant::load(plant)?;
+            let opts = args.options()?;
             let started = std::time::Instant::now();
-            let sim = lockstep::synthetic::simulate_file(&p, &input, &opts)?;
+            let sim = lockstep::synthetic::simulate_file(&p, input, &opts)?;
             let elapsed = started.elapsed().as_secs_f64();
             for f in &sim.findings {
                 lockstep::errln!("warning: {}: {f}", plant.display());
@@ -498,13 +425,13 @@ fn run_command(cli: Cli) -> Result<()> {
             for n in &sim.notes {
                 lockstep::errln!("note: {n}");
             }
-            sim.write(&out)?;
+            sim.write(out)?;
             let m = &sim.measurement;
             let span = m.t[m.len() - 1] - m.t[0];
             lockstep::outln!(
                 "simulated {span:.3} s of configuration {} in {elapsed:.3} s ({:.0} RK4 steps/s); wrote {} and {}",
                 sim.side.configuration.as_deref().unwrap_or("?"),
-                span / step / elapsed.max(1e-9),
+                span / opts.h / elapsed.max(1e-9),
                 out.display(),
                 out.with_extension("toml").display()
             );

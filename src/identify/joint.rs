@@ -19,10 +19,10 @@
 
 use super::identifiability::Occurrence;
 use super::output_error::{
-    covariance_statistics, difference_column, enters, feasible_bounds, fitted_companions, held_in,
-    minimise, physical_to_scaled, scaled_to_physical, FitResult, GainScaleContext, HeldColumns,
-    JacobianPolicy, LeastSquares, OutputErrorOptions, Problem, Progress, Record, Stage,
-    StageContext, StartSummary, Statistics, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS,
+    difference_column, enters, feasible_bounds, fitted_companions, held_in, minimise,
+    parameter_space_of, statistics_at, AtTheFit, FitResult, HeldColumns, JacobianPolicy,
+    OutputErrorOptions, ParameterSpace, Problem, Progress, Record, Residuals, Stage, StageContext,
+    StartSummary, Statistics, Stencil, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS,
     INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
@@ -31,7 +31,7 @@ use anyhow::{bail, Context, Result};
 use generated::Configuration;
 use rayon::prelude::*;
 use rmpfit::{MPConfig, MPMaxFev};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::AtomicUsize;
 use std::time::Instant;
 
 /// One configuration's files in the joint fit.
@@ -165,23 +165,6 @@ impl JointProblem {
             .collect()
     }
 
-    /// Physical parameters from scaled ones (u ∈ [0, 1]ⁿ).
-    pub fn to_physical(&self, u: &[f64]) -> Vec<f64> {
-        scaled_to_physical(&self.lower, &self.upper, &self.pairs, u)
-    }
-
-    /// Scaled parameters of physical ones (clamped into the feasible set).
-    pub fn to_scaled(&self, p: &[f64]) -> Vec<f64> {
-        physical_to_scaled(&self.lower, &self.upper, &self.pairs, p)
-    }
-
-    /// The plant with the fitted parameters set to `p`.
-    pub fn plant_at(&self, p: &[f64]) -> Plant {
-        let mut plant = self.plant.clone();
-        plant.set_values(&self.names, p);
-        plant
-    }
-
     /// Every configuration's trajectories at physical parameters `p` (configurations, and
     /// files within each, in parallel).
     ///
@@ -192,26 +175,6 @@ impl JointProblem {
             .par_iter()
             .map(|part| part.problem.trajectories(&part.take(p)))
             .collect()
-    }
-
-    /// The stacked residuals (configurations in order) at physical parameters `p`.
-    ///
-    /// # Errors
-    /// The first failing file's simulation.
-    pub fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
-        let blocks: Vec<Vec<f64>> = self
-            .parts
-            .par_iter()
-            .map(|part| part.problem.residuals(&part.take(p)))
-            .collect::<Result<_, _>>()?;
-        Ok(blocks.concat())
-    }
-
-    /// Σ r² at `p`, or +∞ where a simulation fails.
-    pub fn cost(&self, p: &[f64]) -> f64 {
-        self.residuals(p)
-            .map(|r| r.iter().map(|x| x * x).sum())
-            .unwrap_or(f64::INFINITY)
     }
 
     /// The same fit with every file's initial positions estimated at `p`
@@ -371,15 +334,7 @@ impl JointProblem {
         let status = notes.join("; ");
         Ok(FitResult {
             configuration: format!("joint ({})", self.configurations().join(", ")),
-            names: self.names.clone(),
-            initial: p0,
-            fitted: p,
-            lower: self.lower.clone(),
-            upper: self.upper.clone(),
-            cost_before,
             cost_after: cost,
-            prior_penalty: 0.0,
-            least_change: None,
             statistics,
             starts: vec![StartSummary {
                 start: 0,
@@ -391,17 +346,18 @@ impl JointProblem {
                 warm_up: WarmUp::Sequence,
                 stages: Vec::new(),
             }],
-            best_start: 0,
-            evaluations: evaluations.load(Ordering::Relaxed),
-            jacobians: jacobians.load(Ordering::Relaxed),
-            wall_s: started.elapsed().as_secs_f64(),
             residuals: self.m,
             files: current
                 .parts
                 .iter()
                 .flat_map(|part| part.problem.records.iter().map(|r| r.file.clone()))
                 .collect(),
-            initial_positions: None,
+            ..FitResult::over(
+                &self.space(),
+                (p0, p),
+                cost_before,
+                (&evaluations, &jacobians, started),
+            )
         })
     }
 
@@ -419,17 +375,6 @@ impl JointProblem {
         let trajectories = self
             .trajectories(p)
             .map_err(|e| anyhow::anyhow!("at the fitted values: {}", e))?;
-        let n = self.names.len();
-        let steps: Vec<f64> = (0..n)
-            .map(|i| {
-                let s = self.options.fd_step * (self.upper[i] - self.lower[i]);
-                if p[i] + s > self.upper[i] {
-                    -s
-                } else {
-                    s
-                }
-            })
-            .collect();
         let mut r = Vec::with_capacity(self.m);
         let mut variances = Vec::with_capacity(self.m);
         let mut joints = Vec::new();
@@ -443,11 +388,7 @@ impl JointProblem {
                 j
             }));
         }
-        let mut cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
-        let dof = self.m as f64 / (self.m - n) as f64;
-        let sigma: Vec<f64> = variances.iter().map(|v| v * dof).collect();
-        let only_with = self.structural_companions(p)?;
-        let mut held = self.held_columns(p, &r);
+        let dof = self.m as f64 / (self.m - self.names.len()) as f64;
         // The plant-gain scale across every configuration's free joints (an exact symmetry
         // of all the files where every gain is fitted and nothing else of the family held).
         let mut free: Vec<usize> = self
@@ -457,26 +398,15 @@ impl JointProblem {
             .collect();
         free.sort_unstable();
         free.dedup();
-        let scale = GainScaleContext {
-            plant: &self.plant,
-            names: &self.names,
-            bounds: (&self.lower, &self.upper),
+        let at = AtTheFit {
+            sigma: variances.iter().map(|v| v * dof).collect(),
+            r: &r,
+            held: self.held_columns(p, &r),
             free: &free,
-            held_ties: &self.held_ties,
-        };
-        scale.make_up_held_ties(&cols, &mut held);
-        scale.project_out_of(&mut cols, p, &held, |ties| {
-            self.stacked_columns(p, ties, &r)
-        });
-        covariance_statistics(
-            &self.names,
-            p,
-            (&self.lower, &self.upper),
-            (cols, held),
-            &sigma,
-            only_with,
+            only_with: self.structural_companions(p)?,
             joints,
-        )
+        };
+        statistics_at(self, p, at, |ties| self.stacked_columns(p, ties, &r))
     }
 
     /// The held values entering any configuration (those with a recorded standard error,
@@ -546,29 +476,38 @@ impl JointProblem {
     }
 }
 
-impl LeastSquares for JointProblem {
+impl Residuals for JointProblem {
+    fn space(&self) -> ParameterSpace<'_> {
+        parameter_space_of!(self)
+    }
+
     fn residual_count(&self) -> usize {
         self.m
     }
 
+    /// The stacked residuals (configurations in order) at physical parameters `p`.
+    ///
+    /// # Errors
+    /// The first failing file's simulation.
     fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
-        JointProblem::residuals(self, p)
-    }
-
-    fn to_physical(&self, u: &[f64]) -> Vec<f64> {
-        JointProblem::to_physical(self, u)
+        let blocks: Vec<Vec<f64>> = self
+            .parts
+            .par_iter()
+            .map(|part| part.problem.residuals(&part.take(p)))
+            .collect::<Result<_, _>>()?;
+        Ok(blocks.concat())
     }
 
     /// Column i simulates only the configurations that parameter i enters; the other rows
     /// are zero. All (parameter, configuration) pairs run in parallel.
-    fn jacobian_columns(
-        &self,
-        x: &[f64],
-        r0: &[f64],
-        steps: &[f64],
-        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
-        central: bool,
-    ) -> Vec<Vec<f64>> {
+    fn jacobian_columns(&self, stencil: &Stencil) -> Vec<Vec<f64>> {
+        let Stencil {
+            x,
+            r0,
+            steps,
+            p_of,
+            central,
+        } = *stencil;
         let tasks: Vec<(usize, usize)> = (0..x.len())
             .flat_map(|i| {
                 self.parts

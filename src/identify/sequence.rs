@@ -13,7 +13,9 @@ use super::identifiability::{
     occurrence, spanning_symbols, spanning_symbols_across, structural_companions, Occurrence,
 };
 use super::joint::JointProblem;
-use super::output_error::{FitResult, OutputErrorOptions, Problem, Progress, Record, Statistics};
+use super::output_error::{
+    FitResult, OutputErrorOptions, Problem, Progress, Record, Residuals, Statistics,
+};
 use crate::files::write_all_atomic;
 use crate::measurement::{check_sampling, Table};
 use crate::plant::Plant;
@@ -24,8 +26,10 @@ use std::path::{Path, PathBuf};
 
 mod data;
 mod refinements;
+mod steps;
 pub use data::*;
 pub use refinements::*;
+use steps::*;
 
 /// One step of a locking sequence.
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
@@ -203,6 +207,17 @@ pub struct SequenceReport {
     pub joint: Option<StepReport>,
     /// Files not used, with the reason.
     pub ignored: Vec<String>,
+}
+
+impl SequenceReport {
+    /// The completed steps' configurations, e.g. "k1, k2".
+    pub fn step_list(&self) -> String {
+        self.steps
+            .iter()
+            .map(|s| s.step.config.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
 }
 
 /// One completed step.
@@ -488,8 +503,6 @@ pub fn run(
 ) -> Result<SequenceReport> {
     let model = plant.model;
     let occ = occurrence(model);
-    let mut steps = plan_with(plant, &opts.sequence, &occ)?;
-    let plan_order: Vec<String> = steps.iter().map(|s| s.config.clone()).collect();
     // An earlier run into the same directory: its completed steps are kept.
     let previous = match previous_report(&opts.out, &opts.sequence) {
         Ok(p) => p,
@@ -497,20 +510,11 @@ pub fn run(
         // Without --resume a report that cannot be continued is replaced.
         Err(_) => None,
     };
-    if let Some(only) = &opts.only {
-        let Some(i) = steps.iter().position(|s| &s.config == only) else {
-            bail!(
-                "--config: sequence '{}' has no step '{only}' (its steps: {})",
-                opts.sequence,
-                steps
-                    .iter()
-                    .map(|s| s.config.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        };
-        steps.truncate(i + 1);
-    }
+    let Selection {
+        steps,
+        joint_steps,
+        plan_order,
+    } = select_steps(plant, opts, &occ, previous.as_ref())?;
     // The outputs are checked before the first fit, not after it.
     crate::files::check_output_dir(&opts.out)?;
     crate::files::check_writable(&[
@@ -518,74 +522,16 @@ pub fn run(
         &opts.out.join("report.json"),
         &opts.out.join("report.md"),
     ])?;
-    // The joint fit covers every step up to the last one run; the per-step fits, that one
-    // alone under --config, none under --joint-fit only.
-    let joint_steps: Vec<Step> = if opts.joint == JointFitMode::Off {
-        Vec::new()
-    } else {
-        steps.clone()
-    };
-    match (&opts.only, opts.joint) {
-        (_, JointFitMode::Only) => steps.clear(),
-        (Some(_), _) => {
-            steps.drain(..steps.len() - 1);
-        }
-        (None, _) => {}
-    }
-    if opts.resume {
-        let Some(prev) = &previous else {
-            bail!(
-                "--resume: {} holds no report of the '{}' sequence",
-                opts.out.display(),
-                opts.sequence
-            );
-        };
-        steps.retain(|s| !prev.steps.iter().any(|d| d.step.config == s.config));
-        if steps.is_empty() && (opts.joint == JointFitMode::Off || prev.joint.is_some()) {
-            bail!(
-                "--resume: every step of {} is already completed (steps {}); nothing to resume",
-                opts.out.display(),
-                prev.steps
-                    .iter()
-                    .map(|d| d.step.config.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-    }
     let CheckedInputs {
         steps: checked,
         joint: joint_files,
         ignored,
     } = check_inputs(plant, data, opts, &occ, &steps, &joint_steps)?;
+    let mut report = starting_report(plant, opts, previous, &steps, &joint_steps, ignored);
     let mut current = plant.clone();
     // Rigid-body symbols a completed step fitted but did not determine, starting with those
     // the plant file records (a step run alone with `--config` after an earlier run).
     let mut undetermined: Vec<String> = plant.undetermined.clone();
-    let rerun: Vec<String> = steps.iter().map(|s| s.config.clone()).collect();
-    let mut report = SequenceReport {
-        sequence: opts.sequence.clone(),
-        plant: previous
-            .as_ref()
-            .map_or_else(|| plant.name(), |p| p.plant.clone()),
-        options: opts.fit.clone(),
-        steps: previous
-            .as_ref()
-            .map(|p| {
-                p.steps
-                    .iter()
-                    .filter(|d| !rerun.contains(&d.step.config))
-                    .cloned()
-                    .collect()
-            })
-            .unwrap_or_default(),
-        joint: if joint_steps.is_empty() {
-            previous.as_ref().and_then(|p| p.joint.clone())
-        } else {
-            None
-        },
-        ignored,
-    };
     let position = |c: &str| plan_order.iter().position(|x| x == c).unwrap_or(usize::MAX);
     for (mut s, first) in steps.into_iter().zip(checked) {
         // Symbols an earlier step of this run fitted but could not determine (not called
@@ -596,27 +542,7 @@ pub fn run(
         s.fitted.extend(more.iter().cloned());
         s.carried.extend(more);
         if opts.rigid_body == RigidBodyFit::Spanning {
-            let locked_at = first.locked_at();
-            let keep = spanning_symbols(
-                &current,
-                first.configuration(),
-                &s.fitted,
-                &bound_width(&current, &s.fitted),
-                &locked_at,
-            )
-            .with_context(|| format!("step '{}'", s.config))?;
-            let tied_held: Vec<String> = s
-                .fitted
-                .iter()
-                .enumerate()
-                .filter(|&(i, n)| {
-                    model.inertial_symbols.contains(&n.as_str()) && !keep.contains(&i)
-                })
-                .map(|(_, n)| n.clone())
-                .collect();
-            s.fitted.retain(|n| !tied_held.contains(n));
-            s.carried.retain(|n| !tied_held.contains(n));
-            s.tied_held = tied_held;
+            hold_tied_symbols(&current, &first, &mut s)?;
         }
         // The checked problem's files, with the plant as the earlier steps left it.
         let problem = Problem::new(
@@ -639,39 +565,15 @@ pub fn run(
             held_ties: &s.tied_held,
             progress: &step_progress,
         };
+        let refined = refit.refine(&mut current, fit, opts)?;
+        keep_step(&mut current, &mut undetermined, &refined, &s.tied_held);
         let Refined {
             fit,
             tie_reach,
             release,
             balance,
-            released,
-        } = refit.refine(&mut current, fit, opts)?;
-        let prior_se: Vec<(String, f64)> = released
-            .iter()
-            .filter_map(|n| Some((n.clone(), current.standard_errors.get(n).copied()?)))
-            .collect();
-        fit.apply(&mut current);
-        undetermined.retain(|n| !fit.names.contains(n));
-        for n in &s.tied_held {
-            if !undetermined.contains(n) {
-                undetermined.push(n.clone());
-            }
-        }
-        for (i, n) in fit.names.iter().enumerate() {
-            if model.inertial_symbols.contains(&n.as_str())
-                && !fit.statistics.identifiable[i]
-                && !released.contains(n)
-            {
-                undetermined.push(n.clone());
-            }
-        }
-        current.undetermined = undetermined.clone();
-        record_standard_errors(&mut current, &fit.names, &fit.statistics);
-        // A released value the step could not determine keeps the standard error it had:
-        // it moved under that prior.
-        for (n, se) in prior_se {
-            current.standard_errors.entry(n).or_insert(se);
-        }
+            ..
+        } = refined;
         let impossible = impossible_links(&current, &fit.names)?;
         report.steps.push(StepReport {
             step: s,
@@ -687,12 +589,7 @@ pub fn run(
             "{} — identified by lockstep ({} method, steps {})",
             plant.description,
             opts.sequence,
-            report
-                .steps
-                .iter()
-                .map(|s| s.step.config.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
+            report.step_list()
         );
         save(&current, &report, &opts.out, model)?;
     }
@@ -712,21 +609,9 @@ pub fn run(
             if report.steps.is_empty() {
                 String::new()
             } else {
-                format!(
-                    ", steps {}",
-                    report
-                        .steps
-                        .iter()
-                        .map(|s| s.step.config.as_str())
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
+                format!(", steps {}", report.step_list())
             },
-            joint_steps
-                .iter()
-                .map(|s| s.config.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
+            config_list(&joint_steps)
         );
         save(&current, &report, &opts.out, model)?;
     }

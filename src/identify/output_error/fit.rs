@@ -59,80 +59,6 @@ pub(super) fn refinement_bandwidth(
     (lost && omega_previous > omega).then(|| (omega_previous * omega).sqrt())
 }
 
-/// One start of a multi-start fit.
-#[derive(Debug, Clone, Serialize, serde::Deserialize)]
-pub struct StartSummary {
-    /// Index (0 = the plant's values).
-    pub start: usize,
-    /// Cost at the start.
-    pub start_cost: f64,
-    /// Cost at its end.
-    pub cost: f64,
-    /// Levenberg–Marquardt iterations.
-    pub iterations: usize,
-    /// How each stage ended (warm-ups, then the whole files), e.g. "horizon 100 %:
-    /// convergence in parameter value after 12 iteration(s)".
-    pub status: String,
-    /// Trial points rejected by the optimiser: their simulation diverged, or they left a
-    /// guarded link physically impossible ([`Problem::guarded_links`]).
-    pub diverged: usize,
-    /// How the start was warmed up.
-    pub warm_up: WarmUp,
-    /// Each stage as run, in order: the record behind `status`.
-    #[serde(default)]
-    pub stages: Vec<StageRecord>,
-}
-
-/// One stage of a start as run ([`StartSummary::stages`]).
-#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
-pub struct StageRecord {
-    /// The stage as the report names it, e.g. "predictor ω = 100 rad/s", "horizon 100 %".
-    pub stage: String,
-    /// The optimiser that ran it; `None`: the stage was skipped or could not start.
-    pub optimiser: Option<StageOptimiser>,
-    /// Iterations.
-    pub iterations: usize,
-    /// Trial points that could not be simulated.
-    pub failures: usize,
-    /// How it ended (the optimiser's stopping reason, or why it did not run).
-    pub outcome: String,
-    /// The whole files' cost (4.2)/(4.3) at its result; `None` after the final stage, or
-    /// where the whole files cannot be simulated from it.
-    pub whole_files_cost: Option<f64>,
-}
-
-impl StageRecord {
-    /// A stage `stage` (its report name) that `optimiser` ran, ending as `outcome`, the
-    /// whole files' cost at its result where known.
-    fn ran(
-        stage: String,
-        optimiser: StageOptimiser,
-        outcome: &StageOutcome,
-        whole_files_cost: Option<f64>,
-    ) -> Self {
-        StageRecord {
-            stage,
-            optimiser: Some(optimiser),
-            iterations: outcome.iterations,
-            failures: outcome.failures,
-            outcome: outcome.status.clone(),
-            whole_files_cost,
-        }
-    }
-
-    /// A stage that did not run, and why.
-    fn skipped(stage: Stage, why: String) -> Self {
-        StageRecord {
-            stage: stage.to_string(),
-            optimiser: None,
-            iterations: 0,
-            failures: 0,
-            outcome: why,
-            whole_files_cost: None,
-        }
-    }
-}
-
 /// One predictor stage as run ([`Problem::run_predictor_stage`]): how it ended, the
 /// report's note on its step and refinement, and its cost (Σ r² of the predictor's errors)
 /// at its end, infinite where they cannot be simulated.
@@ -313,24 +239,21 @@ impl Problem {
         let prior_penalty = self.prior_penalty(&self.to_scaled(&p));
         Ok(FitResult {
             configuration: self.conf.name.to_string(),
-            names: self.names.clone(),
-            initial: p0,
-            fitted: p,
-            lower: self.lower.clone(),
-            upper: self.upper.clone(),
-            cost_before,
             cost_after,
             prior_penalty,
             least_change,
             statistics: stats,
             starts: runs.iter().map(|r| r.summary.clone()).collect(),
             best_start: best.summary.start,
-            evaluations: evaluations.load(Ordering::Relaxed),
-            jacobians: jacobians.load(Ordering::Relaxed),
-            wall_s: started.elapsed().as_secs_f64(),
             residuals: self.m,
             files: self.records.iter().map(|r| r.file.clone()).collect(),
             initial_positions,
+            ..FitResult::over(
+                &self.space(),
+                (p0, p),
+                cost_before,
+                (&evaluations, &jacobians, started),
+            )
         })
     }
 

@@ -45,6 +45,8 @@ use std::time::Instant;
 mod fit;
 mod optimiser;
 mod options;
+mod records;
+mod residuals;
 mod statistics;
 pub use options::*;
 mod held;
@@ -55,8 +57,9 @@ pub(crate) use held::*;
 pub use least_change::*;
 pub(crate) use scaling::*;
 
-pub use fit::*;
 pub(crate) use optimiser::*;
+pub use records::*;
+pub use residuals::*;
 pub use statistics::*;
 
 /// Relative cost decrease below which a warm-up stage (segments, a short horizon) ends.
@@ -566,11 +569,6 @@ impl Problem {
         self.prior_residuals(u).iter().map(|x| x * x).sum()
     }
 
-    /// Number of residuals.
-    pub fn residual_count(&self) -> usize {
-        self.m
-    }
-
     /// The options.
     pub fn options(&self) -> &OutputErrorOptions {
         &self.options
@@ -610,23 +608,6 @@ impl Problem {
     /// evaluate the model there.
     pub fn locked_at(&self) -> Vec<Vec<f64>> {
         self.records.iter().map(|r| r.q_all.clone()).collect()
-    }
-
-    /// Physical parameters from scaled ones (u ∈ [0, 1]ⁿ).
-    pub fn to_physical(&self, u: &[f64]) -> Vec<f64> {
-        scaled_to_physical(&self.lower, &self.upper, &self.pairs, u)
-    }
-
-    /// Scaled parameters of physical ones (clamped into the feasible set).
-    pub fn to_scaled(&self, p: &[f64]) -> Vec<f64> {
-        physical_to_scaled(&self.lower, &self.upper, &self.pairs, p)
-    }
-
-    /// The plant with the fitted parameters set to `p`.
-    pub fn plant_at(&self, p: &[f64]) -> Plant {
-        let mut plant = self.plant.clone();
-        plant.set_values(&self.names, p);
-        plant
     }
 
     /// Simulate record `r` with physical parameters `p`.
@@ -799,6 +780,16 @@ impl Problem {
     pub fn guarded_links(&self) -> &[String] {
         &self.guarded_links
     }
+}
+
+impl Residuals for Problem {
+    fn space(&self) -> ParameterSpace<'_> {
+        parameter_space_of!(self)
+    }
+
+    fn residual_count(&self) -> usize {
+        self.m
+    }
 
     /// Residual vector (length [`Problem::residual_count`]) at physical parameters `p`,
     /// files simulated in parallel.
@@ -810,7 +801,7 @@ impl Problem {
     /// impossible fails too (named): the torque balance of the equation error and a
     /// strongly pulled predictor can be evaluated at a point no body has, and a fit that
     /// starts consistent must not end there (a constraint, as the bounds are).
-    pub fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
+    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
         if !self.guarded_links.is_empty() {
             let plant = self.plant_at(p);
             if let Some(f) = blocking_findings(&plant)
@@ -828,11 +819,12 @@ impl Problem {
         Ok(self.residuals_of(&self.trajectories(p)?))
     }
 
-    /// Σ r² at `p`, or +∞ where the simulation fails.
-    pub fn cost(&self, p: &[f64]) -> f64 {
-        self.residuals(p)
-            .map(|r| r.iter().map(|x| x * x).sum())
-            .unwrap_or(f64::INFINITY)
+    fn prior_weight(&self) -> Option<&[f64]> {
+        self.prior.as_ref().map(|(_, w)| w.as_slice())
+    }
+
+    fn prior_residuals(&self, u: &[f64]) -> Vec<f64> {
+        Problem::prior_residuals(self, u)
     }
 }
 
@@ -859,64 +851,6 @@ fn residual_total(sqrt_w: &[Vec<f64>], nf: usize) -> usize {
         .iter()
         .map(|w| w.iter().filter(|&&x| x > 0.0).count() * nf)
         .sum()
-}
-
-/// Result of [`Problem::fit`].
-#[derive(Debug, Clone, Serialize, serde::Deserialize)]
-pub struct FitResult {
-    /// Configuration.
-    pub configuration: String,
-    /// Fitted parameter names.
-    pub names: Vec<String>,
-    /// Values before.
-    pub initial: Vec<f64>,
-    /// Values after.
-    pub fitted: Vec<f64>,
-    /// Lower bounds used (after Fs ≥ Fc).
-    pub lower: Vec<f64>,
-    /// Upper bounds used.
-    pub upper: Vec<f64>,
-    /// Cost (4.2)/(4.3) at the plant's values.
-    pub cost_before: f64,
-    /// Cost at the result.
-    pub cost_after: f64,
-    /// The prior's term at the result ([`OutputErrorOptions::prior`]; 0 without one): the
-    /// fit minimised `cost_after + prior_penalty`.
-    pub prior_penalty: f64,
-    /// The move from the minimum toward the initial values, when
-    /// [`OutputErrorOptions::least_change`] is on.
-    pub least_change: Option<LeastChange>,
-    /// Uncertainty and fit figures.
-    pub statistics: Statistics,
-    /// All starts.
-    pub starts: Vec<StartSummary>,
-    /// The start that won.
-    pub best_start: usize,
-    /// Cost evaluations (each simulates every file), all starts.
-    pub evaluations: usize,
-    /// Jacobians (each n simulations of every file), all starts.
-    pub jacobians: usize,
-    /// Wall time (s).
-    pub wall_s: f64,
-    /// Number of residuals.
-    pub residuals: usize,
-    /// Files.
-    pub files: Vec<PathBuf>,
-    /// Per file, per free joint: the estimated initial position minus the first measured
-    /// sample (rad), when [`OutputErrorOptions::estimate_initial_positions`] is on; the
-    /// cost, RMS figures and standard errors are on these starts.
-    pub initial_positions: Option<Vec<Vec<f64>>>,
-}
-
-impl FitResult {
-    /// Write the fitted values into `plant`, and the held ties the least change scaled
-    /// ([`LeastChange::held`]).
-    pub fn apply(&self, plant: &mut Plant) {
-        plant.set_values(&self.names, &self.fitted);
-        for (n, v) in self.least_change.iter().flat_map(|lc| &lc.held) {
-            plant.parameters.insert(n.clone(), *v);
-        }
-    }
 }
 
 #[cfg(test)]

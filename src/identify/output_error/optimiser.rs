@@ -66,7 +66,7 @@ pub(super) fn stage_rules(options: &OutputErrorOptions, stage: Stage) -> MPConfi
 /// Jacobian. `stage` and `context` feed the progress display; `start_cost` (the cost at
 /// `u`) scales the residuals a failed simulation returns.
 pub(crate) fn minimise(
-    problem: &dyn LeastSquares,
+    problem: &dyn Residuals,
     stage: Stage,
     frozen: &[bool],
     config: MPConfig,
@@ -211,70 +211,6 @@ impl StageOutcome {
     }
 }
 
-/// What the Levenberg–Marquardt adapter ([`Fitter`]) needs of a fit: residuals at physical
-/// parameters, the scaled coordinates, finite-difference Jacobian columns and the prior's
-/// rows. A configuration's [`Problem`], or the joint fit of several
-/// ([`crate::identify::joint::JointProblem`]).
-pub(crate) trait LeastSquares: Sync {
-    /// Number of residuals (the simulated ones, without the prior's rows).
-    fn residual_count(&self) -> usize;
-    /// The residuals at physical parameters `p`.
-    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure>;
-    /// Physical parameters from scaled ones.
-    fn to_physical(&self, u: &[f64]) -> Vec<f64>;
-    /// Finite-difference Jacobian ∂r/∂x (n columns of length m; forward, or central where
-    /// `central` and both sides simulate) at `x` where `p_of(x)` gives the physical
-    /// parameters, `steps[i]` the step of column i (the sign chosen by the caller to stay
-    /// in the feasible set); all columns simulated in parallel. A column whose simulation
-    /// fails is retried with the opposite step, then left zero.
-    fn jacobian_columns(
-        &self,
-        x: &[f64],
-        r0: &[f64],
-        steps: &[f64],
-        p_of: &(dyn Fn(&[f64]) -> Vec<f64> + Sync),
-        central: bool,
-    ) -> Vec<Vec<f64>> {
-        (0..x.len())
-            .into_par_iter()
-            .map(|i| {
-                let at = |s: f64| {
-                    let mut xi = x.to_vec();
-                    xi[i] += s;
-                    self.residuals(&p_of(&xi))
-                };
-                difference_column(&at, r0, steps[i], central)
-            })
-            .collect()
-    }
-    /// The prior's weight per parameter (its rows' diagonal), if the fit has a prior.
-    fn prior_weight(&self) -> Option<&[f64]> {
-        None
-    }
-    /// The prior's residuals at scaled parameters `u` (empty without a prior).
-    fn prior_residuals(&self, _u: &[f64]) -> Vec<f64> {
-        Vec::new()
-    }
-}
-
-impl LeastSquares for Problem {
-    fn residual_count(&self) -> usize {
-        self.m
-    }
-    fn residuals(&self, p: &[f64]) -> Result<Vec<f64>, TrialFailure> {
-        Problem::residuals(self, p)
-    }
-    fn to_physical(&self, u: &[f64]) -> Vec<f64> {
-        Problem::to_physical(self, u)
-    }
-    fn prior_weight(&self) -> Option<&[f64]> {
-        self.prior.as_ref().map(|(_, w)| w.as_slice())
-    }
-    fn prior_residuals(&self, u: &[f64]) -> Vec<f64> {
-        Problem::prior_residuals(self, u)
-    }
-}
-
 /// The rmpfit adapter: scaled parameters, cached residuals, user (parallel) Jacobian.
 struct Fitter<'a> {
     evaluator: Evaluator<'a>,
@@ -356,7 +292,7 @@ impl LastJacobian {
 /// where the plant diverges gets residuals of 1e3 × the start's root mean square, a cost
 /// far above the start's, so that the step is rejected and the trust region shrinks.
 struct Evaluator<'a> {
-    problem: &'a dyn LeastSquares,
+    problem: &'a dyn Residuals,
     context: &'a StageContext<'a>,
     stage: Stage,
     /// The residual of a trial point that cannot be simulated.
@@ -369,7 +305,7 @@ struct Evaluator<'a> {
 impl<'a> Evaluator<'a> {
     /// For `stage` of `problem` from a start of cost `start_cost`.
     fn new(
-        problem: &'a dyn LeastSquares,
+        problem: &'a dyn Residuals,
         context: &'a StageContext<'a>,
         stage: Stage,
         start_cost: f64,
@@ -440,7 +376,13 @@ impl<'a> Evaluator<'a> {
             .iter()
             .map(|&u| if u + h > 1.0 { -h } else { h })
             .collect();
-        let columns = p.jacobian_columns(x, &r0[..p.residual_count()], &steps, p_of, false);
+        let columns = p.jacobian_columns(&Stencil {
+            x,
+            r0: &r0[..p.residual_count()],
+            steps: &steps,
+            p_of,
+            central: false,
+        });
         self.context
             .evaluations
             .fetch_add(x.len(), Ordering::Relaxed);
@@ -526,7 +468,7 @@ impl MPFitter for Fitter<'_> {
 /// root mean square, so the step is rejected and the trust region shrinks; `start_cost`
 /// (the cost at `u`) sets that level.
 pub(crate) fn minimise_trf(
-    problem: &dyn LeastSquares,
+    problem: &dyn Residuals,
     stage: Stage,
     frozen: &[bool],
     config: &MPConfig,
@@ -723,25 +665,43 @@ mod tests {
     /// y = a e^{−b t} sampled at t = 0, 0.1, …, 2.9 s, with a ∈ [0, 4] and b ∈ [0, b_max]
     /// mapped to the unit square: a least-squares problem whose minimum is known.
     struct Decay {
-        b_max: f64,
         y: Vec<f64>,
         options: OutputErrorOptions,
+        /// Unused by the residuals: the space's plant.
+        plant: Plant,
+        names: Vec<String>,
+        lower: Vec<f64>,
+        upper: Vec<f64>,
+        pairs: Vec<(usize, usize)>,
+        held_ties: Vec<String>,
     }
 
     impl Decay {
         /// Data of a = 2, b = 0.7 without noise.
         fn new(b_max: f64) -> Decay {
+            let emps = concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/model/plants/emps_symmetric.toml"
+            );
             Decay {
-                b_max,
                 y: (0..30)
                     .map(|k| 2.0 * (-0.7 * 0.1 * k as f64).exp())
                     .collect(),
                 options: OutputErrorOptions::thesis(),
+                plant: Plant::load(std::path::Path::new(emps)).unwrap(),
+                names: vec!["a".into(), "b".into()],
+                lower: vec![0.0, 0.0],
+                upper: vec![4.0, b_max],
+                pairs: Vec::new(),
+                held_ties: Vec::new(),
             }
         }
     }
 
-    impl LeastSquares for Decay {
+    impl Residuals for Decay {
+        fn space(&self) -> ParameterSpace<'_> {
+            parameter_space_of!(self)
+        }
         fn residual_count(&self) -> usize {
             self.y.len()
         }
@@ -752,9 +712,6 @@ mod tests {
                 .enumerate()
                 .map(|(k, y)| y - p[0] * (-p[1] * 0.1 * k as f64).exp())
                 .collect())
-        }
-        fn to_physical(&self, u: &[f64]) -> Vec<f64> {
-            vec![4.0 * u[0], self.b_max * u[1]]
         }
     }
 

@@ -154,22 +154,6 @@ impl Problem {
             .trajectories(p)
             .map_err(|e| anyhow::anyhow!("at the fitted values: {}", e))?;
         let r = self.residuals_of(&trajectories);
-        let n = p.len();
-        let steps: Vec<f64> = (0..n)
-            .map(|i| {
-                let w = self.upper[i] - self.lower[i];
-                let s = self.options.fd_step * w;
-                if p[i] + s > self.upper[i] {
-                    -s
-                } else {
-                    s
-                }
-            })
-            .collect();
-        // Central differences here (O(h²)): in a sensitive trajectory a one-sided
-        // difference blurs exact symmetries of the model into seemingly determined
-        // directions.
-        let mut cols = self.jacobian_columns(p, &r, &steps, &|x: &[f64]| x.to_vec(), true);
         let occ = crate::identify::identifiability::occurrence(self.plant.model);
         let mut held = held_in(
             &self.plant,
@@ -178,34 +162,21 @@ impl Problem {
             &occ,
             &[self.conf],
         );
-        let scale = GainScaleContext {
-            plant: &self.plant,
-            names: &self.names,
-            bounds: (&self.lower, &self.upper),
-            free: self.conf.free,
-            held_ties: &self.held_ties,
-        };
         held.cols = self.held_columns(p, &held.names, &r);
-        scale.make_up_held_ties(&cols, &mut held);
-        scale.project_out_of(&mut cols, p, &held, |ties| self.held_columns(p, ties, &r));
-        let m = r.len();
-        let dof = m as f64 / (m - n) as f64;
-        let sigma: Vec<f64> = self
-            .residual_variances(&r)
-            .iter()
-            .map(|v| v * dof)
-            .collect();
-        let only_with = self.structural_companions(p)?;
-        let joints = self.joint_fits(&trajectories);
-        covariance_statistics(
-            &self.names,
-            p,
-            (&self.lower, &self.upper),
-            (cols, held),
-            &sigma,
-            only_with,
-            joints,
-        )
+        let dof = r.len() as f64 / (r.len() - p.len()) as f64;
+        let at = AtTheFit {
+            sigma: self
+                .residual_variances(&r)
+                .iter()
+                .map(|v| v * dof)
+                .collect(),
+            r: &r,
+            held,
+            free: self.conf.free,
+            only_with: self.structural_companions(p)?,
+            joints: self.joint_fits(&trajectories),
+        };
+        statistics_at(self, p, at, |ties| self.held_columns(p, ties, &r))
     }
 
     /// ∂r/∂h at fitted values `p` for every held value named in `held`: central
@@ -401,6 +372,67 @@ fn moved_by_null_directions(
         }
     }
     moved
+}
+
+/// What the statistics of a fit read at its solution besides the Jacobian.
+pub(crate) struct AtTheFit<'a> {
+    /// Residuals (m) at the solution.
+    pub(crate) r: &'a [f64],
+    /// Per-residual noise variance (m), scaled by m / (m − n) for the fitted parameters.
+    pub(crate) sigma: Vec<f64>,
+    /// The held values' columns ∂r/∂h ([`held_in`]).
+    pub(crate) held: HeldColumns,
+    /// Every free joint of the fit's configurations.
+    pub(crate) free: &'a [usize],
+    /// Per fitted parameter, the symbols it trades with exactly ([`fitted_companions`]).
+    pub(crate) only_with: Vec<Vec<String>>,
+    /// Per free joint, the fit figures.
+    pub(crate) joints: Vec<JointFit>,
+}
+
+/// Standard errors, correlations and fit figures of `problem` at physical parameters `p`
+/// (n): J = ∂r/∂p by central differences ([`ParameterSpace::difference_steps`]), the held
+/// ties made up and the plant-gain scale symmetry projected out ([`GainScaleContext`];
+/// `tie_columns` gives ∂r/∂h of named held values), then [`covariance_statistics`].
+///
+/// # Errors
+/// The covariance cannot be formed.
+pub(crate) fn statistics_at(
+    problem: &dyn Residuals,
+    p: &[f64],
+    at: AtTheFit,
+    tie_columns: impl FnOnce(&[String]) -> Vec<Vec<f64>>,
+) -> Result<Statistics> {
+    let space = problem.space();
+    // Central differences here (O(h²)): in a sensitive trajectory a one-sided difference
+    // blurs exact symmetries of the model into seemingly determined directions.
+    let steps = space.difference_steps(p);
+    let mut cols = problem.jacobian_columns(&Stencil {
+        x: p,
+        r0: at.r,
+        steps: &steps,
+        p_of: &|x: &[f64]| x.to_vec(),
+        central: true,
+    });
+    let scale = GainScaleContext {
+        plant: space.plant,
+        names: space.names,
+        bounds: (space.lower, space.upper),
+        free: at.free,
+        held_ties: space.held_ties,
+    };
+    let mut held = at.held;
+    scale.make_up_held_ties(&cols, &mut held);
+    scale.project_out_of(&mut cols, p, &held, tie_columns);
+    covariance_statistics(
+        space.names,
+        p,
+        (space.lower, space.upper),
+        (cols, held),
+        &at.sigma,
+        at.only_with,
+        at.joints,
+    )
 }
 
 /// Standard errors, correlations and identifiability of parameters `names` at physical
