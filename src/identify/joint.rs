@@ -19,11 +19,11 @@
 
 use super::identifiability::Occurrence;
 use super::output_error::{
-    difference_column, enters, feasible_bounds, fitted_companions, held_in, minimise,
-    parameter_space_of, statistics_at, AtTheFit, FitResult, HeldColumns, JacobianPolicy,
-    OutputErrorOptions, ParameterSpace, Problem, Progress, Record, Residuals, Stage, StageContext,
-    StartSummary, Statistics, Stencil, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS,
-    INITIAL_POSITION_SETTLED,
+    difference_column, enters, feasible_bounds, fitted_companions, held_in, parameter_space_of,
+    statistics_at, AtTheFit, FitResult, HeldColumns, JacobianPolicy, LevenbergMarquardt,
+    OutputErrorOptions, ParameterSpace, Problem, Progress, Record, Residuals, Solver, Stage,
+    StageContext, StageRun, StartSummary, Statistics, Stencil, TrialFailure, WarmUp,
+    INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
 use crate::simulation::Trajectory;
@@ -272,15 +272,15 @@ impl JointProblem {
         };
         let mut run = |problem: &JointProblem, u: &mut Vec<f64>, round: usize| {
             let start_cost = problem.cost(&self.to_physical(u));
-            let outcome = minimise(
+            let run = StageRun {
                 problem,
-                Stage::Joint,
-                &frozen,
-                config.clone(),
-                u,
-                &context,
+                stage: Stage::Joint,
+                frozen: &frozen,
+                rules: config.clone(),
+                context: &context,
                 start_cost,
-            );
+            };
+            let outcome = LevenbergMarquardt.minimise(&run, u);
             iterations += outcome.iterations;
             diverged += outcome.failures;
             (format!("fit {round}: {}", outcome.status), outcome.stop)

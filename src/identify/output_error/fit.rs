@@ -727,15 +727,15 @@ impl Problem {
             };
         }
         let frozen: Vec<bool> = self.names.iter().map(|n| self.is_frozen(n)).collect();
-        let config = stage_rules(&self.options, stage);
-        match self.stage_optimiser(stage) {
-            StageOptimiser::TrustRegionReflective => {
-                minimise_trf(self, stage, &frozen, &config, u, context, start_cost)
-            }
-            StageOptimiser::LevenbergMarquardt => {
-                minimise(self, stage, &frozen, config, u, context, start_cost)
-            }
-        }
+        let run = StageRun {
+            problem: self,
+            stage,
+            frozen: &frozen,
+            rules: stage_rules(&self.options, stage),
+            context,
+            start_cost,
+        };
+        self.stage_optimiser(stage).solver().minimise(&run, u)
     }
 
     /// Stribeck re-seed of scaled parameters `u` (a fitted minimum) for

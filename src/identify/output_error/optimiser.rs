@@ -6,7 +6,7 @@ use super::*;
 use std::sync::Mutex;
 
 /// How many times a stage that stopped on a Broyden-updated Jacobian goes on from a
-/// finite-difference one ([`minimise`], [`minimise_trf`]), so that it ends on stopping
+/// finite-difference one ([`LevenbergMarquardt`], [`TrustRegionReflective`]), so that it ends on stopping
 /// rules that hold for the true Jacobian.
 const BROYDEN_RERUNS: usize = 3;
 
@@ -58,78 +58,129 @@ pub(super) fn stage_rules(options: &OutputErrorOptions, stage: Stage) -> MPConfi
     }
 }
 
-/// Bounded Levenberg–Marquardt (rmpfit) of `problem` from scaled parameters `u` ∈ [0, 1]ⁿ,
+/// One stage's bounded least-squares run, as a [`Solver`] is given it: `problem` from
+/// scaled parameters u ∈ [0, 1]ⁿ (updated in place by the solver), the parameters where
+/// `frozen` is true held, on the stopping rules `rules` ([`stage_rules`]); `stage` and
+/// `context` feed the progress display and the counters, and give the Jacobian policy
+/// ([`StageContext::jacobian`]); `start_cost` (the cost at u) scales the residuals a failed
+/// simulation returns.
+pub(crate) struct StageRun<'a> {
+    pub(crate) problem: &'a dyn Residuals,
+    pub(crate) stage: Stage,
+    pub(crate) frozen: &'a [bool],
+    pub(crate) rules: MPConfig,
+    pub(crate) context: &'a StageContext<'a>,
+    pub(crate) start_cost: f64,
+}
+
+/// A bounded least-squares method: the solver of a stage, separate from the residuals it
+/// minimises ([`Residuals`]) and from the strategy that chains the stages
+/// ([`OutputErrorOptions`]'s presets, [`Problem::fit`]). [`LevenbergMarquardt`] and
+/// [`TrustRegionReflective`]; [`StageOptimiser::solver`] names them.
+pub(crate) trait Solver: Sync {
+    /// Minimise `run`'s problem from `u`, which it updates in place.
+    fn minimise(&self, run: &StageRun, u: &mut [f64]) -> StageOutcome;
+}
+
+/// rmpfit's bounded Levenberg–Marquardt ([`StageOptimiser::LevenbergMarquardt`]) of a stage's problem from scaled parameters `u` ∈ [0, 1]ⁿ,
 /// updated in place (a value within [`BOUND_SNAP`] of a bound put on it first), on the
-/// stopping rules of `config`; parameters where `frozen` is true
+/// stopping rules of its `rules`; parameters where `frozen` is true
 /// stay. A run that stopped on a Broyden-updated Jacobian goes on from a finite-difference
 /// one (at most [`BROYDEN_RERUNS`] times), so it ends on rules that hold for the true
 /// Jacobian. `stage` and `context` feed the progress display; `start_cost` (the cost at
 /// `u`) scales the residuals a failed simulation returns.
-pub(crate) fn minimise(
-    problem: &dyn Residuals,
-    stage: Stage,
-    frozen: &[bool],
-    config: MPConfig,
-    u: &mut [f64],
-    context: &StageContext,
-    start_cost: f64,
-) -> StageOutcome {
-    // A parameter within rounding of a bound (a value read back from a plant file, or
-    // the Fs of a collapsed Stribeck pair, u ≈ 1e-16) must sit exactly on it: rmpfit
-    // freezes a parameter only when it equals its limit, and otherwise shortens the
-    // whole step to reach the limit, a step of ~1e-16 that it then reports as
-    // convergence after one iteration (k3 of the Freedom 6S from the fitted plant,
-    // I6_13 = −2.1999999999999996e-7 against a bound of −2.2e-7: no stage moved).
-    for x in u.iter_mut() {
-        if *x < BOUND_SNAP {
-            *x = 0.0;
-        } else if *x > 1.0 - BOUND_SNAP {
-            *x = 1.0;
+pub(crate) struct LevenbergMarquardt;
+
+/// basin's trust-region-reflective method ([`StageOptimiser::TrustRegionReflective`])
+/// instead of rmpfit's Levenberg–Marquardt ([`LevenbergMarquardt`]): a stage's problem from scaled parameters `u` ∈ [0, 1]ⁿ, updated in place; parameters where
+/// `frozen` is true stay. A Jacobian at every accepted step: finite differences (columns in
+/// parallel, step [`OutputErrorOptions::fd_step`] of the bound width), or Broyden's update
+/// between them as [`OutputErrorOptions::jacobian_refresh`] allows (a run that stopped on an
+/// updated one goes on from finite differences, at most [`BROYDEN_RERUNS`] times, as
+/// [`LevenbergMarquardt`]); it stops on its `rules`' relative cost change (ftol), relative step (xtol)
+/// or iteration limit, as [`stage_rules`] set them for the stage; the prior's rows as in
+/// [`LevenbergMarquardt`]. A trial point whose simulation fails returns residuals 1e3 × the start's
+/// root mean square, so the step is rejected and the trust region shrinks; `start_cost`
+/// (the cost at `u`) sets that level.
+pub(crate) struct TrustRegionReflective;
+
+impl StageOptimiser {
+    /// The solver of this choice.
+    pub(crate) fn solver(self) -> &'static dyn Solver {
+        match self {
+            StageOptimiser::LevenbergMarquardt => &LevenbergMarquardt,
+            StageOptimiser::TrustRegionReflective => &TrustRegionReflective,
         }
     }
-    let mut fitter = Fitter {
-        evaluator: Evaluator::new(problem, context, stage, start_cost),
-        jacobian: None,
-        config,
-        pars: frozen
-            .iter()
-            .map(|&fixed| MPPar {
-                fixed,
-                limited_low: true,
-                limited_up: true,
-                limit_low: 0.0,
-                limit_up: 1.0,
-                side: MPSide::User,
-                ..MPPar::new()
-            })
-            .collect(),
-    };
-    let mut result = fitter.mpfit(u);
-    let mut iterations = result.as_ref().map_or(0, |st| st.n_iter);
-    // A stage that stopped on a Broyden-updated Jacobian goes on from a
-    // finite-difference one (its stopping rules then hold for the true Jacobian).
-    let mut reruns = 0;
-    while result.is_ok()
-        && fitter.jacobian.as_ref().is_some_and(|j| j.updates > 0)
-        && reruns < BROYDEN_RERUNS
-    {
-        fitter.jacobian = None;
-        result = fitter.mpfit(u);
-        iterations += result.as_ref().map_or(0, |st| st.n_iter);
-        reruns += 1;
-    }
-    let failures = fitter.evaluator.failures();
-    match result {
-        Ok(st) => StageOutcome {
-            status: format!("{:?} after {iterations} iteration(s)", st.success),
-            iterations,
-            failures,
-            stop: false,
-        },
-        Err(MPError::Eval) => {
-            StageOutcome::stopped("stopped, a simulation failed".into(), failures)
+}
+
+impl Solver for LevenbergMarquardt {
+    fn minimise(&self, run: &StageRun, u: &mut [f64]) -> StageOutcome {
+        let (problem, stage, frozen, context, start_cost) = (
+            run.problem,
+            run.stage,
+            run.frozen,
+            run.context,
+            run.start_cost,
+        );
+        let config = run.rules.clone();
+        // A parameter within rounding of a bound (a value read back from a plant file, or
+        // the Fs of a collapsed Stribeck pair, u ≈ 1e-16) must sit exactly on it: rmpfit
+        // freezes a parameter only when it equals its limit, and otherwise shortens the
+        // whole step to reach the limit, a step of ~1e-16 that it then reports as
+        // convergence after one iteration (k3 of the Freedom 6S from the fitted plant,
+        // I6_13 = −2.1999999999999996e-7 against a bound of −2.2e-7: no stage moved).
+        for x in u.iter_mut() {
+            if *x < BOUND_SNAP {
+                *x = 0.0;
+            } else if *x > 1.0 - BOUND_SNAP {
+                *x = 1.0;
+            }
         }
-        Err(e) => StageOutcome::stopped(format!("optimiser error {e:?}"), failures),
+        let mut fitter = Fitter {
+            evaluator: Evaluator::new(problem, context, stage, start_cost),
+            jacobian: None,
+            config,
+            pars: frozen
+                .iter()
+                .map(|&fixed| MPPar {
+                    fixed,
+                    limited_low: true,
+                    limited_up: true,
+                    limit_low: 0.0,
+                    limit_up: 1.0,
+                    side: MPSide::User,
+                    ..MPPar::new()
+                })
+                .collect(),
+        };
+        let mut result = fitter.mpfit(u);
+        let mut iterations = result.as_ref().map_or(0, |st| st.n_iter);
+        // A stage that stopped on a Broyden-updated Jacobian goes on from a
+        // finite-difference one (its stopping rules then hold for the true Jacobian).
+        let mut reruns = 0;
+        while result.is_ok()
+            && fitter.jacobian.as_ref().is_some_and(|j| j.updates > 0)
+            && reruns < BROYDEN_RERUNS
+        {
+            fitter.jacobian = None;
+            result = fitter.mpfit(u);
+            iterations += result.as_ref().map_or(0, |st| st.n_iter);
+            reruns += 1;
+        }
+        let failures = fitter.evaluator.failures();
+        match result {
+            Ok(st) => StageOutcome {
+                status: format!("{:?} after {iterations} iteration(s)", st.success),
+                iterations,
+                failures,
+                stop: false,
+            },
+            Err(MPError::Eval) => {
+                StageOutcome::stopped("stopped, a simulation failed".into(), failures)
+            }
+            Err(e) => StageOutcome::stopped(format!("optimiser error {e:?}"), failures),
+        }
     }
 }
 
@@ -455,206 +506,197 @@ impl MPFitter for Fitter<'_> {
     }
 }
 
-/// [`minimise`] by basin's trust-region-reflective method
-/// ([`StageOptimiser::TrustRegionReflective`]) instead of rmpfit's Levenberg–Marquardt:
-/// `problem` from scaled parameters `u` ∈ [0, 1]ⁿ, updated in place; parameters where
-/// `frozen` is true stay. A Jacobian at every accepted step: finite differences (columns in
-/// parallel, step [`OutputErrorOptions::fd_step`] of the bound width), or Broyden's update
-/// between them as [`OutputErrorOptions::jacobian_refresh`] allows (a run that stopped on an
-/// updated one goes on from finite differences, at most [`BROYDEN_RERUNS`] times, as
-/// [`minimise`]); it stops on `config`'s relative cost change (ftol), relative step (xtol)
-/// or iteration limit, as [`stage_rules`] set them for the stage; the prior's rows as in
-/// [`minimise`]. A trial point whose simulation fails returns residuals 1e3 × the start's
-/// root mean square, so the step is rejected and the trust region shrinks; `start_cost`
-/// (the cost at `u`) sets that level.
-pub(crate) fn minimise_trf(
-    problem: &dyn Residuals,
-    stage: Stage,
-    frozen: &[bool],
-    config: &MPConfig,
-    u: &mut [f64],
-    context: &StageContext,
-    start_cost: f64,
-) -> StageOutcome {
-    use basin::{
-        BoxBounds, ConstraintSet, CostFunction, DenseMatrix, Executor, Jacobian, Residual,
-        TrustRegionReflective,
-    };
-    use std::convert::Infallible;
-
-    /// The stage's free parameters as basin sees them: the scaled values of the free
-    /// ones, the frozen ones fixed at `base`.
-    struct Free<'a> {
-        evaluator: &'a Evaluator<'a>,
-        base: Vec<f64>,
-        free: Vec<usize>,
-        lower: Vec<f64>,
-        upper: Vec<f64>,
-        /// The last Jacobian (free columns only) for Broyden's updates
-        /// ([`OutputErrorOptions::jacobian_refresh`]).
-        jacobian: &'a Mutex<Option<LastJacobian>>,
-        /// Jacobians taken by finite differences.
-        differenced: &'a AtomicUsize,
-    }
-
-    impl Free<'_> {
-        /// All scaled parameters with the free ones at `x` (clamped into [0, 1]: the
-        /// method's iterates stay strictly inside, this guards rounding).
-        fn full(&self, x: &[f64]) -> Vec<f64> {
-            let mut u = self.base.clone();
-            for (&i, &v) in self.free.iter().zip(x) {
-                u[i] = v.clamp(0.0, 1.0);
-            }
-            u
-        }
-    }
-
-    impl basin::Constraints for Free<'_> {
-        type Set = ConstraintSet<BoxBounds<Vec<f64>>>;
-        fn constraints(&self) -> <Self::Set as basin::ConstraintDescription>::Borrowed<'_> {
-            ConstraintSet::new().with_bounds(BoxBounds::new(Some(&self.lower), Some(&self.upper)))
-        }
-    }
-
-    impl CostFunction for Free<'_> {
-        type Param = Vec<f64>;
-        type Output = f64;
-        type Error = Infallible;
-        fn cost(&self, x: &Vec<f64>) -> Result<f64, Infallible> {
-            Ok(0.5
-                * self
-                    .evaluator
-                    .residuals(&self.full(x))
-                    .iter()
-                    .map(|r| r * r)
-                    .sum::<f64>())
-        }
-    }
-
-    impl Residual for Free<'_> {
-        type Param = Vec<f64>;
-        type Output = Vec<f64>;
-        type Error = Infallible;
-        fn residual(&self, x: &Vec<f64>) -> Result<Vec<f64>, Infallible> {
-            Ok(self.evaluator.residuals(&self.full(x)))
-        }
-    }
-
-    impl Jacobian for Free<'_> {
-        type Jacobian = DenseMatrix;
-        fn jacobian(&self, x: &Vec<f64>) -> Result<DenseMatrix, Infallible> {
-            let p = self.evaluator.problem;
-            let u = self.full(x);
-            let r0 = self.evaluator.residuals(&u);
-            let m = p.residual_count();
-            // Columns only for the free parameters.
-            let free = &self.free;
-            let y: Vec<f64> = free.iter().map(|&i| u[i]).collect();
-            let mut slot = self.jacobian.lock().unwrap_or_else(|e| e.into_inner());
-            let last = LastJacobian::next(
-                slot.take(),
-                self.evaluator.context.jacobian.refresh,
-                &y,
-                &r0[..m],
-                || {
-                    self.differenced.fetch_add(1, Ordering::Relaxed);
-                    self.evaluator
-                        .difference_columns(&y, &r0, &|y: &[f64]| p.to_physical(&self.full(y)))
-                },
-            );
-            let columns = &slot.insert(last).columns;
-            self.evaluator
-                .context
-                .jacobians
-                .fetch_add(1, Ordering::Relaxed);
-            let n = free.len();
-            let rows = r0.len();
-            let mut j = vec![0.0; rows * n];
-            for (c, column) in columns.iter().enumerate() {
-                for (k, &d) in column.iter().enumerate() {
-                    j[k * n + c] = d;
-                }
-            }
-            // The prior's rows: its weight on the diagonal.
-            if let Some(weight) = p.prior_weight() {
-                for (c, &i) in free.iter().enumerate() {
-                    j[(m + i) * n + c] = weight[i];
-                }
-            }
-            Ok(DenseMatrix::from_row_slice(rows, n, &j))
-        }
-    }
-
-    let free: Vec<usize> = (0..u.len()).filter(|&i| !frozen[i]).collect();
-    let x0: Vec<f64> = free.iter().map(|&i| u[i].clamp(0.0, 1.0)).collect();
-    let evaluator = Evaluator::new(problem, context, stage, start_cost);
-    let (jacobian, differenced) = (Mutex::new(None), AtomicUsize::new(0));
-    let jacobians_before = context.jacobians.load(Ordering::Relaxed);
-    let run = |x0: Vec<f64>| {
-        let fitter = Free {
-            evaluator: &evaluator,
-            base: u.to_vec(),
-            lower: vec![0.0; free.len()],
-            upper: vec![1.0; free.len()],
-            free: free.clone(),
-            jacobian: &jacobian,
-            differenced: &differenced,
+impl Solver for TrustRegionReflective {
+    fn minimise(&self, run: &StageRun, u: &mut [f64]) -> StageOutcome {
+        let (problem, stage, frozen, context, start_cost) = (
+            run.problem,
+            run.stage,
+            run.frozen,
+            run.context,
+            run.start_cost,
+        );
+        let config = &run.rules;
+        use basin::{
+            BoxBounds, ConstraintSet, CostFunction, DenseMatrix, Executor, Jacobian, Residual,
+            TrustRegionReflective as BasinTrf,
         };
-        let solver = TrustRegionReflective::new()
-            .with_relative_cost_change_tolerance(config.ftol)
-            .with_relative_step_tolerance::<Vec<f64>, f64>(config.xtol);
-        Executor::from_start(fitter, solver, x0)
-            .max_iter(config.max_iter as u64)
-            .run()
-            .map(|result| {
-                // The best point basin saw (the method is monotone: its last accepted one).
-                let x = result.best_param().to_vec();
-                (x, result.iter() as usize, result.report.termination.code())
-            })
-    };
-    let mut outcome = run(x0);
-    // A stage that stopped on a Broyden-updated Jacobian goes on from a finite-difference
-    // one (its stopping rules then hold for the true Jacobian).
-    let mut iterations = 0;
-    for _ in 0..BROYDEN_RERUNS {
-        let updated = || {
-            jacobian
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .take()
-                .is_some_and(|j| j.updates > 0)
+        use std::convert::Infallible;
+
+        /// The stage's free parameters as basin sees them: the scaled values of the free
+        /// ones, the frozen ones fixed at `base`.
+        struct Free<'a> {
+            evaluator: &'a Evaluator<'a>,
+            base: Vec<f64>,
+            free: Vec<usize>,
+            lower: Vec<f64>,
+            upper: Vec<f64>,
+            /// The last Jacobian (free columns only) for Broyden's updates
+            /// ([`OutputErrorOptions::jacobian_refresh`]).
+            jacobian: &'a Mutex<Option<LastJacobian>>,
+            /// Jacobians taken by finite differences.
+            differenced: &'a AtomicUsize,
+        }
+
+        impl Free<'_> {
+            /// All scaled parameters with the free ones at `x` (clamped into [0, 1]: the
+            /// method's iterates stay strictly inside, this guards rounding).
+            fn full(&self, x: &[f64]) -> Vec<f64> {
+                let mut u = self.base.clone();
+                for (&i, &v) in self.free.iter().zip(x) {
+                    u[i] = v.clamp(0.0, 1.0);
+                }
+                u
+            }
+        }
+
+        impl basin::Constraints for Free<'_> {
+            type Set = ConstraintSet<BoxBounds<Vec<f64>>>;
+            fn constraints(&self) -> <Self::Set as basin::ConstraintDescription>::Borrowed<'_> {
+                ConstraintSet::new()
+                    .with_bounds(BoxBounds::new(Some(&self.lower), Some(&self.upper)))
+            }
+        }
+
+        impl CostFunction for Free<'_> {
+            type Param = Vec<f64>;
+            type Output = f64;
+            type Error = Infallible;
+            fn cost(&self, x: &Vec<f64>) -> Result<f64, Infallible> {
+                Ok(0.5
+                    * self
+                        .evaluator
+                        .residuals(&self.full(x))
+                        .iter()
+                        .map(|r| r * r)
+                        .sum::<f64>())
+            }
+        }
+
+        impl Residual for Free<'_> {
+            type Param = Vec<f64>;
+            type Output = Vec<f64>;
+            type Error = Infallible;
+            fn residual(&self, x: &Vec<f64>) -> Result<Vec<f64>, Infallible> {
+                Ok(self.evaluator.residuals(&self.full(x)))
+            }
+        }
+
+        impl Jacobian for Free<'_> {
+            type Jacobian = DenseMatrix;
+            fn jacobian(&self, x: &Vec<f64>) -> Result<DenseMatrix, Infallible> {
+                let p = self.evaluator.problem;
+                let u = self.full(x);
+                let r0 = self.evaluator.residuals(&u);
+                let m = p.residual_count();
+                // Columns only for the free parameters.
+                let free = &self.free;
+                let y: Vec<f64> = free.iter().map(|&i| u[i]).collect();
+                let mut slot = self.jacobian.lock().unwrap_or_else(|e| e.into_inner());
+                let last = LastJacobian::next(
+                    slot.take(),
+                    self.evaluator.context.jacobian.refresh,
+                    &y,
+                    &r0[..m],
+                    || {
+                        self.differenced.fetch_add(1, Ordering::Relaxed);
+                        self.evaluator
+                            .difference_columns(&y, &r0, &|y: &[f64]| p.to_physical(&self.full(y)))
+                    },
+                );
+                let columns = &slot.insert(last).columns;
+                self.evaluator
+                    .context
+                    .jacobians
+                    .fetch_add(1, Ordering::Relaxed);
+                let n = free.len();
+                let rows = r0.len();
+                let mut j = vec![0.0; rows * n];
+                for (c, column) in columns.iter().enumerate() {
+                    for (k, &d) in column.iter().enumerate() {
+                        j[k * n + c] = d;
+                    }
+                }
+                // The prior's rows: its weight on the diagonal.
+                if let Some(weight) = p.prior_weight() {
+                    for (c, &i) in free.iter().enumerate() {
+                        j[(m + i) * n + c] = weight[i];
+                    }
+                }
+                Ok(DenseMatrix::from_row_slice(rows, n, &j))
+            }
+        }
+
+        let free: Vec<usize> = (0..u.len()).filter(|&i| !frozen[i]).collect();
+        let x0: Vec<f64> = free.iter().map(|&i| u[i].clamp(0.0, 1.0)).collect();
+        let evaluator = Evaluator::new(problem, context, stage, start_cost);
+        let (jacobian, differenced) = (Mutex::new(None), AtomicUsize::new(0));
+        let jacobians_before = context.jacobians.load(Ordering::Relaxed);
+        let run = |x0: Vec<f64>| {
+            let fitter = Free {
+                evaluator: &evaluator,
+                base: u.to_vec(),
+                lower: vec![0.0; free.len()],
+                upper: vec![1.0; free.len()],
+                free: free.clone(),
+                jacobian: &jacobian,
+                differenced: &differenced,
+            };
+            let solver = BasinTrf::new()
+                .with_relative_cost_change_tolerance(config.ftol)
+                .with_relative_step_tolerance::<Vec<f64>, f64>(config.xtol);
+            Executor::from_start(fitter, solver, x0)
+                .max_iter(config.max_iter as u64)
+                .run()
+                .map(|result| {
+                    // The best point basin saw (the method is monotone: its last accepted one).
+                    let x = result.best_param().to_vec();
+                    (x, result.iter() as usize, result.report.termination.code())
+                })
         };
-        match &outcome {
-            Ok((x, done, _)) if updated() => {
+        let mut outcome = run(x0);
+        // A stage that stopped on a Broyden-updated Jacobian goes on from a finite-difference
+        // one (its stopping rules then hold for the true Jacobian).
+        let mut iterations = 0;
+        for _ in 0..BROYDEN_RERUNS {
+            let updated = || {
+                jacobian
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .take()
+                    .is_some_and(|j| j.updates > 0)
+            };
+            match &outcome {
+                Ok((x, done, _)) if updated() => {
+                    iterations += done;
+                    outcome = run(x.clone());
+                }
+                _ => break,
+            }
+        }
+        let failures = evaluator.failures();
+        match outcome {
+            Ok((x, done, code)) => {
                 iterations += done;
-                outcome = run(x.clone());
-            }
-            _ => break,
-        }
-    }
-    let failures = evaluator.failures();
-    match outcome {
-        Ok((x, done, code)) => {
-            iterations += done;
-            for (&i, &v) in free.iter().zip(&x) {
-                u[i] = v.clamp(0.0, 1.0);
-            }
-            StageOutcome {
-                status: format!(
-                    "trust-region-reflective: {code:?} after {iterations} iteration(s) \
+                for (&i, &v) in free.iter().zip(&x) {
+                    u[i] = v.clamp(0.0, 1.0);
+                }
+                StageOutcome {
+                    status: format!(
+                        "trust-region-reflective: {code:?} after {iterations} iteration(s) \
                      ({} Jacobians, {} by finite differences)",
-                    context.jacobians.load(Ordering::Relaxed) - jacobians_before,
-                    differenced.load(Ordering::Relaxed)
-                ),
-                iterations,
-                failures,
-                stop: false,
+                        context.jacobians.load(Ordering::Relaxed) - jacobians_before,
+                        differenced.load(Ordering::Relaxed)
+                    ),
+                    iterations,
+                    failures,
+                    stop: false,
+                }
             }
+            Err(e) => StageOutcome::stopped(
+                format!("trust-region-reflective: optimiser error {e:?}"),
+                failures,
+            ),
         }
-        Err(e) => StageOutcome::stopped(
-            format!("trust-region-reflective: optimiser error {e:?}"),
-            failures,
-        ),
     }
 }
 
@@ -729,15 +771,15 @@ mod tests {
         let start_cost = cost(u);
         // The last predictor stage's rules: the user's (default) tolerances.
         let config = stage_rules(&OutputErrorOptions::thesis(), Stage::Predictor(1.0));
-        let outcome = minimise_trf(
+        let run = StageRun {
             problem,
-            Stage::Predictor(1.0),
+            stage: Stage::Predictor(1.0),
             frozen,
-            &config,
-            u,
-            &context,
+            rules: config,
+            context: &context,
             start_cost,
-        );
+        };
+        let outcome = TrustRegionReflective.minimise(&run, u);
         assert!(jacobians.load(Ordering::Relaxed) >= 1);
         assert!(cost(u) < start_cost);
         outcome

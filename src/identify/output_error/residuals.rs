@@ -1,5 +1,5 @@
-//! The residuals of a fit: the one interface every solver ([`minimise`], [`minimise_trf`])
-//! and the statistics work on. A configuration's output error ([`Problem`]: whole files,
+//! The residuals of a fit: the one interface every solver ([`Solver`]:
+//! [`LevenbergMarquardt`], [`TrustRegionReflective`]) and the statistics work on. A configuration's output error ([`Problem`]: whole files,
 //! the predictor, the equation error, segments — the mode is the problem's) and the joint
 //! fit of several configurations ([`crate::identify::joint::JointProblem`]) implement it;
 //! the prior's rows are part of it, the solver's Jacobian policy is not
