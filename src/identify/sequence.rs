@@ -24,12 +24,18 @@ use generated::{Configuration, Model};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
+mod balance;
 mod data;
 mod refinements;
+mod release;
 mod steps;
+mod tie_reach;
+pub use balance::*;
 pub use data::*;
 pub use refinements::*;
+pub use release::*;
 use steps::*;
+pub use tie_reach::*;
 
 /// One step of a locking sequence.
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
