@@ -13,6 +13,8 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+pub mod sampling;
+
 /// A problem with a measurement file.
 #[derive(Debug, thiserror::Error)]
 pub enum DataError {
@@ -123,14 +125,20 @@ pub struct Table {
     columns: Vec<Result<Vec<f64>, (usize, String)>>,
     /// "column" (CSV) or "variable" (MAT), for messages.
     what: &'static str,
+    /// What reading did to the rows: repeats dropped, stale rows found, uneven times
+    /// resampled ([`sampling`]); for the commands to print.
+    pub notes: Vec<String>,
 }
 
 impl Table {
-    /// Read a `.mat` (MATLAB v5/v7) or any other extension as CSV with a header.
+    /// Read a `.mat` (MATLAB v5/v7) or any other extension as CSV with a header, its times
+    /// made even ([`sampling`]: exact repeats dropped, uneven times resampled onto the
+    /// median period; what was done in [`Table::notes`]).
     ///
     /// # Errors
     /// [`DataError`]: unreadable file, malformed side file, CSV syntax, unreadable MAT file
-    /// (v7.3/HDF5 is named as such), MAT variables of different lengths.
+    /// (v7.3/HDF5 is named as such), MAT variables of different lengths, a gap of missing
+    /// samples ([`sampling::LARGEST_GAP`]).
     pub fn read(path: &Path) -> Result<Table, DataError> {
         let side = read_side_file(path)?;
         let is_mat = path
@@ -147,6 +155,7 @@ impl Table {
             }
         }
         t.side = side;
+        t.regularise()?;
         Ok(t)
     }
 
@@ -266,6 +275,7 @@ fn read_csv_table(path: &Path) -> Result<Table, DataError> {
         names,
         columns,
         what: "column",
+        notes: Vec::new(),
     })
 }
 
@@ -405,6 +415,7 @@ fn read_mat(path: &Path) -> Result<Table, DataError> {
         names,
         columns,
         what: "variable",
+        notes: Vec::new(),
     })
 }
 
@@ -423,6 +434,8 @@ pub struct Measurement {
     pub qd: Vec<Option<Vec<f64>>>,
     /// Measured torque per joint when the file has it.
     pub tau_m: Vec<Option<Vec<f64>>>,
+    /// What reading did to the rows ([`Table::notes`]).
+    pub notes: Vec<String>,
 }
 
 /// The minimum number of samples a record must have.
@@ -480,6 +493,7 @@ impl Measurement {
             q,
             qd,
             tau_m,
+            notes: table.notes.clone(),
         };
         check_sampling(&m.file, &m.t)?;
         Ok(m)

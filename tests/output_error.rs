@@ -2365,6 +2365,18 @@ fn check_joint_fit(out: &Path, truth: &Plant) -> serde_json::Value {
     }
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("## Joint fit of every step's files: free q3, q4, q5"));
+    // Each round of the joint fit is a record; the last kept one's cost is the fit's.
+    let stages = fit["starts"][0]["stages"].as_array().unwrap();
+    assert!(!stages.is_empty());
+    assert_eq!(stages[0]["stage"], "joint fit 1");
+    assert_eq!(stages[0]["optimiser"], "LevenbergMarquardt");
+    let after = fit["cost_after"].as_f64().unwrap();
+    assert!(
+        stages
+            .iter()
+            .any(|s| s["whole_files_cost"].as_f64() == Some(after)),
+        "no round ends at the fit's cost {after}: {stages:?}"
+    );
     fit
 }
 
@@ -2412,8 +2424,8 @@ fn the_joint_fit_alone_refines_the_steps_up_to_config_on_their_files() {
 /// 30 s files from the warm-ups): `--joint-fit only` on 4 s of k1 and k2 from the truth,
 /// the whole files at once. No step runs alone; every parameter k1 and k2 fit is fitted or
 /// held as a tie; every joint ends at the noise floor; the plant written holds the fitted
-/// values; report.md has the joint fit's section. Without k1's file the run is refused
-/// before any fit, naming the step.
+/// values; report.md has the joint fit's section; each round is a stage record. Without
+/// k1's file the run is refused before any fit, naming the step.
 #[test]
 fn the_joint_fit_fits_every_steps_parameters_on_every_steps_files() {
     let d = tempfile::tempdir().unwrap();

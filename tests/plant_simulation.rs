@@ -553,6 +553,7 @@ fn measurement_files_round_trip_in_csv_and_mat() {
         q: vec![t.iter().map(|x| x.cos() * 1e-3).collect(), vec![0.25; n]],
         qd: vec![Some(t.iter().map(|x| -x.sin()).collect()), None],
         tau_m: vec![None, Some(vec![1.0 / 3.0; n])],
+        notes: Vec::new(),
     };
     for ext in ["csv", "mat"] {
         let path = d.path().join(format!("x.{ext}"));

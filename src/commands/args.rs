@@ -252,10 +252,10 @@ impl Common {
     pub fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
         let (plant, opts) = self.load_plant()?;
         let nj = plant.model.joints.len();
-        let records = lockstep::measurement::expand_data_paths(&self.files.data)?
-            .iter()
-            .map(|d| Measurement::read(d, nj))
-            .collect::<Result<Vec<_>, _>>()?;
+        let records = lockstep::report::diagnosis::read_noted(
+            &lockstep::measurement::expand_data_paths(&self.files.data)?,
+            nj,
+        )?;
         Ok((plant, records, opts))
     }
 }

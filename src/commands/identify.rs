@@ -613,6 +613,9 @@ pub fn identify_sequence(args: &SequenceArgs) -> Result<()> {
     for i in &report.ignored {
         lockstep::errln!("note: not used: {i}");
     }
+    for n in &report.data_notes {
+        lockstep::errln!("note: {n}");
+    }
     lockstep::outln!(
         "{:<6} {:>6} {:>12} {:>12} {:>9} {:>8} {:>6}  fit % per joint",
         "step",
@@ -903,6 +906,7 @@ mod method_tests {
         let mut recorded = OutputErrorOptions::isolated();
         recorded.seed = 42;
         recorded.prior = Some(0.2);
+        recorded.hold = Some(lockstep::simulation::Hold::Linear);
         std::fs::write(
             &report,
             serde_json::json!({ "sequence": "isolated", "options": recorded }).to_string(),

@@ -10,6 +10,7 @@ pub(super) const FIELD_FLAGS: &[(&str, &[&str])] = &[
     ("interest_weight", &["weight"]),
     ("h", &["step"]),
     ("integrator", &["integrator"]),
+    ("hold", &["hold"]),
     ("xtol", &["xtol"]),
     ("ftol", &["ftol"]),
     ("max_iter", &["max_iter"]),
@@ -101,8 +102,5 @@ pub(super) fn with_fields(
             merged[k] = v.clone();
         }
     }
-    let mut o: OutputErrorOptions =
-        serde_json::from_value(merged).map_err(|e| anyhow::anyhow!("{origin}: {e}"))?;
-    o.hold = base.hold;
-    Ok(o)
+    serde_json::from_value(merged).map_err(|e| anyhow::anyhow!("{origin}: {e}"))
 }

@@ -22,8 +22,8 @@ use super::output_error::{
     difference_column, enters, feasible_bounds, fitted_companions, held_in, parameter_space_of,
     statistics_at, AtTheFit, FitResult, HeldColumns, JacobianPolicy, LevenbergMarquardt,
     OutputErrorOptions, ParameterSpace, Problem, Progress, Record, Residuals, Solver, Stage,
-    StageContext, StageRun, StartSummary, Statistics, Stencil, TrialFailure, WarmUp,
-    INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
+    StageContext, StageOptimiser, StageRecord, StageRun, StartSummary, Statistics, Stencil,
+    TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
 use crate::simulation::Trajectory;
@@ -283,12 +283,26 @@ impl JointProblem {
             let outcome = LevenbergMarquardt.minimise(&run, u);
             iterations += outcome.iterations;
             diverged += outcome.failures;
-            (format!("fit {round}: {}", outcome.status), outcome.stop)
+            let record = StageRecord::ran(
+                format!("joint fit {round}"),
+                StageOptimiser::LevenbergMarquardt,
+                &outcome,
+                None,
+            );
+            (
+                format!("fit {round}: {}", outcome.status),
+                outcome.stop,
+                record,
+            )
         };
-        let (note, stop) = run(&current, &mut u, 1);
+        // Each round's record, with the whole files' cost at its result.
+        let mut stages = Vec::new();
+        let (note, stop, mut record) = run(&current, &mut u, 1);
         notes.push(note);
         // The whole files' cost of `current` at `u`, kept with them.
         let mut cost = current.cost(&self.to_physical(&u));
+        record.whole_files_cost = Some(cost).filter(|c| c.is_finite());
+        stages.push(record);
         if self.options.estimate_initial_positions && !stop {
             for round in 2..=INITIAL_POSITION_ROUNDS {
                 let (next, moved) = match current.with_initial_positions_at(&self.to_physical(&u)) {
@@ -305,8 +319,10 @@ impl JointProblem {
                     break;
                 }
                 let mut tried = u.clone();
-                let (note, stop) = run(&next, &mut tried, round);
+                let (note, stop, mut record) = run(&next, &mut tried, round);
                 let tried_cost = next.cost(&self.to_physical(&tried));
+                record.whole_files_cost = Some(tried_cost).filter(|c| c.is_finite());
+                stages.push(record);
                 if tried_cost.is_nan() || tried_cost >= cost {
                     notes.push(format!(
                         "initial positions moved up to {moved:.2} σ̂ and refitted: cost \
@@ -344,7 +360,7 @@ impl JointProblem {
                 status,
                 diverged,
                 warm_up: WarmUp::Sequence,
-                stages: Vec::new(),
+                stages,
             }],
             residuals: self.m,
             files: current

@@ -213,6 +213,10 @@ pub struct SequenceReport {
     pub joint: Option<StepReport>,
     /// Files not used, with the reason.
     pub ignored: Vec<String>,
+    /// What reading did to the files' rows: repeats dropped, stale rows, uneven times
+    /// resampled ([`crate::measurement::sampling`]).
+    #[serde(default)]
+    pub data_notes: Vec<String>,
 }
 
 impl SequenceReport {
@@ -409,6 +413,8 @@ struct CheckedInputs {
     joint: Vec<(&'static Configuration, Vec<Record>)>,
     /// Files not used, with the reason.
     ignored: Vec<String>,
+    /// What reading did to the files' rows ([`read_record_with_notes`]).
+    notes: Vec<String>,
 }
 
 /// Everything a run needs, checked before its first fit: every step (and every step of the
@@ -435,8 +441,10 @@ fn check_inputs(
         .collect::<Vec<_>>()
         .join(", ");
     let mut checked: Vec<Problem> = Vec::new();
+    let mut notes = Vec::new();
     for s in steps {
-        let (conf, recs) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
+        let (conf, recs, read) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
+        notes.extend(read);
         if recs.is_empty() {
             let found = if files.is_empty() {
                 "none".to_string()
@@ -464,7 +472,12 @@ fn check_inputs(
     }
     let mut joint = Vec::new();
     for s in joint_steps {
-        let (conf, recs) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
+        let (conf, recs, read) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
+        for n in read {
+            if !notes.contains(&n) {
+                notes.push(n);
+            }
+        }
         if recs.is_empty() {
             bail!(
                 "joint fit: step '{}' has no measurement file of its configuration in {searched} (the joint fit covers the steps up to {})",
@@ -491,6 +504,7 @@ fn check_inputs(
         steps: checked,
         joint,
         ignored,
+        notes,
     })
 }
 
@@ -532,8 +546,10 @@ pub fn run(
         steps: checked,
         joint: joint_files,
         ignored,
+        notes,
     } = check_inputs(plant, data, opts, &occ, &steps, &joint_steps)?;
     let mut report = starting_report(plant, opts, previous, &steps, &joint_steps, ignored);
+    report.data_notes = notes;
     let mut current = plant.clone();
     // Rigid-body symbols a completed step fitted but did not determine, starting with those
     // the plant file records (a step run alone with `--config` after an earlier run).

@@ -471,6 +471,9 @@ pub fn closedloop_command(
         let meas = match measured.get(k) {
             Some(p) => {
                 let m = Measurement::read(p, nj)?;
+                for n in &m.notes {
+                    crate::errln!("note: {}: {n}", p.display());
+                }
                 if m.len() < run.t.len() || (m.dt() - 1.0 / cl.spec.rate).abs() > 1e-6 {
                     bail!(
                         "{}: expected at least {} samples at {} Hz (the closed-loop rate)",

@@ -9,7 +9,7 @@ use crate::files::write_atomic;
 use crate::identify::idim::{observation, IdimOptions};
 use crate::identify::output_error::Record;
 use crate::identify::refit::{refit, Refit, RefitOptions};
-use crate::identify::sequence::{discover, read_record};
+use crate::identify::sequence::{discover, read_record_with_notes};
 use crate::measurement::Measurement;
 use crate::plant::{HistoryEntry, Plant};
 use crate::report::plot::{figure, Panel, Series, Style};
@@ -117,10 +117,14 @@ pub fn output_records(plant: &Plant, inputs: &Inputs) -> Result<(String, Vec<Rec
             }
         })
         .collect();
-    let records = paths
-        .iter()
-        .map(|p| read_record(p, m, conf, inputs.locked_tolerance))
-        .collect::<Result<Vec<_>>>()?;
+    let mut records = Vec::new();
+    for p in &paths {
+        let (record, notes) = read_record_with_notes(p, m, conf, inputs.locked_tolerance)?;
+        for n in notes {
+            crate::errln!("note: {n}");
+        }
+        records.push(record);
+    }
     if records.is_empty() {
         bail!("no measurement files for configuration '{config}'");
     }
@@ -161,14 +165,28 @@ impl Inputs {
                 let nj = plant.model.joints.len();
                 Data::Torque {
                     config: self.config.clone().unwrap_or_else(|| "full".into()),
-                    records: crate::measurement::expand_data_paths(&self.data)?
-                        .iter()
-                        .map(|d| Measurement::read(d, nj))
-                        .collect::<Result<Vec<_>, _>>()?,
+                    records: read_noted(&crate::measurement::expand_data_paths(&self.data)?, nj)?,
                 }
             }
         })
     }
+}
+
+/// The torque-measured records in `paths` ([`Measurement::read`], `nj` joints), what
+/// reading did to each printed as a note.
+///
+/// # Errors
+/// As [`Measurement::read`].
+pub fn read_noted(paths: &[PathBuf], nj: usize) -> Result<Vec<Measurement>> {
+    let mut records = Vec::new();
+    for p in paths {
+        let m = Measurement::read(p, nj)?;
+        for n in &m.notes {
+            crate::errln!("note: {}: {n}", p.display());
+        }
+        records.push(m);
+    }
+    Ok(records)
 }
 
 fn stem(p: &Path) -> String {

@@ -100,6 +100,12 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
             let _ = writeln!(s, "- {i}");
         }
     }
+    if !report.data_notes.is_empty() {
+        let _ = writeln!(s, "\n## How the files were read\n");
+        for n in &report.data_notes {
+            let _ = writeln!(s, "- {n}");
+        }
+    }
     s
 }
 

@@ -49,8 +49,9 @@ pub struct OutputErrorOptions {
     /// Integration scheme ([`crate::simulation::Integrator`]).
     pub integrator: Integrator,
     /// Hold of the measured torques between samples for every record; `None`: each
-    /// record's own ([`Record::hold`], from its side file).
-    #[serde(skip)]
+    /// record's own ([`Record::hold`], from its side file). Recorded in a report's
+    /// options, so a replay holds the torques as the run did.
+    #[serde(default)]
     pub hold: Option<Hold>,
     /// Delay (s) between a torque's time stamp and its application to the joints (a
     /// transport delay; 0 for none).

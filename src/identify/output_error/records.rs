@@ -130,7 +130,7 @@ pub struct StageRecord {
 impl StageRecord {
     /// A stage `stage` (its report name) that `optimiser` ran, ending as `outcome`, the
     /// whole files' cost at its result where known.
-    pub(super) fn ran(
+    pub(crate) fn ran(
         stage: String,
         optimiser: StageOptimiser,
         outcome: &StageOutcome,

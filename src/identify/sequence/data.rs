@@ -14,7 +14,8 @@ pub struct DataFile {
 }
 
 /// Configuration `config` of `model` and the records of those `files` measured in it
-/// ([`read_record`], locked joints within `locked_tolerance`); empty when none is.
+/// ([`read_record`], locked joints within `locked_tolerance`); empty when none is; and what
+/// reading did to their rows ([`read_record_with_notes`]).
 ///
 /// # Errors
 /// An unknown configuration; a file that cannot be read or does not match it.
@@ -23,14 +24,15 @@ pub(super) fn records_of(
     model: &'static Model,
     config: &str,
     locked_tolerance: f64,
-) -> Result<(&'static Configuration, Vec<Record>)> {
+) -> Result<(&'static Configuration, Vec<Record>, Vec<String>)> {
     let conf = crate::util::configuration(model, config)?;
-    let recs = files
+    let read = files
         .iter()
         .filter(|f| f.config == config)
-        .map(|f| read_record(&f.path, model, conf, locked_tolerance))
+        .map(|f| read_record_with_notes(&f.path, model, conf, locked_tolerance))
         .collect::<Result<Vec<_>>>()?;
-    Ok((conf, recs))
+    let (recs, notes): (Vec<Record>, Vec<Vec<String>>) = read.into_iter().unzip();
+    Ok((conf, recs, notes.concat()))
 }
 
 /// Measurement files (`*.csv`, `*.mat`) given directly or found in directories, with
@@ -81,7 +83,26 @@ pub fn read_record(
     conf: &Configuration,
     tolerance: f64,
 ) -> Result<Record> {
+    Ok(read_record_with_notes(path, model, conf, tolerance)?.0)
+}
+
+/// [`read_record`], with what reading did to the file's rows (repeats dropped, stale rows,
+/// uneven times resampled: [`crate::measurement::sampling`]), each note naming the file.
+///
+/// # Errors
+/// As [`read_record`].
+pub fn read_record_with_notes(
+    path: &Path,
+    model: &Model,
+    conf: &Configuration,
+    tolerance: f64,
+) -> Result<(Record, Vec<String>)> {
     let table = Table::read(path)?;
+    let notes: Vec<String> = table
+        .notes
+        .iter()
+        .map(|n| format!("{}: {n}", path.display()))
+        .collect();
     let t = table.need("t")?;
     let dt = check_sampling(path, &t)?;
     let nj = model.joints.len();
@@ -134,7 +155,7 @@ pub fn read_record(
             };
         }
     }
-    Ok(Record {
+    let record = Record {
         file: path.to_path_buf(),
         t,
         dt,
@@ -143,5 +164,6 @@ pub fn read_record(
         q_all,
         qd0: None,
         hold: table.side.hold.unwrap_or_default(),
-    })
+    };
+    Ok((record, notes))
 }

@@ -112,6 +112,7 @@ pub(super) fn starting_report(
         steps: kept,
         joint: if joint_steps.is_empty() { joint } else { None },
         ignored,
+        data_notes: Vec::new(),
     }
 }
 
