@@ -93,8 +93,10 @@ fn non_numeric_and_nan_cells_name_row_and_column() {
     );
 }
 
+/// Time must increase; uneven steps (a real logger's jitter) are resampled onto the median
+/// period and said, a gap of missing samples refused (`measurement::sampling`).
 #[test]
-fn time_must_increase_evenly() {
+fn time_must_increase_and_uneven_steps_are_resampled() {
     let d = tempfile::tempdir().unwrap();
     let p = write(d.path(), "d.csv", &csv_with_bad_row(20, 8, "0.001,0,0"));
     let e = read_err(&p);
@@ -116,8 +118,27 @@ fn time_must_increase_evenly() {
             )
         }),
     );
+    let m = Measurement::read(&p, 1).unwrap();
+    assert!((m.dt() - 0.0011).abs() < 1e-12, "{}", m.dt());
+    assert!(
+        m.notes
+            .iter()
+            .any(|n| n.contains("uneven sampling") && n.contains("resampled")),
+        "{:?}",
+        m.notes
+    );
+    let p = write(
+        d.path(),
+        "g.csv",
+        &csv_rows(20, |k| {
+            format!("{},0,0", if k < 10 { k } else { k + 5 } as f64 * 0.001)
+        }),
+    );
     let e = read_err(&p);
-    assert!(e.contains("uneven sampling"), "{e}");
+    assert!(
+        e.contains("g.csv") && e.contains("samples are missing"),
+        "{e}"
+    );
 }
 
 #[test]
