@@ -295,6 +295,18 @@ pub fn check_step(problem: &Problem, plant: &Plant, skip: usize) -> Result<StepC
         coarse = fine;
     }
     let last = tried.last().expect("at least one step tried");
+    // Diverging at every step tried is not a step problem: a smaller one will not help.
+    if let (Some(first), true) = (
+        tried[0].diverged.as_ref(),
+        tried.iter().all(|t| t.diverged.is_some()),
+    ) {
+        bail!(
+            "the simulation diverges at every step tried ({} s down to {} s), so the step is not the cause: the plant runs away on these inputs (a device measured under its controller cannot be simulated open loop: compare it in torque space, --space torque, where its torques are measured); at {} s: {first}",
+            step_text(requested),
+            step_text(last.h / 2.0),
+            step_text(requested)
+        );
+    }
     bail!(
         "the simulation is not accurate enough for the data: at step {} s (the requested {} s halved {MAX_HALVINGS} times) the simulations at h and h/2 differ by {} (tolerance {STEP_TOLERANCE} σ̂ of each joint's noise): give a smaller --step, or --integrator etdrk4 for stiff friction",
         step_text(last.h),

@@ -317,7 +317,7 @@ impl Divergence {
                 self.t, self.what
             ),
             None => format!(
-                "simulation diverged at t = {:.6} s: joint {joint} has {} (step {} s; try a smaller step)",
+                "simulation diverged at t = {:.6} s: joint {joint} has {} (step {} s)",
                 self.t, self.what, self.h
             ),
         }

@@ -334,10 +334,22 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
     let mut sim = configured.model;
     sim.integrator = opts.integrator;
     let traj = sim
-        .simulate_at(x0, opts.h, &signal, &t, opts.max_speed)
+        .simulate_at(x0.clone(), opts.h, &signal, &t, opts.max_speed)
         .map_err(|d| {
             let joint = format!("'{}'", model.joints[conf.free[d.joint]]);
-            anyhow::anyhow!("{}: {}", input.display(), d.message(&joint))
+            // Advice on the step only where a smaller one was tried: a quarter of it.
+            let quarter = opts.h / 4.0;
+            let advice = if d.inertia_min_eigenvalue.is_some() {
+                String::new()
+            } else if sim
+                .simulate_at(x0.clone(), quarter, &signal, &t, opts.max_speed)
+                .is_ok()
+            {
+                format!("; it runs at a quarter of the step: give --step {quarter:e} or smaller")
+            } else {
+                format!("; it diverges at a quarter of the step ({quarter:e} s) too, so the step is not the cause: the plant runs away on these inputs, or such speeds are real and --max-speed is too low")
+            };
+            anyhow::anyhow!("{}: {}{advice}", input.display(), d.message(&joint))
         })?;
     let mut rng = Xorshift(opts.seed.max(1));
     let mut measure = |x: f64| {

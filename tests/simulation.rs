@@ -342,5 +342,5 @@ fn divergence_is_reported_with_time_and_joint() {
         .unwrap_err();
     assert_eq!(e.joint, 0);
     assert!(e.t > 0.0 && e.t < 1.0, "{e}");
-    assert!(e.to_string().contains("try a smaller step"), "{e}");
+    assert!(e.to_string().contains("(step 0.01 s)"), "{e}");
 }

@@ -196,3 +196,61 @@ fn check_against_lists_the_reference_values_outside_the_bounds() {
     fails(&o, &["emps_viscous.toml", "model 'emps'", "'freedom6s'"]);
     assert!(o.stdout.is_empty());
 }
+
+/// A diverging simulation advises a smaller step only where a quarter of it was tried and
+/// ran: an EMPS cart on a stiff spring (ω = 1000 rad/s) at a step RK4 cannot hold
+/// (h ω = 10 > 2.8) runs at a quarter of it (2.5); the same cart pushed by a constant
+/// 50 kN (terminal speed 245 m/s) runs past the speed bound whatever the step, and the
+/// message says the step is not the cause.
+#[test]
+fn a_smaller_step_is_advised_only_where_it_was_tried_and_helped() {
+    let d = tempfile::tempdir().unwrap();
+    // The cart with the benchmark's mass and viscous friction (IDIM's values, rounded).
+    let cart = "model = \"emps\"\ndescription = \"cart\"\n\n[[effect]]\nkind = \"viscous\"\njoints = [\"q0\"]\n";
+    let emps = d.path().join("cart.toml");
+    std::fs::write(
+        &emps,
+        format!("{cart}\n[parameters]\nM = 95.1\nFv_0 = 203.5\n"),
+    )
+    .unwrap();
+    let stiff = d.path().join("stiff.toml");
+    std::fs::write(
+        &stiff,
+        format!("{cart}\n[[effect]]\nkind = \"spring\"\njoints = [\"q0\"]\n\n[parameters]\nM = 95.1\nFv_0 = 203.5\nKs_0 = 9.5e7\nqeq_0 = 0.0\n"),
+    )
+    .unwrap();
+    let input = |name: &str, force: f64| {
+        let p = d.path().join(name);
+        let mut s = String::from("t,tau0\n");
+        for k in 0..=2000 {
+            s += &format!("{},{force}\n", k as f64 * 1e-2);
+        }
+        std::fs::write(&p, s).unwrap();
+        std::fs::write(p.with_extension("toml"), "configuration = \"full\"\n").unwrap();
+        p
+    };
+    let simulate = |plant: &Path, input: &Path, step: &str| {
+        lockstep(&[
+            "simulate",
+            "--plant",
+            plant.to_str().unwrap(),
+            "--input",
+            input.to_str().unwrap(),
+            "--step",
+            step,
+            "--initial",
+            "q0=0.01",
+            "-o",
+            d.path().join("out.csv").to_str().unwrap(),
+        ])
+    };
+    fails(
+        &simulate(&stiff, &input("still.csv", 0.0), "1e-2"),
+        &["diverged", "runs at a quarter of the step", "--step 2.5e-3"],
+    );
+    fails(
+        &simulate(&emps, &input("pushed.csv", 5e4), "1e-3"),
+        &["diverged", "the step is not the cause"],
+    );
+    assert!(!d.path().join("out.csv").exists());
+}

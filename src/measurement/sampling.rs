@@ -122,6 +122,9 @@ impl Table {
         let Ok(t) = self.columns[ti].clone() else {
             return Ok(());
         };
+        if t.len() < 2 {
+            return Ok(());
+        }
         let steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
         let h = median(&steps);
         if steps.iter().all(|s| (s - h).abs() <= EVEN_TOLERANCE * h) {
