@@ -116,13 +116,6 @@ impl StageOptimiser {
 
 impl Solver for LevenbergMarquardt {
     fn minimise(&self, run: &StageRun, u: &mut [f64]) -> StageOutcome {
-        let (problem, stage, frozen, context, start_cost) = (
-            run.problem,
-            run.stage,
-            run.frozen,
-            run.context,
-            run.start_cost,
-        );
         let config = run.rules.clone();
         // A parameter within rounding of a bound (a value read back from a plant file, or
         // the Fs of a collapsed Stribeck pair, u ≈ 1e-16) must sit exactly on it: rmpfit
@@ -138,10 +131,11 @@ impl Solver for LevenbergMarquardt {
             }
         }
         let mut fitter = Fitter {
-            evaluator: Evaluator::new(problem, context, stage, start_cost),
+            evaluator: Evaluator::new(run.problem, run.context, run.stage, run.start_cost),
             jacobian: None,
             config,
-            pars: frozen
+            pars: run
+                .frozen
                 .iter()
                 .map(|&fixed| MPPar {
                     fixed,
@@ -508,13 +502,14 @@ impl MPFitter for Fitter<'_> {
 
 impl Solver for TrustRegionReflective {
     fn minimise(&self, run: &StageRun, u: &mut [f64]) -> StageOutcome {
-        let (problem, stage, frozen, context, start_cost) = (
-            run.problem,
-            run.stage,
-            run.frozen,
-            run.context,
-            run.start_cost,
-        );
+        let StageRun {
+            problem,
+            stage,
+            frozen,
+            context,
+            start_cost,
+            ..
+        } = *run;
         let config = &run.rules;
         use basin::{
             BoxBounds, ConstraintSet, CostFunction, DenseMatrix, Executor, Jacobian, Residual,
