@@ -17,6 +17,7 @@
 //!   the jitter is reported;
 //! - a gap of more than [`LARGEST_GAP`] median periods is missing data, not jitter: refused,
 //!   naming the rows.
+//!
 //! Time that goes backwards, or a repeated time with other values, is left for
 //! [`check_sampling`] to refuse with its row.
 
