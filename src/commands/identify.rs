@@ -704,6 +704,8 @@ pub fn misplaced_option(error: &clap::Error, args: &[String]) -> Option<String> 
     let used = args.get(at + 1)?;
     let cli = <Cli as clap::CommandFactory>::command();
     let identify = cli.find_subcommand("identify")?;
+    // Only after a method's subcommand; without one clap's message lists them.
+    identify.find_subcommand(used)?;
     let owner = identify.get_subcommands().find(|sub| {
         sub.get_name() != used && sub.get_arguments().any(|a| a.get_long() == Some(flag))
     })?;
@@ -986,5 +988,9 @@ mod method_tests {
         // An option no method takes: clap's own message.
         let e = refused(&[&idim[..], &["--speed", "1"]].concat()).unwrap();
         assert!(e.contains("unexpected argument '--speed'"), "{e}");
+        // No method given (the old `identify --plant …`): clap's own message, which lists
+        // the subcommands, not one naming `--plant` as a method.
+        let e = refused(&["lockstep", "identify", "--plant", "p", "--data", "d"]).unwrap();
+        assert!(!e.contains("lockstep identify --plant"), "{e}");
     }
 }
