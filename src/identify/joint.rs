@@ -404,7 +404,6 @@ impl JointProblem {
                 j
             }));
         }
-        let dof = self.m as f64 / (self.m - self.names.len()) as f64;
         // The plant-gain scale across every configuration's free joints (an exact symmetry
         // of all the files where every gain is fitted and nothing else of the family held).
         let mut free: Vec<usize> = self
@@ -415,7 +414,7 @@ impl JointProblem {
         free.sort_unstable();
         free.dedup();
         let at = AtTheFit {
-            sigma: variances.iter().map(|v| v * dof).collect(),
+            variances,
             r: &r,
             held: self.held_columns(p, &r),
             free: &free,

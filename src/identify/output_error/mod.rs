@@ -550,25 +550,6 @@ impl Problem {
             .collect()
     }
 
-    /// The prior's residuals w_i (u_i − u₀_i) at scaled parameters `u`, w_i = s̄ / the
-    /// spread of parameter i in scaled units (empty without a prior).
-    fn prior_residuals(&self, u: &[f64]) -> Vec<f64> {
-        match &self.prior {
-            Some((u0, weight)) => u
-                .iter()
-                .zip(u0)
-                .zip(weight)
-                .map(|((x, c), w)| w * (x - c))
-                .collect(),
-            None => Vec::new(),
-        }
-    }
-
-    /// The prior's term of the objective at scaled parameters `u` (0 without a prior).
-    pub fn prior_penalty(&self, u: &[f64]) -> f64 {
-        self.prior_residuals(u).iter().map(|x| x * x).sum()
-    }
-
     /// The options.
     pub fn options(&self) -> &OutputErrorOptions {
         &self.options
@@ -823,8 +804,18 @@ impl Residuals for Problem {
         self.prior.as_ref().map(|(_, w)| w.as_slice())
     }
 
+    /// The prior's residuals w_i (u_i − u₀_i) at scaled parameters `u`, w_i = s̄ / the
+    /// spread of parameter i in scaled units (empty without a prior).
     fn prior_residuals(&self, u: &[f64]) -> Vec<f64> {
-        Problem::prior_residuals(self, u)
+        match &self.prior {
+            Some((u0, weight)) => u
+                .iter()
+                .zip(u0)
+                .zip(weight)
+                .map(|((x, c), w)| w * (x - c))
+                .collect(),
+            None => Vec::new(),
+        }
     }
 }
 

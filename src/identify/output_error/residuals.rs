@@ -143,4 +143,8 @@ pub trait Residuals: Sync {
     fn prior_residuals(&self, _u: &[f64]) -> Vec<f64> {
         Vec::new()
     }
+    /// The prior's term of the objective at scaled parameters `u` (0 without a prior).
+    fn prior_penalty(&self, u: &[f64]) -> f64 {
+        self.prior_residuals(u).iter().map(|x| x * x).sum()
+    }
 }

@@ -163,13 +163,8 @@ impl Problem {
             &[self.conf],
         );
         held.cols = self.held_columns(p, &held.names, &r);
-        let dof = r.len() as f64 / (r.len() - p.len()) as f64;
         let at = AtTheFit {
-            sigma: self
-                .residual_variances(&r)
-                .iter()
-                .map(|v| v * dof)
-                .collect(),
+            variances: self.residual_variances(&r),
             r: &r,
             held,
             free: self.conf.free,
@@ -378,8 +373,9 @@ fn moved_by_null_directions(
 pub(crate) struct AtTheFit<'a> {
     /// Residuals (m) at the solution.
     pub(crate) r: &'a [f64],
-    /// Per-residual noise variance (m), scaled by m / (m − n) for the fitted parameters.
-    pub(crate) sigma: Vec<f64>,
+    /// Per-residual noise variance (m), as estimated from the residuals (scaled here by
+    /// m / (m − n) for the n fitted parameters).
+    pub(crate) variances: Vec<f64>,
     /// The held values' columns ∂r/∂h ([`held_in`]).
     pub(crate) held: HeldColumns,
     /// Every free joint of the fit's configurations.
@@ -404,6 +400,8 @@ pub(crate) fn statistics_at(
     tie_columns: impl FnOnce(&[String]) -> Vec<Vec<f64>>,
 ) -> Result<Statistics> {
     let space = problem.space();
+    let dof = at.r.len() as f64 / (at.r.len() - p.len()) as f64;
+    let sigma: Vec<f64> = at.variances.iter().map(|v| v * dof).collect();
     // Central differences here (O(h²)): in a sensitive trajectory a one-sided difference
     // blurs exact symmetries of the model into seemingly determined directions.
     let steps = space.difference_steps(p);
@@ -429,7 +427,7 @@ pub(crate) fn statistics_at(
         p,
         (space.lower, space.upper),
         (cols, held),
-        &at.sigma,
+        &sigma,
         at.only_with,
         at.joints,
     )
