@@ -20,7 +20,7 @@
 use crate::identify::output_error::Problem;
 use crate::plant::Plant;
 use crate::simulation::{Hold, Trajectory};
-use anyhow::{anyhow, bail, Result};
+use anyhow::{bail, Result};
 
 /// A step is accurate when the simulations at h and h/2 differ by at most this fraction
 /// of the noise σ̂ (RMS over the samples) on every free joint.
@@ -142,11 +142,7 @@ fn trajectories(problem: &Problem, plant: &Plant) -> Result<Vec<Trajectory>> {
     problem
         .records
         .iter()
-        .map(|r| {
-            problem
-                .simulate(plant, r)
-                .map_err(|e| anyhow!(e.to_string()))
-        })
+        .map(|r| problem.simulate(plant, r).map_err(anyhow::Error::from))
         .collect()
 }
 

@@ -426,9 +426,7 @@ pub fn compare_output(
     }
     let (problem, step) = crate::accuracy::checked_simulation(plant, conf, records, options)?;
     let problem = if options.estimate_initial {
-        problem
-            .with_initial_positions_of(plant)
-            .map_err(|e| anyhow!(e.to_string()))?
+        problem.with_initial_positions_of(plant)?
     } else {
         problem
     };
@@ -441,7 +439,7 @@ pub fn compare_output(
         let mut sum = 0.0;
         let mut n = 0usize;
         for r in &p.records {
-            let traj = p.simulate(plant, r).map_err(|e| anyhow!(e.to_string()))?;
+            let traj = p.simulate(plant, r)?;
             for (y, yhat) in r.q.iter().zip(&traj.q) {
                 for (a, b) in y[skip..].iter().zip(&yhat[skip..]) {
                     sum += (a - b).powi(2);
@@ -454,9 +452,7 @@ pub fn compare_output(
     let mut out = Vec::new();
     let mut used = (0.0, 0usize);
     for r in &problem.records {
-        let traj = problem
-            .simulate(plant, r)
-            .map_err(|e| anyhow!(e.to_string()))?;
+        let traj = problem.simulate(plant, r)?;
         let inputs: Vec<(String, Vec<f64>)> = conf
             .free
             .iter()

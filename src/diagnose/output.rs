@@ -171,11 +171,7 @@ impl Outputs {
         self.problem
             .records
             .iter()
-            .map(|r| {
-                self.problem
-                    .simulate(plant, r)
-                    .map_err(|e| anyhow!(e.to_string()))
-            })
+            .map(|r| self.problem.simulate(plant, r).map_err(anyhow::Error::from))
             .collect()
     }
 
@@ -398,7 +394,7 @@ pub fn diagnose_output(
         .and_then(|p| {
             if options.fit.estimate_initial {
                 p.with_initial_positions_of(&start)
-                    .map_err(|e| anyhow!(e.to_string()))
+                    .map_err(anyhow::Error::from)
             } else {
                 Ok(p)
             }
