@@ -22,6 +22,7 @@ use crate::plant::Plant;
 use anyhow::{bail, Context, Result};
 use generated::{Configuration, Model};
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 mod balance;
@@ -440,11 +441,22 @@ fn check_inputs(
         .map(|d| d.display().to_string())
         .collect::<Vec<_>>()
         .join(", ");
-    let mut checked: Vec<Problem> = Vec::new();
+    // Each configuration's files read once (a step and the joint fit share them), and what
+    // reading did to them noted once.
     let mut notes = Vec::new();
+    let mut read: BTreeMap<String, (&'static Configuration, Vec<Record>)> = BTreeMap::new();
+    let mut records_for = |config: &str| -> Result<(&'static Configuration, Vec<Record>)> {
+        if let Some((conf, recs)) = read.get(config) {
+            return Ok((*conf, recs.clone()));
+        }
+        let (conf, recs, said) = records_of(&files, model, config, opts.locked_tolerance)?;
+        notes.extend(said);
+        read.insert(config.to_string(), (conf, recs.clone()));
+        Ok((conf, recs))
+    };
+    let mut checked: Vec<Problem> = Vec::new();
     for s in steps {
-        let (conf, recs, read) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
-        notes.extend(read);
+        let (conf, recs) = records_for(&s.config)?;
         if recs.is_empty() {
             let found = if files.is_empty() {
                 "none".to_string()
@@ -472,12 +484,7 @@ fn check_inputs(
     }
     let mut joint = Vec::new();
     for s in joint_steps {
-        let (conf, recs, read) = records_of(&files, model, &s.config, opts.locked_tolerance)?;
-        for n in read {
-            if !notes.contains(&n) {
-                notes.push(n);
-            }
-        }
+        let (conf, recs) = records_for(&s.config)?;
         if recs.is_empty() {
             bail!(
                 "joint fit: step '{}' has no measurement file of its configuration in {searched} (the joint fit covers the steps up to {})",
@@ -548,8 +555,13 @@ pub fn run(
         ignored,
         notes,
     } = check_inputs(plant, data, opts, &occ, &steps, &joint_steps)?;
-    let mut report = starting_report(plant, opts, previous, &steps, &joint_steps, ignored);
-    report.data_notes = notes;
+    let mut report = starting_report(
+        plant,
+        opts,
+        previous,
+        (&steps, &joint_steps),
+        (ignored, notes),
+    );
     let mut current = plant.clone();
     // Rigid-body symbols a completed step fitted but did not determine, starting with those
     // the plant file records (a step run alone with `--config` after an earlier run).

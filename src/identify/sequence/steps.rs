@@ -84,14 +84,14 @@ pub(super) fn config_list(steps: &[Step]) -> String {
 }
 
 /// The report a run starts from: `previous`'s completed steps but for those it runs again
-/// (`steps`), and its joint fit unless this run makes one.
+/// (`steps`), and its joint fit unless this run makes one (`joint_steps`); with the files
+/// not used and what reading did to the others (`ignored`, `data_notes`).
 pub(super) fn starting_report(
     plant: &Plant,
     opts: &SequenceOptions,
     previous: Option<SequenceReport>,
-    steps: &[Step],
-    joint_steps: &[Step],
-    ignored: Vec<String>,
+    (steps, joint_steps): (&[Step], &[Step]),
+    (ignored, data_notes): (Vec<String>, Vec<String>),
 ) -> SequenceReport {
     let rerun: Vec<&str> = steps.iter().map(|s| s.config.as_str()).collect();
     let (plant_name, kept, joint) = match previous {
@@ -112,7 +112,7 @@ pub(super) fn starting_report(
         steps: kept,
         joint: if joint_steps.is_empty() { joint } else { None },
         ignored,
-        data_notes: Vec::new(),
+        data_notes,
     }
 }
 
