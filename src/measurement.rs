@@ -125,8 +125,8 @@ pub struct Table {
     columns: Vec<Result<Vec<f64>, (usize, String)>>,
     /// "column" (CSV) or "variable" (MAT), for messages.
     what: &'static str,
-    /// What reading did to the rows: repeats dropped, stale rows found, uneven times
-    /// resampled ([`sampling`]); for the commands to print.
+    /// What reading did to the rows, each naming the file: repeats dropped, stale rows
+    /// found, uneven times resampled ([`sampling`]); for the commands to print.
     pub notes: Vec<String>,
 }
 

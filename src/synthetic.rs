@@ -292,11 +292,7 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
     }
     let configured = plant.simulator(conf.name, &q_all, opts.policy)?;
     let t = table.need("t")?;
-    let mut notes: Vec<String> = table
-        .notes
-        .iter()
-        .map(|n| format!("{}: {n}", input.display()))
-        .collect();
+    let mut notes = table.notes.clone();
     let mut tau_all = vec![vec![0.0; t.len()]; nj];
     for j in 0..nj {
         let name = format!("tau{j}");

@@ -3,7 +3,8 @@
 //! A logger on a real arm writes rows at jittered times (a non-real-time process), writes a
 //! row twice (the same time and values), or writes the last values again at later times
 //! while the bus delivers nothing new (stale rows). [`Table::read`] hands every command a
-//! table whose times are evenly spaced, and says what it did in [`Table::notes`]:
+//! table whose times are evenly spaced, and says what it did in [`Table::notes`] (each note
+//! naming the file):
 //! - an exact repeat of the row before (same time, same values) is dropped;
 //! - stale rows (later time, every other column equal to the row before): a run of at most
 //!   [`LARGEST_GAP`] rows is a logger's glitch, its values interpolated in time between the
@@ -93,21 +94,24 @@ impl Table {
         }
         if !glitches.is_empty() {
             self.notes.push(format!(
-                "{} stale row(s) (the values of the row before again, at a later time): {}; values interpolated between the fresh rows around them",
+                "{}: {} stale row(s) (the values of the row before again, at a later time): {}; values interpolated between the fresh rows around them",
+                self.file.display(),
                 glitches.len(),
                 runs(&glitches)
             ));
         }
         if !pauses.is_empty() {
             self.notes.push(format!(
-                "{} row(s) repeat the values of the row before for more than {LARGEST_GAP} rows (a pause, or a stale logger): {}; kept",
+                "{}: {} row(s) repeat the values of the row before for more than {LARGEST_GAP} rows (a pause, or a stale logger): {}; kept",
+                self.file.display(),
                 pauses.len(),
                 runs(&pauses)
             ));
         }
         if !repeats.is_empty() {
             self.notes.push(format!(
-                "{} exact repeat(s) of the row before (same time, same values) dropped: {}",
+                "{}: {} exact repeat(s) of the row before (same time, same values) dropped: {}",
+                self.file.display(),
                 repeats.len(),
                 runs(&repeats.iter().map(|&k| row(k)).collect::<Vec<_>>())
             ));
@@ -158,7 +162,8 @@ impl Table {
             }
         }
         self.notes.push(format!(
-            "uneven sampling: steps {smallest:.4e} to {largest:.4e} s, jitter {:.0} % of the median period {h:.6e} s; resampled onto that period by linear interpolation ({} rows to {n})",
+            "{}: uneven sampling: steps {smallest:.4e} to {largest:.4e} s, jitter {:.0} % of the median period {h:.6e} s; resampled onto that period by linear interpolation ({} rows to {n})",
+            self.file.display(),
             100.0 * (largest - h).max(h - smallest) / h,
             t.len()
         ));

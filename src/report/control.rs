@@ -472,7 +472,7 @@ pub fn closedloop_command(
             Some(p) => {
                 let m = Measurement::read(p, nj)?;
                 for n in &m.notes {
-                    crate::errln!("note: {}: {n}", p.display());
+                    crate::errln!("note: {n}");
                 }
                 if m.len() < run.t.len() || (m.dt() - 1.0 / cl.spec.rate).abs() > 1e-6 {
                     bail!(

@@ -182,7 +182,7 @@ pub fn read_noted(paths: &[PathBuf], nj: usize) -> Result<Vec<Measurement>> {
     for p in paths {
         let m = Measurement::read(p, nj)?;
         for n in &m.notes {
-            crate::errln!("note: {}: {n}", p.display());
+            crate::errln!("note: {n}");
         }
         records.push(m);
     }

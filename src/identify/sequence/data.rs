@@ -98,11 +98,7 @@ pub fn read_record_with_notes(
     tolerance: f64,
 ) -> Result<(Record, Vec<String>)> {
     let table = Table::read(path)?;
-    let notes: Vec<String> = table
-        .notes
-        .iter()
-        .map(|n| format!("{}: {n}", path.display()))
-        .collect();
+    let notes = table.notes.clone();
     let t = table.need("t")?;
     let dt = check_sampling(path, &t)?;
     let nj = model.joints.len();
