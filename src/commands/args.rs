@@ -101,6 +101,7 @@ impl Common {
                 locked_tolerance: space.locked_tolerance,
                 estimate_initial: space.initial == "estimate",
                 hold: space.hold,
+                refit_values: lockstep::diagnose::OutputOptions::default().refit_values,
             },
         ))
     }

@@ -85,6 +85,11 @@ pub enum Command {
         /// With --apply: where to write the changed plant.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Output space: judge the candidates against the plant's values as they are. By
+        /// default the values the configuration determines (those the plant gives bounds
+        /// for) are refitted first and beside each candidate.
+        #[arg(long)]
+        keep_values: bool,
     },
     /// Refit chosen parameters by output error; print the error per joint before and after;
     /// append the step to the plant's history.
@@ -263,11 +268,13 @@ fn run_command(cli: Cli) -> Result<()> {
             top,
             apply,
             out,
+            keep_values,
         } => {
             if let Some(out) = &out {
                 lockstep::files::check_writable(&[out])?;
             }
-            let (plant, inputs) = common.inputs(&space)?;
+            let (plant, mut inputs) = common.inputs(&space)?;
+            inputs.refit_values = !keep_values;
             let data = inputs.load(&plant)?;
             if let (Some(Apply::AllSignificant), Some(out)) = (apply, &out) {
                 // The loop diagnoses (and prints) the plant itself, before each step.

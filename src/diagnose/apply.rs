@@ -18,6 +18,7 @@ use crate::identify::output_error::Record;
 use crate::identify::refit::{refit, Refit, RefitOptions};
 use crate::plant::Plant;
 use anyhow::{anyhow, Result};
+use rayon::prelude::*;
 
 /// The parameters a refit after adding `finding` to `plant` fits, for data of
 /// configuration `conf_name`, each once and only where the plant gives it bounds
@@ -41,26 +42,41 @@ pub fn joint_refit_names(
     finding: &Finding,
     records: &[Record],
 ) -> Result<Vec<String>> {
-    let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
-    let free_to_fit = |name: &String| {
-        plant.bounds.get(name).is_some_and(|&(lo, hi)| lo < hi)
-            && plant.parameters.contains_key(name)
-    };
     let mut names = finding.parameter_names();
-    let push = |n: &String, names: &mut Vec<String>| {
-        if free_to_fit(n) && !names.contains(n) {
-            names.push(n.clone());
-        }
-    };
-    for entry in plant
+    let earlier = plant
         .history
         .iter()
         .filter(|e| e.configuration == conf_name)
-    {
-        for name in entry.fitted.keys() {
-            push(name, &mut names);
+        .flat_map(|e| e.fitted.keys().cloned());
+    let values = configuration_values(plant, conf_name, records)?;
+    for n in earlier.chain(values) {
+        if fittable(plant, &n) && !names.contains(&n) {
+            names.push(n);
         }
     }
+    Ok(names)
+}
+
+/// A parameter the plant has a value for and bounds (lower < upper) to refit it in.
+fn fittable(plant: &Plant, name: &str) -> bool {
+    plant.bounds.get(name).is_some_and(|&(lo, hi)| lo < hi) && plant.parameters.contains_key(name)
+}
+
+/// The values of `plant` that the data of configuration `conf_name` (`records`) determine
+/// and that the plant gives bounds for (item 3 of [`joint_refit_names`]): the parameters of
+/// every effect acting on its free joints except the plant gains, and a set of the model's
+/// inertial symbols that spans the configuration's base parameters. Empty for a plant file
+/// without bounds.
+///
+/// # Errors
+/// Unknown configuration; the plant's barycentric parameters cannot be formed.
+pub fn configuration_values(
+    plant: &Plant,
+    conf_name: &str,
+    records: &[Record],
+) -> Result<Vec<String>> {
+    let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    let mut names: Vec<String> = Vec::new();
     // The plant gain is left out: scaling every gain and every torque-side value of a
     // joint together changes nothing, so the gains are the scale the others are fitted in.
     for e in plant
@@ -69,7 +85,9 @@ pub fn joint_refit_names(
         .filter(|e| e.acts_with(conf.free) && e.kind != EffectKind::Gain)
     {
         for name in e.parameter_names() {
-            push(&name, &mut names);
+            if fittable(plant, &name) && !names.contains(&name) {
+                names.push(name);
+            }
         }
     }
     let rigid: Vec<String> = plant
@@ -77,7 +95,7 @@ pub fn joint_refit_names(
         .inertial_symbols
         .iter()
         .map(|s| s.to_string())
-        .filter(|s| free_to_fit(s))
+        .filter(|s| fittable(plant, s))
         .collect();
     if !rigid.is_empty() {
         let width = |i: usize| {
@@ -91,7 +109,9 @@ pub fn joint_refit_names(
             plant, conf, &rigid, &width, &locked_at,
         )?;
         for i in keep {
-            push(&rigid[i], &mut names);
+            if !names.contains(&rigid[i]) {
+                names.push(rigid[i].clone());
+            }
         }
     }
     Ok(names)
@@ -123,14 +143,123 @@ pub fn apply_finding(
 ) -> Result<Refit> {
     let changed = finding.apply(plant)?;
     let names = joint_refit_names(&changed, conf_name, finding, records)?;
-    let mut r = refit(plant, &changed, conf_name, records, &names, options)?;
-    let files: Vec<String> = records
-        .iter()
-        .map(|x| x.file.display().to_string())
-        .collect();
-    let entry = r.history(&change_text(finding), &files);
+    // An equilibrium position is profiled first: the refit is run with it held at the
+    // finding's value and at each quantile of the joint's measured motion (a spring's
+    // rest angle trades with the gravity terms, and where it starts far off the joint
+    // refit stops at a bound of the rigid-body values), and then released from the
+    // lowest of those costs.
+    let (starts, held) = equilibrium_starts(&changed, conf_name, finding, records)?;
+    let start = match held {
+        None => changed,
+        Some(qeq) => {
+            let profile: Vec<String> = names.iter().filter(|n| **n != qeq).cloned().collect();
+            let fits: Vec<Result<Refit>> = starts
+                .par_iter()
+                .map(|start| refit(plant, start, conf_name, records, &profile, options))
+                .collect();
+            lowest(fits)?.plant
+        }
+    };
+    let mut r = refit(plant, &start, conf_name, records, &names, options)?;
+    let entry = r.history(&change_text(finding), &files(records));
     r.plant.history.push(entry);
     Ok(r)
+}
+
+/// Quantiles of a joint's measured motion that start the refit of an equilibrium
+/// position ([`apply_finding`]).
+pub const EQUILIBRIUM_QUANTILES: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
+
+/// The refit of `fits` with the lowest cost; the first error when none succeeded.
+fn lowest(fits: Vec<Result<Refit>>) -> Result<Refit> {
+    let mut best: Option<Refit> = None;
+    let mut first_error = None;
+    for f in fits {
+        match f {
+            Ok(f)
+                if best
+                    .as_ref()
+                    .is_none_or(|b| f.fit.cost_after < b.fit.cost_after) =>
+            {
+                best = Some(f)
+            }
+            Ok(_) => {}
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    best.ok_or_else(|| first_error.unwrap_or_else(|| anyhow!("no start to refit from")))
+}
+
+/// The profile of an equilibrium position for a joint refit after `finding`: when the
+/// finding sets one (`qeq_i`), `changed` (the finding applied) with it at the finding's
+/// value and at each of [`EQUILIBRIUM_QUANTILES`] of joint i's measured positions in
+/// `records` (clamped into its bounds; values within 1e-3 of the span of one already taken
+/// are skipped), and its name; otherwise `changed` alone and None.
+fn equilibrium_starts(
+    changed: &Plant,
+    conf_name: &str,
+    finding: &Finding,
+    records: &[Record],
+) -> Result<(Vec<Plant>, Option<String>)> {
+    let mut starts = vec![changed.clone()];
+    let conf = crate::util::configuration(changed.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    let Some(a) = conf
+        .free
+        .iter()
+        .position(|&j| changed.model.joints[j] == finding.joint)
+    else {
+        return Ok((starts, None));
+    };
+    let name = format!("qeq_{}", conf.free[a]);
+    let Some(&given) = finding
+        .values
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, v)| v)
+    else {
+        return Ok((starts, None));
+    };
+    let mut q: Vec<f64> = records
+        .iter()
+        .flat_map(|r| r.q[a].iter().copied())
+        .collect();
+    if q.is_empty() {
+        return Ok((starts, None));
+    }
+    q.sort_by(f64::total_cmp);
+    let span = (q[q.len() - 1] - q[0]).max(1e-9);
+    let (lo, hi) = changed
+        .bounds
+        .get(&name)
+        .copied()
+        .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+    let mut taken = vec![given];
+    for f in EQUILIBRIUM_QUANTILES {
+        let g = q[((q.len() - 1) as f64 * f).round() as usize].clamp(lo, hi);
+        if taken.iter().all(|t| (t - g).abs() > 1e-3 * span) {
+            taken.push(g);
+            let mut p = changed.clone();
+            p.parameters.insert(name.clone(), g);
+            starts.push(p);
+        }
+    }
+    Ok((starts, Some(name)))
+}
+
+/// The records' file names, as a history entry lists them.
+fn files(records: &[Record]) -> Vec<String> {
+    records
+        .iter()
+        .map(|x| x.file.display().to_string())
+        .collect()
+}
+
+/// Whether refit `r` lowered the summed squared RMS error of the free joints.
+fn lowered(r: &Refit) -> bool {
+    let energy = |v: &[(String, f64)]| v.iter().map(|x| x.1 * x.1).sum::<f64>();
+    energy(&r.after) < energy(&r.before)
 }
 
 /// The most steps `diagnose --apply all-significant` keeps (the loop's preset): the
@@ -256,14 +385,22 @@ pub fn apply_all_significant(
             None
         };
         if let Some(end) = end {
+            // The diagnosis refitted the configuration's values first; where that lowered
+            // the error, the plant ends with them (a history entry). A finding is applied
+            // to the plant as it was instead: values refitted without the effect carry
+            // its share, and the joint refit starts better from the plant's own.
+            if let Some(vr) = d.values_refit.as_ref().filter(|r| lowered(r)) {
+                current = vr.plant.clone();
+                let entry = vr.history("refitted the configuration's values", &files(records));
+                current.history.push(entry);
+            }
             return Ok(finish(current, steps, first, d, end));
         }
         if first.is_none() {
             first = Some(d.clone());
         }
         let r = apply_finding(&current, &top, conf_name, records, &refit_options)?;
-        let energy = |v: &[(String, f64)]| v.iter().map(|x| x.1 * x.1).sum::<f64>();
-        if energy(&r.after) >= energy(&r.before) {
+        if !lowered(&r) {
             let end = LoopEnd::NoImprovement(format!("{} on {}", top.name, top.joint));
             return Ok(finish(current, steps, first, d, end));
         }

@@ -36,7 +36,7 @@
 use super::{effective_samples, Finding};
 use crate::effects::{Effect, EffectKind};
 use crate::identify::output_error::{JointFit, Problem, Record, FLOOR_FACTOR};
-use crate::identify::refit::RefitOptions;
+use crate::identify::refit::{refit, Refit, RefitOptions};
 use crate::plant::Plant;
 use crate::simulation::{Hold, Trajectory};
 use anyhow::{anyhow, bail, Result};
@@ -54,6 +54,17 @@ pub struct OutputOptions {
     /// Most candidates confirmed: the leading `confirm` and every candidate whose
     /// linearised fit is significant (the first screen), best first.
     pub confirm_max: usize,
+    /// Refit the values the configuration determines and the plant gives bounds for
+    /// ([`super::apply::configuration_values`]) before ranking, and beside each candidate in
+    /// its confirming fit: a missing effect is then judged against the best the plant as it
+    /// is can do, not against values that are merely off (a plant without bounds, such as
+    /// the thesis's tables, is taken as it is).
+    pub refit_values: bool,
+    /// Most Levenberg–Marquardt iterations of that first refit of the values: it is the
+    /// null every candidate is judged against, and a candidate's confirming fit refits the
+    /// values again beside it, so a first refit stopped short of its minimum would credit
+    /// the rest of the way to whichever candidate is confirmed.
+    pub values_max_iter: usize,
 }
 
 impl Default for OutputOptions {
@@ -65,6 +76,8 @@ impl Default for OutputOptions {
             },
             confirm: 3,
             confirm_max: 12,
+            refit_values: true,
+            values_max_iter: 200,
         }
     }
 }
@@ -98,6 +111,10 @@ pub struct OutputDiagnosis {
     /// reconstruction can account for ([`crate::accuracy`]); no candidate that explains
     /// less is significant.
     pub floor_share: f64,
+    /// The refit of the configuration's values that came first
+    /// ([`OutputOptions::refit_values`]; None when off or the plant gives no bounds): the
+    /// findings, `joints` and `above_noise` are those of its plant.
+    pub values_refit: Option<Refit>,
 }
 
 impl OutputDiagnosis {
@@ -110,6 +127,12 @@ impl OutputDiagnosis {
     /// The ranking (top `k`) and the verdict as text.
     pub fn table(&self, k: usize) -> String {
         super::table_with(&self.findings, k, &self.above_noise)
+    }
+
+    /// The plant the findings are relative to: `given` (the plant diagnosed) with the
+    /// configuration's values refitted when they were ([`OutputDiagnosis::values_refit`]).
+    pub fn judged<'a>(&'a self, given: &'a Plant) -> &'a Plant {
+        self.values_refit.as_ref().map_or(given, |r| &r.plant)
     }
 }
 
@@ -238,6 +261,32 @@ pub fn diagnose_output(
     if records.is_empty() {
         bail!("configuration '{conf_name}': no measurement files");
     }
+    // The values the configuration determines, refitted first: the findings are judged
+    // against them, and refitted beside each candidate.
+    let values = if options.refit_values {
+        super::apply::configuration_values(plant, conf_name, records)?
+    } else {
+        Vec::new()
+    };
+    let values_refit = if values.is_empty() {
+        None
+    } else {
+        Some(
+            refit(
+                plant,
+                plant,
+                conf_name,
+                records,
+                &values,
+                &RefitOptions {
+                    max_iter: options.values_max_iter,
+                    ..options.fit.clone()
+                },
+            )
+            .map_err(|e| anyhow!("refitting the plant's values first: {e:#}"))?,
+        )
+    };
+    let plant = values_refit.as_ref().map_or(plant, |r| &r.plant);
     let (mut problem, step) =
         crate::accuracy::checked_simulation(plant, conf, records, &options.fit)
             .map_err(|e| anyhow!("the plant itself cannot be simulated accurately: {e:#}"))?;
@@ -379,6 +428,12 @@ pub fn diagnose_output(
         if let Some((g, _, _)) = &c.grid {
             names.push(g.clone());
         }
+        let own = names.len();
+        for v in &values {
+            if !names.contains(v) {
+                names.push(v.clone());
+            }
+        }
         let Ok(start) = lin.apply(plant) else {
             return (None, 0);
         };
@@ -407,14 +462,14 @@ pub fn diagnose_output(
         if !fit.cost_after.is_finite() {
             return (None, fit.evaluations);
         }
-        let mut values = values_of(c, l.beta);
-        for (nm, v) in fit.names.iter().zip(&fit.fitted) {
-            match values.iter_mut().find(|x| x.0 == *nm) {
+        let mut found = values_of(c, l.beta);
+        for (nm, v) in fit.names.iter().zip(&fit.fitted).take(own) {
+            match found.iter_mut().find(|x| x.0 == *nm) {
                 Some(x) => x.1 = *v,
-                None => values.push((nm.clone(), *v)),
+                None => found.push((nm.clone(), *v)),
             }
         }
-        let mut f = finding(l, values, fit.cost_after, names.len());
+        let mut f = finding(l, found, fit.cost_after, own);
         f.confirmed = true;
         (Some(f), fit.evaluations)
     };
@@ -488,6 +543,7 @@ pub fn diagnose_output(
             0.0
         },
         step,
+        values_refit,
     })
 }
 
@@ -635,7 +691,10 @@ fn catalogue(
         let law = plant.friction_law(j);
         let value = |s: &str| plant.value(&format!("{s}_{j}"));
         let name = |s: &str| format!("{s}_{j}");
-        let q: Vec<f64> = base.iter().flat_map(|t| t.q[a].clone()).collect();
+        // Positions as measured (a plant far off simulates a motion elsewhere, and the
+        // equilibrium grid must cover where the joint really went); speeds as simulated
+        // (the file holds no velocity).
+        let q: Vec<f64> = records.iter().flat_map(|r| r.q[a].clone()).collect();
         let qd: Vec<f64> = base.iter().flat_map(|t| t.qd[a].clone()).collect();
         let (qmin, qmax) = q
             .iter()

@@ -70,6 +70,9 @@ pub struct Inputs {
     /// Output space: how the torques were applied between samples for every file (`None`:
     /// each file's side file's, else zero-order).
     pub hold: Option<crate::simulation::Hold>,
+    /// Output-space diagnosis: refit the configuration's values first and beside each
+    /// candidate ([`OutputOptions::refit_values`]).
+    pub refit_values: bool,
 }
 
 /// Position records of one configuration: `config` or the files' own (side file or file
@@ -331,6 +334,7 @@ fn output_options(inputs: &Inputs) -> OutputOptions {
             max_iter: OutputOptions::default().fit.max_iter,
             ..refit_options(inputs)
         },
+        refit_values: inputs.refit_values,
         ..OutputOptions::default()
     }
 }
@@ -339,7 +343,7 @@ fn output_options(inputs: &Inputs) -> OutputOptions {
 /// the step's check and the numerical floor.
 fn output_title(config: &str, records: &[Record], d: &crate::diagnose::OutputDiagnosis) -> String {
     let files: Vec<String> = records.iter().map(|r| stem(&r.file)).collect();
-    format!(
+    let mut title = format!(
         "configuration {config}, {} ({} residual samples, {:.0} independent in what all candidates together leave; {} simulations)\n{}; numerical floor (step and input reconstruction) {:.2} % of the residual energy",
         files.join(", "),
         d.samples,
@@ -347,7 +351,21 @@ fn output_title(config: &str, records: &[Record], d: &crate::diagnose::OutputDia
         d.simulations,
         d.step.summary(),
         100.0 * d.floor_share
-    )
+    );
+    if let Some(r) = &d.values_refit {
+        let rms: Vec<String> = r
+            .before
+            .iter()
+            .zip(&r.after)
+            .map(|((j, b), (_, a))| format!("{j} {b:.3e} → {a:.3e}"))
+            .collect();
+        title += &format!(
+            "\nthe configuration's {} values refitted first, within the plant's bounds (RMS {}); the candidates are judged against that plant and refitted beside it",
+            r.fit.names.len(),
+            rms.join(", ")
+        );
+    }
+    title
 }
 
 fn refit_options(inputs: &Inputs) -> RefitOptions {
