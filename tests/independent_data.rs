@@ -433,6 +433,29 @@ fn hidden_tendon_coupling_on_independent_data_k1() {
     );
 }
 
+/// The tendon coupling 5 → 4 present with its sign flipped (k1): not a missing effect but
+/// a wrong one, which the catalogue offers as the existing coupling's gain off (either
+/// sign). A 4 s file: one step, the sign is plain on it.
+#[test]
+fn a_coupling_with_its_sign_flipped_is_found_and_refitted_k1() {
+    let truth = common::appendix_d_coupled();
+    let mut start = truth.clone();
+    let g = truth.parameters["G_5to4"];
+    start.parameters.insert("G_5to4".into(), -g);
+    hidden_case(
+        &truth,
+        &start,
+        "sign",
+        Spec {
+            duration: 4.0,
+            ..hidden_spec("k1", "4.7", None)
+        },
+        ((EffectKind::InputCoupling, "q4", Some("q5")), true),
+        &[("G_5to4", Within::Relative(0.02))],
+        1.1,
+    );
+}
+
 /// A strong Stribeck hump in q5's LuGre friction that the starting plant lacks (c2).
 #[test]
 fn hidden_stribeck_on_independent_data_c2() {

@@ -29,8 +29,9 @@
 //! vs_i on a grid; on a LuGre or Stribeck joint the existing law's Fs_i, on a Coulomb joint
 //! the law replaced by Stribeck), cable-drag spring (Ks_i, qeq_i on a grid unless a friction
 //! bias fixes it), friction position bias (FrictionBias_i, qeq_i shared with the spring
-//! when there is one), tendon input coupling from each other free joint (G_{j→i}), and a
-//! plant-gain error (Kp_i; added as a gain when the joint has none). Rigid-body parameter
+//! when there is one), tendon input coupling from each other free joint (G_{j→i}; where the
+//! plant has it, its gain off, either sign), and a plant-gain error (Kp_i; added as a gain
+//! when the joint has none). Rigid-body parameter
 //! errors are not candidates here: identification refits them.
 
 use super::{effective_samples, Finding};
@@ -848,12 +849,29 @@ fn catalogue(
                 }
             }
         }
-        // Tendon input coupling from each other driven free joint.
+        // Tendon input coupling from each other driven free joint: a new one, or an
+        // existing one's gain off (its sign flipped included: the range spans both signs).
         for (b, &k) in conf.free.iter().enumerate() {
-            if k == j || plant.has_coupling(k, j) || rms_tau[b] <= 0.0 {
+            if k == j || rms_tau[b] <= 0.0 {
                 continue;
             }
             let ratio = tau / rms_tau[b];
+            if plant.has_coupling(k, j) {
+                let g = plant.value(&format!("G_{k}to{j}"))?;
+                let reach = 100.0 * ratio.max(g.abs());
+                out.push(Candidate {
+                    name: format!("input_coupling from {} (G off)", m.joints[k]),
+                    kind: K::InputCoupling,
+                    joint: j,
+                    from: Some(k),
+                    effect: None,
+                    replaces: None,
+                    fixed: vec![],
+                    size: size(format!("G_{k}to{j}"), g, 0.02 * ratio, -reach, reach),
+                    grid: None,
+                });
+                continue;
+            }
             out.push(Candidate {
                 name: format!("input_coupling from {}", m.joints[k]),
                 kind: K::InputCoupling,
