@@ -320,7 +320,7 @@ pub fn verdict(findings: &[Finding], above_noise: &[String]) -> String {
     match findings.first() {
         Some(f) if f.significant => format!("most likely missing: {} on {}", f.name, f.joint),
         _ if !above_noise.is_empty() => format!(
-            "unexplained: the error is above the noise ({}) but no candidate of the catalogue explains a significant share of it; the missing effect is outside the catalogue, or the plant's values are far off (refit them: lockstep identify or lockstep refit)",
+            "unexplained: the error is above the noise ({}) but no candidate of the catalogue explains a significant share of it; the missing effect is outside the catalogue, or the plant's values are far off: where the plant gives bounds the output-space diagnosis refitted them within those (wider bounds, or lockstep identify, may reach further); without bounds, refit them (lockstep refit, lockstep identify)",
             above_noise.join(", ")
         ),
         _ => "nothing significant is missing (no candidate has ΔBIC < -10 and explains >= 5 % of the residual)".to_string(),
