@@ -19,7 +19,11 @@
 //! β̂ and its parameters refitted by output error
 //! ([`crate::identify::output_error::Problem`]), and its figures become those of the fitted
 //! plant (the linearisation understates large effects such as a 30 % gain error), so the
-//! ranking is that of the fitted costs. The diagnosis also reports the effective number of
+//! ranking is that of the fitted costs. Where the plant gives bounds, the values the
+//! configuration determines ([`super::apply::configuration_values`]) are refitted first —
+//! r is then the residual of that plant — and again beside each candidate in its
+//! confirming fit, whose ΔBIC counts only the candidate's own numbers
+//! ([`OutputOptions::refit_values`]). The diagnosis also reports the effective number of
 //! independent samples ([`super::effective_samples`]) of the residual all candidates'
 //! sensitivities fitted together leave: far below n, the residual holds structure no
 //! candidate describes.
