@@ -456,6 +456,29 @@ fn a_coupling_with_its_sign_flipped_is_found_and_refitted_k1() {
     );
 }
 
+/// The spring on q3 present with its rest angle 0.37 rad off (c3): the catalogue offers
+/// the existing equilibrium position as a candidate. It is exactly a torque offset of
+/// −Ks·Δqeq (equal ΔBIC, reported as indistinguishable), and the change of a value the plant
+/// already has goes first. A 4 s file.
+#[test]
+fn a_spring_rest_angle_off_is_found_and_refitted_c3() {
+    let truth = common::appendix_d_coupled();
+    let mut start = truth.clone();
+    start.parameters.insert("qeq_3".into(), 0.0);
+    hidden_case(
+        &truth,
+        &start,
+        "rest-angle",
+        Spec {
+            duration: 4.0,
+            ..hidden_spec("c3", "4.3", Some("J3"))
+        },
+        ((EffectKind::Spring, "q3", None), true),
+        &[("qeq_3", Within::Relative(0.05))],
+        1.1,
+    );
+}
+
 /// A strong Stribeck hump in q5's LuGre friction that the starting plant lacks (c2).
 #[test]
 fn hidden_stribeck_on_independent_data_c2() {

@@ -149,18 +149,29 @@ pub fn apply_finding(
     // refit stops at a bound of the rigid-body values), and then released from the
     // lowest of those costs.
     let (starts, held) = equilibrium_starts(&changed, conf_name, finding, records)?;
-    let start = match held {
-        None => changed,
-        Some(qeq) => {
-            let profile: Vec<String> = names.iter().filter(|n| **n != qeq).cloned().collect();
-            let fits: Vec<Result<Refit>> = starts
+    let profile: Vec<String> = names
+        .iter()
+        .filter(|n| Some(*n) != held.as_ref())
+        .cloned()
+        .collect();
+    let mut r = if held.is_none() {
+        refit(plant, &changed, conf_name, records, &names, options)?
+    } else if profile.is_empty() {
+        // qeq is all there is to fit: refit it from every start, keep the lowest.
+        lowest(
+            starts
                 .par_iter()
-                .map(|start| refit(plant, start, conf_name, records, &profile, options))
-                .collect();
-            lowest(fits)?.plant
-        }
+                .map(|start| refit(plant, start, conf_name, records, &names, options))
+                .collect(),
+        )?
+    } else {
+        let fits: Vec<Result<Refit>> = starts
+            .par_iter()
+            .map(|start| refit(plant, start, conf_name, records, &profile, options))
+            .collect();
+        let start = lowest(fits)?.plant;
+        refit(plant, &start, conf_name, records, &names, options)?
     };
-    let mut r = refit(plant, &start, conf_name, records, &names, options)?;
     let entry = r.history(&change_text(finding), &files(records));
     r.plant.history.push(entry);
     Ok(r)

@@ -33,7 +33,7 @@
 //! vs_i on a grid; on a LuGre or Stribeck joint the existing law's Fs_i, on a Coulomb joint
 //! the law replaced by Stribeck), cable-drag spring (Ks_i, qeq_i on a grid unless a friction
 //! bias fixes it), friction position bias (FrictionBias_i, qeq_i shared with the spring
-//! when there is one), tendon input coupling from each other free joint (G_{j→i}; where the
+//! when there is one), an existing spring's or bias's equilibrium position off (qeq_i), tendon input coupling from each other free joint (G_{j→i}; where the
 //! plant has it, its gain off, either sign), and a plant-gain error (Kp_i; added as a gain
 //! when the joint has none). Rigid-body parameter
 //! errors are not candidates here: identification refits them.
@@ -529,6 +529,7 @@ pub fn diagnose_output(
         }
     }
     findings.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    prefer_edits_among_equals(&mut findings);
     let above_noise = joints
         .iter()
         .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
@@ -550,6 +551,32 @@ pub fn diagnose_output(
         step,
         values_refit,
     })
+}
+
+/// ΔBIC differences below this are not worth more than a bare mention (Kass and Raftery
+/// 1995, "Bayes factors", Table: 0–2).
+pub const BARE_MENTION_DELTA_BIC: f64 = 2.0;
+
+/// Among findings the data cannot tell apart ([`Finding::alike`]) whose ΔBIC differ by less
+/// than [`BARE_MENTION_DELTA_BIC`], put one that changes a value the plant already has ahead
+/// of one that adds an effect: the simpler model first. (A spring's rest angle moved by Δ is
+/// exactly a torque offset of −Ks·Δ; the plant already has the spring.) `findings` is sorted
+/// by ΔBIC.
+fn prefer_edits_among_equals(findings: &mut [Finding]) {
+    for i in 1..findings.len() {
+        let mut k = i;
+        while k > 0 {
+            let (a, b) = (&findings[k - 1], &findings[k]);
+            let tied = (b.delta_bic - a.delta_bic).abs() < BARE_MENTION_DELTA_BIC
+                && a.alike.contains(&format!("{} on {}", b.name, b.joint));
+            if tied && a.effect.is_some() && b.effect.is_none() && !b.values.is_empty() {
+                findings.swap(k - 1, k);
+                k -= 1;
+            } else {
+                break;
+            }
+        }
+    }
 }
 
 /// Candidates whose sensitivities have |cos| at least this are reported together
@@ -836,6 +863,26 @@ fn catalogue(
                     }
                 }
             }
+        }
+        // An existing equilibrium position off (a spring's rest angle, shared with a
+        // friction bias on the joint): re-estimated over the measured motion.
+        if let (true, Some(qeq)) = (has(K::Spring) || has(K::FrictionBias), existing_qeq) {
+            let kind = if has(K::Spring) {
+                K::Spring
+            } else {
+                K::FrictionBias
+            };
+            out.push(Candidate {
+                name: format!("{kind} (qeq off)"),
+                kind,
+                joint: j,
+                from: None,
+                effect: None,
+                replaces: None,
+                fixed: vec![],
+                size: size(name("qeq"), qeq, 0.01 * span, qeq_range.0, qeq_range.1),
+                grid: None,
+            });
         }
         if !has(K::FrictionBias) && (law.is_some() || has(K::Viscous)) {
             let s = size(name("FrictionBias"), 1.0, 0.05, 0.0, 20.0);

@@ -110,8 +110,8 @@ impl Refit {
 /// `before` (the plant before the change; `plant` itself for a plain refit).
 ///
 /// # Errors
-/// Unknown configuration, a parameter without value or bounds (named), either plant cannot
-/// be simulated on a record.
+/// Unknown configuration, no parameters, a parameter without value or bounds (named),
+/// either plant cannot be simulated on a record.
 pub fn refit(
     before: &Plant,
     plant: &Plant,
@@ -121,6 +121,9 @@ pub fn refit(
     options: &RefitOptions,
 ) -> Result<Refit> {
     let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    if names.is_empty() {
+        anyhow::bail!("configuration '{conf_name}': no parameters to refit");
+    }
     let oe = options.output_error(vec![0.25, 1.0]);
     // The step, checked against the data's noise on the plant before the change.
     let (problem, step) = crate::accuracy::with_checked_step(
