@@ -12,13 +12,11 @@
 //! `cargo bench --bench diagnosis` prints the wall time, the simulations run and the
 //! verdict of each.
 
+mod common;
+
 use lockstep::diagnose::{diagnose_output, OutputOptions};
 use lockstep::effects::EffectKind;
-use lockstep::excitation::Excitations;
 use lockstep::identify::sequence::read_record;
-use lockstep::plant::Plant;
-use lockstep::synthetic::{excite, simulate_file, SimulateOptions};
-use std::path::Path;
 use std::time::Instant;
 
 /// The target wall time of one k1 diagnosis (s).
@@ -29,31 +27,9 @@ fn main() {
     if !std::env::args().any(|a| a == "--bench") {
         return;
     }
-    let mut truth = Plant::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
-    )
-    .unwrap();
-    truth.parameters.insert("I4_33".into(), 1.7449e-4);
+    let truth = common::appendix_d_coupled();
     let dir = tempfile::tempdir().unwrap();
-    let ex = Excitations::bundled(truth.model).unwrap();
-    let e = excite(truth.model, &ex, "4.7", None, "k1", 40.0, 100.0).unwrap();
-    let tau = dir.path().join("tau_k1.csv");
-    e.write(&tau).unwrap();
-    let sim = simulate_file(
-        &truth,
-        &tau,
-        &SimulateOptions {
-            h: 1.0 / 12000.0,
-            noise: 2e-4,
-            quantisation: 1e-4,
-            seed: 7,
-            ..SimulateOptions::default()
-        },
-    )
-    .unwrap();
-    let file = dir.path().join("k1_run.csv");
-    sim.write(&file).unwrap();
+    let file = common::table_4_7_file(&truth, dir.path(), dir.path(), "k1");
     let conf = truth.model.configuration("k1").unwrap();
     let record = read_record(&file, truth.model, conf, 0.01).unwrap();
     let mut missing = truth.clone();

@@ -18,55 +18,29 @@
 //!   per step and per cost evaluation printed (takes hours on 2 cores: k4 alone 3618 s
 //!   with a finite-difference Jacobian at every iteration).
 
+mod common;
+
 use criterion::{criterion_group, Criterion};
-use lockstep::excitation::Excitations;
 use lockstep::identify::output_error::{OutputErrorOptions, Problem, Residuals};
 use lockstep::identify::sequence::{plan, read_record, run, SequenceOptions};
 use lockstep::plant::Plant;
 use lockstep::simulation::Integrator;
-use lockstep::synthetic::{excite, simulate_file, SimulateOptions};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-
-fn truth() -> Plant {
-    let mut p = Plant::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("model/plants/freedom6s_appendix_d_coupled.toml"),
-    )
-    .unwrap();
-    p.parameters.insert("I4_33".into(), 1.7449e-4);
-    p
-}
 
 /// Data files k1..k5 in `dir/data`.
 fn make_data(dir: &Path, truth: &Plant) -> PathBuf {
     let data = dir.join("data");
     std::fs::create_dir_all(&data).unwrap();
-    let ex = Excitations::bundled(truth.model).unwrap();
     for k in ["k1", "k2", "k3", "k4", "k5"] {
-        let e = excite(truth.model, &ex, "4.7", None, k, 40.0, 100.0).unwrap();
-        let tau = dir.join(format!("tau_{k}.csv"));
-        e.write(&tau).unwrap();
-        let sim = simulate_file(
-            truth,
-            &tau,
-            &SimulateOptions {
-                h: 1.0 / 12000.0,
-                noise: 2e-4,
-                quantisation: 1e-4,
-                seed: 7,
-                ..SimulateOptions::default()
-            },
-        )
-        .unwrap();
-        sim.write(&data.join(format!("{k}_run.csv"))).unwrap();
+        common::table_4_7_file(truth, dir, &data, k);
     }
     data
 }
 
 fn bench(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
-    let truth = truth();
+    let truth = common::appendix_d_coupled();
     let data = make_data(dir.path(), &truth);
     let mut g = c.benchmark_group("cost_evaluation");
     g.sample_size(10).measurement_time(Duration::from_secs(10));

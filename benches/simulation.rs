@@ -9,17 +9,15 @@
 //!   number of free joints (c1: 1, k1: 2, k2: 3, k3: 4, k4: 5, k5: 6).
 
 use criterion::{criterion_group, criterion_main, Criterion};
+mod common;
+
 use lockstep::excitation::Excitations;
-use lockstep::plant::{ConsistencyPolicy, Plant};
+use lockstep::plant::ConsistencyPolicy;
 use lockstep::simulation::{Hold, InputSignal, PlantModel, State};
-use std::path::Path;
 use std::time::Duration;
 
 fn setup(config: &str, seconds: f64) -> (PlantModel, Vec<Vec<f64>>, Vec<f64>) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("model/plants/freedom6s_appendix_d_coupled.toml");
-    let mut plant = Plant::load(&path).unwrap();
-    plant.parameters.insert("I4_33".into(), 1.7449e-4);
+    let plant = common::appendix_d_coupled();
     let sim = plant
         .simulator(config, &[0.0; 6], ConsistencyPolicy::Refuse)
         .unwrap()

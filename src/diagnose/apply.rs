@@ -11,7 +11,7 @@
 //! until the leading finding is not significant, is about the data's input rather than
 //! the plant, or stops lowering the error.
 
-use super::output::{diagnose_output, OutputDiagnosis, OutputOptions};
+use super::output::{diagnose_output, quantile, OutputDiagnosis, OutputOptions};
 use super::Finding;
 use crate::effects::EffectKind;
 use crate::identify::output_error::Record;
@@ -172,13 +172,13 @@ pub fn apply_finding(
         let start = lowest(fits)?.plant;
         refit(plant, &start, conf_name, records, &names, options)?
     };
-    let entry = r.history(&change_text(finding), &files(records));
+    let entry = r.history(&change_text(finding), records);
     r.plant.history.push(entry);
     Ok(r)
 }
 
-/// Quantiles of a joint's measured motion that start the refit of an equilibrium
-/// position ([`apply_finding`]).
+/// Quantiles of a joint's measured motion where an equilibrium position is tried: the
+/// diagnosis's grid ([`super::output`]) and the starts of its refit ([`apply_finding`]).
 pub const EQUILIBRIUM_QUANTILES: [f64; 5] = [0.1, 0.3, 0.5, 0.7, 0.9];
 
 /// The refit of `fits` with the lowest cost; the first error when none succeeded.
@@ -232,15 +232,14 @@ fn equilibrium_starts(
     else {
         return Ok((starts, None));
     };
-    let mut q: Vec<f64> = records
+    let q: Vec<f64> = records
         .iter()
         .flat_map(|r| r.q[a].iter().copied())
         .collect();
     if q.is_empty() {
         return Ok((starts, None));
     }
-    q.sort_by(f64::total_cmp);
-    let span = (q[q.len() - 1] - q[0]).max(1e-9);
+    let span = (quantile(&q, 1.0) - quantile(&q, 0.0)).max(1e-9);
     let (lo, hi) = changed
         .bounds
         .get(&name)
@@ -248,7 +247,7 @@ fn equilibrium_starts(
         .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
     let mut taken = vec![given];
     for f in EQUILIBRIUM_QUANTILES {
-        let g = q[((q.len() - 1) as f64 * f).round() as usize].clamp(lo, hi);
+        let g = quantile(&q, f).clamp(lo, hi);
         if taken.iter().all(|t| (t - g).abs() > 1e-3 * span) {
             taken.push(g);
             let mut p = changed.clone();
@@ -257,14 +256,6 @@ fn equilibrium_starts(
         }
     }
     Ok((starts, Some(name)))
-}
-
-/// The records' file names, as a history entry lists them.
-fn files(records: &[Record]) -> Vec<String> {
-    records
-        .iter()
-        .map(|x| x.file.display().to_string())
-        .collect()
 }
 
 /// Whether refit `r` lowered the summed squared RMS error of the free joints.
@@ -402,7 +393,7 @@ pub fn apply_all_significant(
             // its share, and the joint refit starts better from the plant's own.
             if let Some(vr) = d.values_refit.as_ref().filter(|r| lowered(r)) {
                 current = vr.plant.clone();
-                let entry = vr.history("refitted the configuration's values", &files(records));
+                let entry = vr.history("refitted the configuration's values", records);
                 current.history.push(entry);
             }
             return Ok(finish(current, steps, first, d, end));

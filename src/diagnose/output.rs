@@ -242,7 +242,7 @@ fn rms(v: &[f64]) -> f64 {
 }
 
 /// Quantile `f` of `v` (sorted copy).
-fn quantile(v: &[f64], f: f64) -> f64 {
+pub(super) fn quantile(v: &[f64], f: f64) -> f64 {
     let mut s = v.to_vec();
     s.sort_by(f64::total_cmp);
     s[((s.len() - 1) as f64 * f).round() as usize]
@@ -841,7 +841,7 @@ fn catalogue(
             }
         }
         // Equilibrium positions: the quantiles of the motion and beyond either end.
-        let qeq_grid: Vec<f64> = [0.1, 0.3, 0.5, 0.7, 0.9]
+        let qeq_grid: Vec<f64> = super::apply::EQUILIBRIUM_QUANTILES
             .iter()
             .map(|&f| quantile(&q, f))
             .chain([qmin - span, qmax + span])
@@ -889,7 +889,7 @@ fn catalogue(
             match (has(K::Spring), existing_qeq) {
                 (true, Some(_)) => out.push(add(K::FrictionBias, s, vec![], None)),
                 _ => {
-                    for &g in &qeq_grid[..5] {
+                    for &g in &qeq_grid[..super::apply::EQUILIBRIUM_QUANTILES.len()] {
                         out.push(add(
                             K::FrictionBias,
                             s.clone(),

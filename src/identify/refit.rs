@@ -86,12 +86,15 @@ pub struct Refit {
 }
 
 impl Refit {
-    /// A history entry for this refit, described by `change`.
-    pub fn history(&self, change: &str, files: &[String]) -> HistoryEntry {
+    /// A history entry for this refit on `records`, described by `change`.
+    pub fn history(&self, change: &str, records: &[Record]) -> HistoryEntry {
         HistoryEntry {
             change: change.to_string(),
             configuration: self.fit.configuration.clone(),
-            files: files.to_vec(),
+            files: records
+                .iter()
+                .map(|r| r.file.display().to_string())
+                .collect(),
             fitted: self
                 .fit
                 .names

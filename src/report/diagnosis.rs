@@ -496,12 +496,8 @@ pub fn apply_all_command(
 }
 
 fn save_with_history(r: &Refit, change: &str, records: &[Record], out: &Path) -> Result<()> {
-    let files: Vec<String> = records
-        .iter()
-        .map(|x| x.file.display().to_string())
-        .collect();
     let mut p = r.plant.clone();
-    p.history.push(r.history(change, &files));
+    p.history.push(r.history(change, records));
     p.save(out)
 }
 
