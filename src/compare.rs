@@ -542,14 +542,20 @@ pub fn write_residual_csv(path: &Path, c: &Comparison) -> Result<()> {
     })
 }
 
-/// Plot a comparison (`<stem>.svg`, `.png`): measured vs model, the residual against time,
-/// position, velocity (by its sign) and the other joints' torques, the residual spectrum
-/// with the input frequencies marked, the autocorrelation and the cross-correlations with
-/// their 99 % bounds.
+/// Plot a comparison (`<stem>.svg`, `.png`): measured vs model (and vs `start`, the same
+/// record and joint compared with a starting plant, when given: where the loop of
+/// diagnosis began), the residual against time, position, velocity (by its sign) and the
+/// other joints' torques, the residual spectrum with the input frequencies marked, the
+/// autocorrelation and the cross-correlations with their 99 % bounds.
 ///
 /// # Errors
-/// As [`figure`].
-pub fn plot(stem: &Path, c: &Comparison, title: &str) -> Result<[PathBuf; 2]> {
+/// As [`figure`]; a `start` of another record, joint or length.
+pub fn plot(
+    stem: &Path,
+    c: &Comparison,
+    title: &str,
+    start: Option<&Comparison>,
+) -> Result<[PathBuf; 2]> {
     let e = c.residual();
     let unit = c.unit;
     let line = |name: &str, x: Vec<f64>, y: Vec<f64>| Series {
@@ -579,19 +585,31 @@ pub fn plot(stem: &Path, c: &Comparison, title: &str) -> Result<[PathBuf; 2]> {
     };
     let (vp, ep) = by_sign(true);
     let (vn, en) = by_sign(false);
+    let mut measured_vs_model = vec![
+        line("measured", c.t.clone(), c.y.clone()),
+        line("model", c.t.clone(), c.yhat.clone()),
+    ];
+    let mut heading = format!(
+        "{title}: measured vs model ({}, NRMSE fit {:.1} %, RMSE {:.3e})",
+        c.joint, c.nrmse_fit, c.rmse
+    );
+    if let Some(s) = start {
+        if s.file != c.file || s.joint != c.joint || s.t.len() != c.t.len() {
+            bail!(
+                "the starting plant's comparison is of {} {} ({} samples), not of {} {} ({} samples)",
+                s.file.display(),
+                s.joint,
+                s.t.len(),
+                c.file.display(),
+                c.joint,
+                c.t.len()
+            );
+        }
+        measured_vs_model.push(line("starting plant", s.t.clone(), s.yhat.clone()));
+        heading += &format!("; starting plant {:.1} %, RMSE {:.3e}", s.nrmse_fit, s.rmse);
+    }
     let mut panels = vec![
-        panel(
-            format!(
-                "{title}: measured vs model ({}, NRMSE fit {:.1} %, RMSE {:.3e})",
-                c.joint, c.nrmse_fit, c.rmse
-            ),
-            "t (s)",
-            unit,
-            vec![
-                line("measured", c.t.clone(), c.y.clone()),
-                line("model", c.t.clone(), c.yhat.clone()),
-            ],
-        ),
+        panel(heading, "t (s)", unit, measured_vs_model),
         panel(
             format!(
                 "residual vs time (largest {:.3e} at t = {:.2} s)",

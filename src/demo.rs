@@ -80,11 +80,13 @@ fn fit_and_compare(
         &out.join(format!("{tag}_train")),
         &t,
         &format!("{label}, training record"),
+        None,
     )?;
     plot(
         &out.join(format!("{tag}_pulses")),
         &v,
         &format!("{label}, pulses record"),
+        None,
     )?;
     Ok(Step {
         label: label.into(),

@@ -245,9 +245,10 @@ fn the_loop_on_the_command_line_c3() {
     assert_eq!(h.change, "added spring on q3");
     assert!(h.rms_after["q3"] < 0.01 * h.rms_before["q3"], "{h:?}");
     assert!((h.fitted["Ks_3"] / 0.0064599 - 1.0).abs() < 0.05, "{h:?}");
-    // The report: self-contained (figures inlined, nothing fetched), with the history.
+    // The report: self-contained (figures inlined, nothing fetched), with the history and
+    // the starting plant drawn beside the model.
     let rep = d.join("rep");
-    ok(&lockstep(&[
+    let printed = ok(&lockstep(&[
         "report",
         "--plant",
         &fixed,
@@ -255,7 +256,34 @@ fn the_loop_on_the_command_line_c3() {
         &run_csv,
         "--out",
         &s(&rep),
+        "--start",
+        &s(&start_file),
     ]));
+    // The compare table's q3 row (RMSE in the fifth column), then the starting plant's line.
+    let lines: Vec<&str> = printed.lines().collect();
+    let row = lines
+        .iter()
+        .position(|l| l.starts_with("c3_run") && l.contains(" q3 "))
+        .unwrap_or_else(|| panic!("no q3 row in\n{printed}"));
+    let rmse: f64 = lines[row]
+        .split_whitespace()
+        .nth(4)
+        .unwrap()
+        .parse()
+        .unwrap();
+    let start_rmse: f64 = lines[row + 1]
+        .rsplit("RMSE ")
+        .next()
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap_or_else(|_| panic!("no starting plant's RMSE in {}", lines[row + 1]));
+    assert!(
+        (start_rmse - h.rms_before["q3"]).abs() < 0.05 * h.rms_before["q3"],
+        "starting plant {start_rmse:e}, history before {:e}",
+        h.rms_before["q3"]
+    );
+    assert!(start_rmse > 50.0 * rmse, "{start_rmse:e} against {rmse:e}");
     let html = std::fs::read_to_string(rep.join("report.html")).unwrap();
     for needle in [
         "<svg",
@@ -264,6 +292,7 @@ fn the_loop_on_the_command_line_c3() {
         "History",
         "added spring on q3",
         "NRMSE fit",
+        "starting plant",
     ] {
         assert!(html.contains(needle), "report lacks {needle}");
     }

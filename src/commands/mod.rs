@@ -11,7 +11,7 @@ use lockstep::measurement::Measurement;
 use lockstep::plant::Plant;
 use lockstep::report::diagnosis::{
     apply_all_command, apply_finding, compare_command, diagnose, effect_add, refit_command,
-    refit_table, report_command, Inputs,
+    refit_table, report_command, Inputs, StartComparison,
 };
 use lockstep::report::fit_table;
 use lockstep::simulation::{Hold, Integrator};
@@ -63,6 +63,10 @@ pub enum Command {
         /// Output directory for residual CSVs and plots.
         #[arg(long, default_value = "lockstep-out/compare")]
         out: PathBuf,
+        /// A starting plant (e.g. the plant before `diagnose --apply`), compared on the same
+        /// data and drawn beside the model in each figure.
+        #[arg(long)]
+        start: Option<PathBuf>,
     },
     /// Name the missing physical effect: rank a catalogue of candidate effects by how much
     /// of the residual each explains (ΔBIC), in torque space (inverse model) or output space
@@ -127,6 +131,10 @@ pub enum Command {
         /// Output directory.
         #[arg(long, default_value = "lockstep-out/report")]
         out: PathBuf,
+        /// A starting plant (e.g. the plant before `diagnose --apply`), compared on the same
+        /// data and drawn beside the model in each figure.
+        #[arg(long)]
+        start: Option<PathBuf>,
     },
     /// List the generated models, their joints, parameters and configurations.
     Models,
@@ -241,6 +249,17 @@ pub fn run(cli: Cli) -> Result<()> {
     }
 }
 
+/// The starting plant of `--start`, when given, with its file.
+fn start_comparison<'a>(
+    plant: &'a Option<Plant>,
+    file: Option<&'a std::path::Path>,
+) -> Option<StartComparison<'a>> {
+    Some(StartComparison {
+        plant: plant.as_ref()?,
+        file: file?,
+    })
+}
+
 fn run_command(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Demo { out } => {
@@ -257,10 +276,17 @@ fn run_command(cli: Cli) -> Result<()> {
             } => identify_idim(&common, out, allow_inconsistent)?,
             IdentifyMethod::Sequence(args) => identify_sequence(&args)?,
         },
-        Command::Compare { common, space, out } => {
+        Command::Compare {
+            common,
+            space,
+            out,
+            start,
+        } => {
             lockstep::files::check_output_dir(&out)?;
             let (plant, inputs) = common.inputs(&space)?;
-            compare_command(&plant, &inputs, &inputs.load(&plant)?, &out)?;
+            let start_plant = start.as_deref().map(Plant::load).transpose()?;
+            let start = start_comparison(&start_plant, start.as_deref());
+            compare_command(&plant, &inputs, &inputs.load(&plant)?, &out, start.as_ref())?;
         }
         Command::Diagnose {
             common,
@@ -369,10 +395,13 @@ fn run_command(cli: Cli) -> Result<()> {
             space,
             top,
             out,
+            start,
         } => {
             lockstep::files::check_output_dir(&out)?;
             let (plant, inputs) = common.inputs(&space)?;
-            let path = report_command(&plant, &inputs, &out, top)?;
+            let start_plant = start.as_deref().map(Plant::load).transpose()?;
+            let start = start_comparison(&start_plant, start.as_deref());
+            let path = report_command(&plant, &inputs, &out, top, start.as_ref())?;
             lockstep::outln!("wrote {}", path.display());
         }
         Command::Excite {

@@ -198,38 +198,86 @@ fn stem(p: &Path) -> String {
         .unwrap_or_default()
 }
 
-/// Compare, print the table and write residual CSVs and figures under `out`; returns the
-/// comparisons and the SVG figure of each.
+/// The comparisons of `plant` with `data`, per record and free joint (output space: the
+/// simulation; torque space: the inverse model); with `announce`, the space, the step's
+/// check and the hold are printed.
 ///
 /// # Errors
-/// As [`compare_output`] / [`crate::compare::compare_torque`], and I/O (path named).
-pub fn compare_command(
+/// As [`compare_output`] / [`compare_observation`].
+fn comparisons(
     plant: &Plant,
     inputs: &Inputs,
     data: &Data,
-    out: &Path,
-) -> Result<Vec<(Comparison, PathBuf)>> {
-    let cmps = match data {
+    announce: bool,
+) -> Result<Vec<Comparison>> {
+    Ok(match data {
         Data::Output { config, records } => {
-            crate::outln!("output space (simulated positions), configuration {config}");
             let c = compare_output(plant, config, records, &refit_options(inputs))?;
-            crate::outln!("{}", c.step.summary());
-            crate::outln!("{}", hold_text(records, &c.holds, inputs.hold.is_some()));
-            if let Some((better, e, used)) = c.better_hold() {
-                crate::errln!(
-                    "note: --hold {better} fits markedly better (RMS {e:.3e} against {used:.3e} with the hold used): was the input applied that way?"
-                );
+            if announce {
+                crate::outln!("output space (simulated positions), configuration {config}");
+                crate::outln!("{}", c.step.summary());
+                crate::outln!("{}", hold_text(records, &c.holds, inputs.hold.is_some()));
+                if let Some((better, e, used)) = c.better_hold() {
+                    crate::errln!(
+                        "note: --hold {better} fits markedly better (RMS {e:.3e} against {used:.3e} with the hold used): was the input applied that way?"
+                    );
+                }
             }
             c.comparisons
         }
         Data::Torque { config, records } => {
-            crate::outln!("torque space (inverse model), configuration {config}");
+            if announce {
+                crate::outln!("torque space (inverse model), configuration {config}");
+            }
             let mut v = Vec::new();
             for m in records {
                 let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
                 v.extend(compare_observation(plant, &obs, &m.file)?);
             }
             v
+        }
+    })
+}
+
+/// A comparison with the starting plant of a loop of diagnosis: its figures are drawn
+/// beside the model's.
+pub struct StartComparison<'a> {
+    /// The starting plant (same model as the plant compared).
+    pub plant: &'a Plant,
+    /// Its file, for messages.
+    pub file: &'a Path,
+}
+
+/// Compare, print the table and write residual CSVs and figures under `out`; returns the
+/// comparisons, the starting plant's (when `start` is given: drawn beside the model in each
+/// figure and listed in the table) and the SVG figure of each.
+///
+/// # Errors
+/// As [`compare_output`] / [`crate::compare::compare_torque`]; a starting plant of another
+/// model (file named) or that cannot be simulated on the data; I/O (path named).
+pub fn compare_command(
+    plant: &Plant,
+    inputs: &Inputs,
+    data: &Data,
+    out: &Path,
+    start: Option<&StartComparison>,
+) -> Result<Vec<Compared>> {
+    let cmps = comparisons(plant, inputs, data, true)?;
+    let starts: Vec<Option<Comparison>> = match start {
+        None => vec![None; cmps.len()],
+        Some(s) => {
+            if s.plant.model.name != plant.model.name {
+                bail!(
+                    "--start {}: a plant of model '{}', the plant compared is of model '{}'",
+                    s.file.display(),
+                    s.plant.model.name,
+                    plant.model.name
+                );
+            }
+            let v = comparisons(s.plant, inputs, data, false)
+                .with_context(|| format!("--start {}", s.file.display()))?;
+            crate::outln!("starting plant {}", s.file.display());
+            v.into_iter().map(Some).collect()
         }
     };
     crate::outln!(
@@ -245,11 +293,11 @@ pub fn compare_command(
         "at qd"
     );
     let mut outv = Vec::new();
-    for c in cmps {
+    for (c, start) in cmps.into_iter().zip(starts) {
         let s = stem(&c.file);
         let base = out.join(format!("{s}_{}", c.joint));
         write_residual_csv(&base.with_extension("csv"), &c)?;
-        let [svg, _] = plot(&base, &c, &s)?;
+        let [svg, _] = plot(&base, &c, &s, start.as_ref())?;
         crate::outln!(
             "{:<24} {:<5} {:>8.2} {:>9.3} {:>11.4e} {:>11.4e} {:>9.3} {:>10.4} {:>10.4}",
             s,
@@ -262,15 +310,36 @@ pub fn compare_command(
             c.max_error_q,
             c.max_error.2
         );
+        if let Some(st) = &start {
+            crate::outln!(
+                "    starting plant: fit {:.2} %, RMSE {:.4e}",
+                st.nrmse_fit,
+                st.rmse
+            );
+        }
         crate::outln!("    {}", c.tests.verdict());
         if matches!(data, Data::Torque { .. }) {
             let (a, b) = c.sign_step;
             crate::outln!("    residual ~ a*sign(qd) + b + c*qd: a = {a:.4}, b = {b:.4} (a step of 2a at qd = 0 means missing Coulomb friction; b, an offset)");
         }
-        outv.push((c, svg));
+        outv.push(Compared {
+            comparison: c,
+            start,
+            svg,
+        });
     }
     crate::outln!("residual CSVs and plots (PNG, SVG) in {}", out.display());
     Ok(outv)
+}
+
+/// One record and joint of [`compare_command`].
+pub struct Compared {
+    /// The plant's comparison.
+    pub comparison: Comparison,
+    /// The starting plant's, when one was given.
+    pub start: Option<Comparison>,
+    /// Its figure (SVG; a PNG beside it).
+    pub svg: PathBuf,
 }
 
 /// Diagnose: the ranked findings, per record in torque space, for all records together in
@@ -752,10 +821,16 @@ fn history_html(history: &[HistoryEntry], out: &Path) -> Result<String> {
 ///
 /// # Errors
 /// As the commands it runs; I/O (path named).
-pub fn report_command(plant: &Plant, inputs: &Inputs, out: &Path, top: usize) -> Result<PathBuf> {
+pub fn report_command(
+    plant: &Plant,
+    inputs: &Inputs,
+    out: &Path,
+    top: usize,
+    start: Option<&StartComparison>,
+) -> Result<PathBuf> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let data = inputs.load(plant)?;
-    let cmps = compare_command(plant, inputs, &data, out)?;
+    let cmps = compare_command(plant, inputs, &data, out, start)?;
     let diag = diagnose(plant, inputs, &data)?;
     let mut h = String::new();
     h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
@@ -778,13 +853,34 @@ pub fn report_command(plant: &Plant, inputs: &Inputs, out: &Path, top: usize) ->
             .collect::<Vec<_>>()
             .join(", "))
     );
-    h += "<h2>Compare</h2>\n<table><tr><th>record</th><th>joint</th><th>NRMSE fit</th><th>RMSE</th><th>max |e|</th><th>at t (s)</th><th>at q</th><th>at q̇</th><th>residual tests</th></tr>\n";
-    for (c, _) in &cmps {
+    h += "<h2>Compare</h2>\n";
+    if let Some(s) = start {
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{:.2} %</td><td>{:.4e}</td><td>{:.4e}</td><td>{:.3}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td></tr>",
+            "<p>Beside the model, the starting plant <code>{}</code> (the line \"starting plant\" in each figure).</p>",
+            esc(&s.file.display().to_string())
+        );
+    }
+    h += "<table><tr><th>record</th><th>joint</th>";
+    if start.is_some() {
+        h += "<th>starting plant: NRMSE fit, RMSE</th>";
+    }
+    h += "<th>NRMSE fit</th><th>RMSE</th><th>max |e|</th><th>at t (s)</th><th>at q</th><th>at q̇</th><th>residual tests</th></tr>\n";
+    for Compared {
+        comparison: c,
+        start: st,
+        ..
+    } in &cmps
+    {
+        let started = st.as_ref().map_or(String::new(), |s| {
+            format!("<td>{:.2} %, {:.4e}</td>", s.nrmse_fit, s.rmse)
+        });
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{}</td>{}<td>{:.2} %</td><td>{:.4e}</td><td>{:.4e}</td><td>{:.3}</td><td>{:.4}</td><td>{:.4}</td><td>{}</td></tr>",
             esc(&stem(&c.file)),
             esc(&c.joint),
+            started,
             c.nrmse_fit,
             c.rmse,
             c.max_error.0.abs(),
@@ -795,7 +891,10 @@ pub fn report_command(plant: &Plant, inputs: &Inputs, out: &Path, top: usize) ->
         );
     }
     h += "</table>\n";
-    for (c, svg) in &cmps {
+    for Compared {
+        comparison: c, svg, ..
+    } in &cmps
+    {
         let _ = writeln!(h, "<h3>{} — {}</h3>", esc(&stem(&c.file)), esc(&c.joint));
         h += &inline_svg(svg)?;
     }
