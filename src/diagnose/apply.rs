@@ -165,9 +165,15 @@ pub fn apply_finding(
                 .collect(),
         )?
     } else {
+        // The profile's refits go through the growing horizons only (the warm-ups, once per
+        // start, would cost as much as the rest); the released refit takes `options`.
+        let profiled = RefitOptions {
+            warm_ups: false,
+            ..options.clone()
+        };
         let fits: Vec<Result<Refit>> = starts
             .par_iter()
-            .map(|start| refit(plant, start, conf_name, records, &profile, options))
+            .map(|start| refit(plant, start, conf_name, records, &profile, &profiled))
             .collect();
         let start = lowest(fits)?.plant;
         refit(plant, &start, conf_name, records, &names, options)?
@@ -365,10 +371,7 @@ pub fn apply_all_significant(
     let mut current = plant.clone();
     let mut steps: Vec<LoopStep> = Vec::new();
     let mut first: Option<OutputDiagnosis> = None;
-    let refit_options = RefitOptions {
-        max_iter: RefitOptions::default().max_iter,
-        ..options.fit.clone()
-    };
+    let refit_options = options.joint_refit();
     loop {
         let d = diagnose_output(&current, conf_name, records, options)?;
         progress(Turn::Diagnosed(&d));

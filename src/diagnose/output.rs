@@ -70,6 +70,10 @@ pub struct OutputOptions {
     /// values again beside it, so a first refit stopped short of its minimum would credit
     /// the rest of the way to whichever candidate is confirmed.
     pub values_max_iter: usize,
+    /// That first refit also starts through the warm-ups ([`RefitOptions::warm_ups`]):
+    /// from a start far off (a CAD model, a datasheet) the output error of a long file has
+    /// local minima the growing horizons end in (DIDIM starts from the torque balance too).
+    pub values_warm_ups: bool,
 }
 
 impl Default for OutputOptions {
@@ -83,6 +87,21 @@ impl Default for OutputOptions {
             confirm_max: 12,
             refit_values: true,
             values_max_iter: 200,
+            values_warm_ups: true,
+        }
+    }
+}
+
+impl OutputOptions {
+    /// The settings of the joint refit that applies a finding
+    /// ([`super::apply::apply_finding`]): the fit's settings with the refit's own iteration
+    /// cap, through the warm-ups where the values are refitted
+    /// ([`OutputOptions::values_warm_ups`]; the joint refit starts from the plant as given).
+    pub fn joint_refit(&self) -> RefitOptions {
+        RefitOptions {
+            max_iter: RefitOptions::default().max_iter,
+            warm_ups: self.refit_values && self.values_warm_ups,
+            ..self.fit.clone()
         }
     }
 }
@@ -285,6 +304,7 @@ pub fn diagnose_output(
                 &values,
                 &RefitOptions {
                     max_iter: options.values_max_iter,
+                    warm_ups: options.values_warm_ups,
                     ..options.fit.clone()
                 },
             )

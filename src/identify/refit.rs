@@ -32,6 +32,13 @@ pub struct RefitOptions {
     /// ([`Problem::estimate_initial_positions`]): with the plant before the change for the
     /// "before" figures, with the changed plant for the fit.
     pub estimate_initial: bool,
+    /// One more start from the plant's values, through the warm-ups of
+    /// [`OutputErrorOptions::coupled`] (the torque balance at every sample, no simulation;
+    /// then the prediction-error homotopy, the simulation pulled toward the measured
+    /// positions less and less) before the whole files; it runs beside the growing horizons
+    /// and the lower final cost wins. For a start far off: the output error of a long file
+    /// has local minima the horizons end in.
+    pub warm_ups: bool,
 }
 
 impl Default for RefitOptions {
@@ -45,6 +52,7 @@ impl Default for RefitOptions {
             max_iter: 50,
             starts: 1,
             estimate_initial: true,
+            warm_ups: false,
         }
     }
 }
@@ -53,7 +61,16 @@ impl RefitOptions {
     /// The output-error settings of these options: joints weighted 1, the first `skip`
     /// samples of each file left out, growing `horizons`.
     pub fn output_error(&self, horizons: Vec<f64>) -> OutputErrorOptions {
+        let warm = if self.warm_ups {
+            OutputErrorOptions::coupled()
+        } else {
+            OutputErrorOptions::thesis()
+        };
         OutputErrorOptions {
+            equation_error: warm.equation_error,
+            predictor: warm.predictor,
+            predictor_step: warm.predictor_step,
+            predictor_optimiser: warm.predictor_optimiser,
             weighting: TimeWeighting::SkipTransient(self.skip),
             interest_weight: 1.0,
             h: self.h,

@@ -509,7 +509,13 @@ pub fn apply_finding(
     let f = findings
         .get(k.wrapping_sub(1))
         .ok_or_else(|| anyhow!("--apply {k}: there are {} findings", findings.len()))?;
-    let r = crate::diagnose::apply_finding(plant, f, config, records, &refit_options(inputs))?;
+    let r = crate::diagnose::apply_finding(
+        plant,
+        f,
+        config,
+        records,
+        &output_options(inputs).joint_refit(),
+    )?;
     r.plant.save(out)?;
     Ok(r)
 }
