@@ -11,7 +11,7 @@ use lockstep::measurement::Measurement;
 use lockstep::plant::Plant;
 use lockstep::report::diagnosis::{
     apply_all_command, apply_finding, compare_command, diagnose, effect_add, refit_command,
-    refit_table, report_command, Inputs, StartComparison,
+    report_command, Inputs, StartComparison,
 };
 use lockstep::report::fit_table;
 use lockstep::simulation::{Hold, Integrator};
@@ -304,13 +304,10 @@ fn run_command(cli: Cli) -> Result<()> {
             let data = inputs.load(&plant)?;
             if let (Some(Apply::AllSignificant), Some(out)) = (apply, &out) {
                 // The loop diagnoses (and prints) the plant itself, before each step.
-                let done = apply_all_command(&plant, &inputs, &data, out, top)?;
+                let (end, steps, history) = apply_all_command(&plant, &inputs, &data, out, top)?;
                 lockstep::outln!(
-                    "{}; wrote {} ({} steps applied, history: {} steps)",
-                    done.end,
+                    "{end}; wrote {} ({steps} steps applied, history: {history} steps)",
                     out.display(),
-                    done.steps.len(),
-                    done.plant.history.len()
                 );
                 return Ok(());
             }
@@ -323,14 +320,27 @@ fn run_command(cli: Cli) -> Result<()> {
                 );
             }
             if let (Some(Apply::Finding(k)), Some(out)) = (apply, out) {
-                let r = apply_finding(&plant, &inputs, &data, &results[0].1, k, &out)?;
-                lockstep::outln!("applied finding {k} and refitted jointly:");
-                lockstep::out!("{}", refit_table(&r));
-                lockstep::outln!(
-                    "wrote {} (history: {} steps)",
-                    out.display(),
-                    r.plant.history.len()
-                );
+                // Torque space diagnoses each record; a step is taken on all of them
+                // together, so with several records their joint diagnosis is printed too.
+                let joint = match &data {
+                    lockstep::report::diagnosis::Data::Torque { config, records }
+                        if records.len() > 1 =>
+                    {
+                        let obs = observation(&plant, config, records, &inputs.idim)?;
+                        let findings = lockstep::diagnose::diagnose_torque(&plant, &obs)?;
+                        lockstep::outln!(
+                            "plant {}, all {} records together:",
+                            plant.name(),
+                            records.len()
+                        );
+                        lockstep::out!("{}", lockstep::diagnose::table_with(&findings, top, &[]));
+                        Some(findings)
+                    }
+                    _ => None,
+                };
+                let findings = joint.as_deref().unwrap_or(&results[0].1);
+                let history = apply_finding(&plant, &inputs, &data, findings, k, &out)?;
+                lockstep::outln!("wrote {} (history: {history} steps)", out.display());
             }
         }
         Command::Refit {
@@ -344,8 +354,7 @@ fn run_command(cli: Cli) -> Result<()> {
             lockstep::files::check_writable(&[&out])?;
             let (plant, inputs) = common.inputs(&space)?;
             let change = change.unwrap_or_else(|| format!("refitted {}", params.join(", ")));
-            let r = refit_command(&plant, &inputs, &params, &change, &out)?;
-            lockstep::out!("{}", refit_table(&r));
+            refit_command(&plant, &inputs, &params, &change, &out)?;
             lockstep::outln!("wrote {}", out.display());
         }
         Command::Effect {

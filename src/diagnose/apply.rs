@@ -307,6 +307,9 @@ pub enum LoopEnd {
     NoImprovement(String),
     /// The step limit (the number given) was reached with a significant finding left.
     StepLimit(usize),
+    /// Torque space: the leading finding (named) is an effect not linear in its parameters,
+    /// which the inverse model's least squares cannot refit.
+    NotLinear(String),
 }
 
 impl std::fmt::Display for LoopEnd {
@@ -328,6 +331,10 @@ impl std::fmt::Display for LoopEnd {
             LoopEnd::StepLimit(k) => {
                 write!(f, "stopped after {k} steps with a significant finding left")
             }
+            LoopEnd::NotLinear(w) => write!(
+                f,
+                "stopped at {w}: not linear in its parameters, so torque space cannot refit it (apply it in output space)"
+            ),
         }
     }
 }
@@ -516,6 +523,7 @@ fn prune(mut plant: Plant, steps: &[LoopStep]) -> (Plant, Vec<String>) {
             fitted: Default::default(),
             rms_before: Default::default(),
             rms_after: Default::default(),
+            space: None,
         });
         removed.push(why);
     }

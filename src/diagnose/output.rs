@@ -20,7 +20,9 @@
 //! ([`crate::identify::output_error::Problem`]), and its figures become those of the fitted
 //! plant (the linearisation understates large effects such as a 30 % gain error), so the
 //! ranking is that of the fitted costs. Where the plant gives bounds, the values the
-//! configuration determines ([`super::apply::configuration_values`]) are refitted first —
+//! configuration determines ([`super::apply::configuration_values`]) are refitted first
+//! (from the plant's values through growing horizons and, beside them, through the coupled
+//! preset's warm-ups: [`OutputOptions::values_warm_ups`]) —
 //! r is then the residual of that plant — and again beside each candidate in its
 //! confirming fit, whose ΔBIC counts only the candidate's own numbers
 //! ([`OutputOptions::refit_values`]). The diagnosis also reports the effective number of

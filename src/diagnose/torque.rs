@@ -25,12 +25,19 @@
 //! "refit existing parameters" with the share of the residual it removes.
 //!
 //! Position-measured data go through [`super::output`] instead.
+//!
+//! [`apply_finding`] adds a finding whose effect is linear in its parameters and refits the
+//! whole inverse model (IDIM-LS on the base parameters, [`refit_torque`]);
+//! [`apply_all_significant`] repeats diagnosis and step until nothing significant is
+//! missing.
 
-use super::{fit, Finding};
+use super::{fit, Finding, LoopEnd};
 use crate::effects::{sign, Effect, EffectKind};
-use crate::identify::idim::{predict, Observation};
+use crate::identify::idim::{observation, predict, IdimOptions, Observation};
+use crate::identify::refit::{refit_torque, TorqueRefit};
+use crate::measurement::Measurement;
 use crate::plant::Plant;
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use nalgebra::{DMatrix, DVector};
 
 /// A candidate before fitting: name, effect kind, source joint, symbols, signature columns.
@@ -260,4 +267,135 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
     }
     out.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     Ok(out)
+}
+
+/// Add `finding` (from [`diagnose_torque`]) to `plant` and refit in torque space
+/// ([`refit_torque`]: every parameter of the inverse model, one linear least squares); the
+/// returned plant carries the step as a history entry.
+///
+/// # Errors
+/// The finding is not a plant edit; its effect is not linear in its parameters (named:
+/// such effects are added and refitted in output space); as [`refit_torque`].
+pub fn apply_finding(
+    plant: &Plant,
+    finding: &Finding,
+    conf_name: &str,
+    records: &[Measurement],
+    options: &IdimOptions,
+) -> Result<TorqueRefit> {
+    if let Some(e) = finding.effect.filter(|e| !e.kind.is_linear()) {
+        bail!(
+            "'{}' on {}: a {} is not linear in its parameters, and torque space refits only \
+             effects that are (coulomb, viscous, asymmetric_friction, offset); apply it in \
+             output space (position data), or add it with `effect add` and fixed values",
+            finding.name,
+            finding.joint,
+            e.kind
+        );
+    }
+    let changed = finding.apply(plant)?;
+    let mut r = refit_torque(plant, &changed, conf_name, records, options)?;
+    let entry = r.history(&super::apply::change_text(finding), conf_name, records);
+    r.plant.history.push(entry);
+    Ok(r)
+}
+
+/// One turn of [`apply_all_significant`], as it ends.
+#[derive(Debug)]
+pub enum Turn<'a> {
+    /// A diagnosis of the plant as it is (all records together; before each step, and the
+    /// last).
+    Diagnosed(&'a [Finding]),
+    /// A step kept: the finding applied and the refit.
+    Applied(&'a Finding, &'a TorqueRefit),
+}
+
+/// The result of [`apply_all_significant`].
+#[derive(Debug, Clone)]
+pub struct AppliedLoop {
+    /// The plant after the last kept step (the starting plant's values refitted first when
+    /// they were not at their least-squares values).
+    pub plant: Plant,
+    /// The diagnosis of the starting plant.
+    pub first: Vec<Finding>,
+    /// The steps kept, in order: the finding (None for the refit of the plant's own
+    /// values) and its refit.
+    pub steps: Vec<(Option<Finding>, TorqueRefit)>,
+    /// The diagnosis of the final plant.
+    pub last: Vec<Finding>,
+    /// Why the loop stopped.
+    pub end: LoopEnd,
+}
+
+/// `diagnose --apply all-significant` in torque space: diagnose `plant` on all `records`
+/// of configuration `conf_name` together, and while the leading plant edit is significant,
+/// apply it and refit ([`apply_finding`]). When the plant's own parameters are not at their
+/// least-squares values ("refit existing parameters" significant), they are refitted first,
+/// as a step of its own. Stops when nothing significant is missing, when the leading
+/// finding's effect is not linear in its parameters ([`LoopEnd::NotLinear`]), when a step
+/// does not lower the summed squared RMS residual (not kept), or after `max_steps` steps.
+///
+/// # Errors
+/// As [`observation`], [`diagnose_torque`] and [`refit_torque`].
+pub fn apply_all_significant(
+    plant: &Plant,
+    conf_name: &str,
+    records: &[Measurement],
+    options: &IdimOptions,
+    max_steps: usize,
+    progress: &dyn Fn(Turn),
+) -> Result<AppliedLoop> {
+    let diagnosed = |p: &Plant| -> Result<Vec<Finding>> {
+        let obs = observation(p, conf_name, records, options)?;
+        let findings = diagnose_torque(p, &obs)?;
+        progress(Turn::Diagnosed(&findings));
+        Ok(findings)
+    };
+    let squared = |rms: &[(String, f64)]| rms.iter().map(|(_, e)| e * e).sum::<f64>();
+    let mut current = plant.clone();
+    let mut steps: Vec<(Option<Finding>, TorqueRefit)> = Vec::new();
+    let mut findings = diagnosed(&current)?;
+    let first = findings.clone();
+    if let Some(refit_values) = findings
+        .iter()
+        .find(|f| f.significant && f.values.is_empty() && f.kind.is_none())
+        .cloned()
+    {
+        let mut r = refit_torque(&current, &current, conf_name, records, options)?;
+        let entry = r.history("refitted the configuration's values", conf_name, records);
+        r.plant.history.push(entry);
+        progress(Turn::Applied(&refit_values, &r));
+        current = r.plant.clone();
+        steps.push((None, r));
+        findings = diagnosed(&current)?;
+    }
+    let end = loop {
+        let Some(top) = findings.iter().find(|f| f.effect.is_some()).cloned() else {
+            break LoopEnd::NothingMissing;
+        };
+        if !top.significant {
+            break LoopEnd::NothingMissing;
+        }
+        if top.effect.is_some_and(|e| !e.kind.is_linear()) {
+            break LoopEnd::NotLinear(format!("{} on {}", top.name, top.joint));
+        }
+        if steps.iter().filter(|(f, _)| f.is_some()).count() >= max_steps {
+            break LoopEnd::StepLimit(max_steps);
+        }
+        let r = apply_finding(&current, &top, conf_name, records, options)?;
+        if squared(&r.after) >= squared(&r.before) {
+            break LoopEnd::NoImprovement(super::apply::change_text(&top));
+        }
+        progress(Turn::Applied(&top, &r));
+        current = r.plant.clone();
+        steps.push((Some(top), r));
+        findings = diagnosed(&current)?;
+    };
+    Ok(AppliedLoop {
+        plant: current,
+        first,
+        steps,
+        last: findings,
+        end,
+    })
 }

@@ -1,7 +1,9 @@
 //! Refit after a change: fit chosen parameters of a plant by output error on the files of
 //! one configuration and report the position error per joint before and after (the loop
-//! of diagnosis: add the missing effect, refit, watch the error fall). A [`HistoryEntry`]
-//! records each step in the plant file's `[[history]]` list.
+//! of diagnosis: add the missing effect, refit, watch the error fall); on torque-measured
+//! data, [`refit_torque`] refits by the inverse model (IDIM-LS on the base parameters) and
+//! reports the torque residual. A [`HistoryEntry`] records each step in the plant file's
+//! `[[history]]` list.
 
 use crate::identify::output_error::{
     FitResult, JointFit, OutputErrorOptions, Problem, Record, TimeWeighting,
@@ -121,6 +123,7 @@ impl Refit {
                 .collect(),
             rms_before: self.before.iter().cloned().collect(),
             rms_after: self.after.iter().cloned().collect(),
+            space: None,
         }
     }
 }
@@ -185,4 +188,211 @@ pub fn refit(
         joints_before,
         fit,
     })
+}
+
+/// Result of [`refit_torque`].
+#[derive(Debug, Clone)]
+pub struct TorqueRefit {
+    /// The plant with the fitted values.
+    pub plant: Plant,
+    /// The least-squares fit (values, standard deviations, base parameters).
+    pub fit: crate::identify::idim::Fit,
+    /// RMS torque residual y − ŷ per free joint before (joint name, N·m or N).
+    pub before: Vec<(String, f64)>,
+    /// … and after.
+    pub after: Vec<(String, f64)>,
+    /// Relative error 100‖y − ŷ‖/‖y‖ (%) over all rows, before and after.
+    pub relative: (f64, f64),
+}
+
+impl TorqueRefit {
+    /// A history entry for this refit of configuration `conf_name` on `records`, described
+    /// by `change` (space `torque`; the fitted values with a finite standard deviation: the
+    /// base parameters' kept columns and the effects).
+    pub fn history(
+        &self,
+        change: &str,
+        conf_name: &str,
+        records: &[crate::measurement::Measurement],
+    ) -> HistoryEntry {
+        HistoryEntry {
+            change: change.to_string(),
+            configuration: conf_name.to_string(),
+            files: records
+                .iter()
+                .map(|r| r.file.display().to_string())
+                .collect(),
+            fitted: self
+                .fit
+                .names
+                .iter()
+                .zip(self.fit.theta.iter().zip(&self.fit.std))
+                .filter(|(_, (_, s))| s.is_finite())
+                .map(|(n, (v, _))| (n.clone(), *v))
+                .collect(),
+            rms_before: self.before.iter().cloned().collect(),
+            rms_after: self.after.iter().cloned().collect(),
+            space: Some("torque".into()),
+        }
+    }
+}
+
+/// RMS of y − ŷ over each free joint's rows of `obs`, in the configuration's order.
+fn rms_per_joint(
+    plant: &Plant,
+    obs: &crate::identify::idim::Observation,
+    yhat: &nalgebra::DVector<f64>,
+) -> Vec<(String, f64)> {
+    let mut joints: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
+    joints.sort_unstable();
+    joints.dedup();
+    joints
+        .into_iter()
+        .map(|j| {
+            let (sum, n) = obs
+                .rows
+                .iter()
+                .enumerate()
+                .filter(|(_, r)| r.joint == j)
+                .fold((0.0, 0usize), |(s, n), (i, _)| {
+                    (s + (obs.y[i] - yhat[i]).powi(2), n + 1)
+                });
+            (
+                plant.model.joints[j].to_string(),
+                (sum / n.max(1) as f64).sqrt(),
+            )
+        })
+        .collect()
+}
+
+/// Refit `plant` in torque space: IDIM-LS ([`crate::identify::idim`]) of its rigid-body
+/// parameters and its effects linear in their parameters on the torque-measured `records`
+/// of configuration `conf_name`, on the base parameters where the regressor has dependent
+/// columns ([`crate::identify::idim::least_squares_base`], grouped at the records' locked
+/// positions; the dependent ones keep the plant's values). Every parameter of the
+/// observation is refitted: in the inverse model that is one linear least squares, the
+/// joint refit of the output space at the cost of one solve. The "before" figures are those
+/// of `before` (the plant before the change) on the same records.
+///
+/// # Errors
+/// Unknown configuration; an effect of `plant` on a free joint that is not linear in its
+/// parameters (named: a spring's rest angle, Stribeck's vs, LuGre, a friction bias, a
+/// coupling; these are refitted in output space); a parameter of `before` without value;
+/// as [`crate::identify::idim::observation`] and
+/// [`crate::identify::idim::least_squares_base`].
+pub fn refit_torque(
+    before: &Plant,
+    plant: &Plant,
+    conf_name: &str,
+    records: &[crate::measurement::Measurement],
+    options: &crate::identify::idim::IdimOptions,
+) -> Result<TorqueRefit> {
+    refit_torque_of(before, plant, conf_name, records, options, None)
+}
+
+/// [`refit_torque`] of the parameters `names` only, the others held at the plant's values
+/// (their share of the torque is taken off the measured torque first): `lockstep refit` on
+/// torque-measured data.
+///
+/// # Errors
+/// A name that is not a parameter of the inverse model of this configuration (the ones it
+/// has are listed); the named columns rank-deficient on these data (named); as
+/// [`refit_torque`].
+pub fn refit_torque_names(
+    plant: &Plant,
+    conf_name: &str,
+    records: &[crate::measurement::Measurement],
+    options: &crate::identify::idim::IdimOptions,
+    names: &[String],
+) -> Result<TorqueRefit> {
+    refit_torque_of(plant, plant, conf_name, records, options, Some(names))
+}
+
+fn refit_torque_of(
+    before: &Plant,
+    plant: &Plant,
+    conf_name: &str,
+    records: &[crate::measurement::Measurement],
+    options: &crate::identify::idim::IdimOptions,
+    names: Option<&[String]>,
+) -> Result<TorqueRefit> {
+    use crate::identify::idim::{least_squares_base, observation, predict, relative_error};
+    let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    let obs_before = observation(before, conf_name, records, options)
+        .map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
+    let yhat_before =
+        predict(before, &obs_before).map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
+    let obs = observation(plant, conf_name, records, options)
+        .map_err(|e| anyhow!("refitting in torque space: {e:#}"))?;
+    let values = plant.values_with_barycentric()?;
+    let locked_at: Vec<Vec<f64>> = records
+        .iter()
+        .map(|r| {
+            r.q.iter()
+                .map(|q| q.first().copied().unwrap_or(0.0))
+                .collect()
+        })
+        .collect();
+    let mut fit = match names {
+        None => least_squares_base(&obs, plant.model, conf, &locked_at, &|n| {
+            values.get(n).copied()
+        }),
+        Some(names) => held_least_squares(&obs, &values, names, conf_name),
+    }
+    .map_err(|e| anyhow!("refitting in torque space: {e:#}"))?;
+    let mut fitted = plant.clone();
+    fit.apply(&mut fitted)?;
+    let yhat = predict(&fitted, &obs)?;
+    // The fit's own figure is of the torque left to the fitted columns; report the whole.
+    fit.relative_error = relative_error(&obs.y, &yhat);
+    Ok(TorqueRefit {
+        before: rms_per_joint(before, &obs_before, &yhat_before),
+        after: rms_per_joint(&fitted, &obs, &yhat),
+        relative: (
+            relative_error(&obs_before.y, &yhat_before),
+            relative_error(&obs.y, &yhat),
+        ),
+        plant: fitted,
+        fit,
+    })
+}
+
+/// Least squares of the columns `names` of `obs`, every other column held at its value in
+/// `values` (y − W_held θ_held = W_names θ_names).
+fn held_least_squares(
+    obs: &crate::identify::idim::Observation,
+    values: &std::collections::BTreeMap<String, f64>,
+    names: &[String],
+    conf_name: &str,
+) -> Result<crate::identify::idim::Fit> {
+    use nalgebra::{DMatrix, DVector};
+    let mut fitted: Vec<usize> = Vec::new();
+    for n in names {
+        let c = obs.names.iter().position(|x| x == n).ok_or_else(|| {
+            anyhow!(
+                "--params: '{n}' is not a parameter of the inverse model of configuration '{conf_name}' (it has {})",
+                obs.names.join(", ")
+            )
+        })?;
+        if !fitted.contains(&c) {
+            fitted.push(c);
+        }
+    }
+    let mut y = obs.y.clone();
+    for (c, n) in obs.names.iter().enumerate() {
+        if !fitted.contains(&c) {
+            let v = values
+                .get(n)
+                .copied()
+                .ok_or_else(|| anyhow!("parameter '{n}' has no value to hold"))?;
+            y -= obs.w.column(c) * v;
+        }
+    }
+    let reduced = crate::identify::idim::Observation {
+        names: fitted.iter().map(|&c| obs.names[c].clone()).collect(),
+        y: DVector::from_iterator(y.len(), y.iter().copied()),
+        w: DMatrix::from_fn(obs.w.nrows(), fitted.len(), |i, a| obs.w[(i, fitted[a])]),
+        rows: obs.rows.clone(),
+    };
+    crate::identify::idim::least_squares(&reduced)
 }

@@ -72,7 +72,8 @@ pub struct PlantFile {
 }
 
 /// One step of a plant's history: a change (an effect added, parameters refitted), the
-/// data it was fitted on and the RMS position error per joint before and after.
+/// data it was fitted on and the RMS error per joint before and after (position error, or
+/// torque residual in torque space: `space`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct HistoryEntry {
@@ -92,6 +93,11 @@ pub struct HistoryEntry {
     /// … and after the refit.
     #[serde(default)]
     pub rms_after: BTreeMap<String, f64>,
+    /// The space of the figures: `torque` when `rms_before`/`rms_after` are the inverse
+    /// model's torque residuals (N·m or N, [`crate::identify::refit::refit_torque`]);
+    /// absent for position errors (output space).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub space: Option<String>,
 }
 
 /// `[bounds]` entries as `[lower, upper]`, refusing any other length (serde's fixed-size

@@ -487,14 +487,16 @@ pub fn refit_table(r: &Refit) -> String {
     s
 }
 
-/// `diagnose --apply k`: add finding `k` (1-based) of an output-space diagnosis to the
-/// plant, refit it jointly with the changes recorded earlier on the configuration
-/// ([`crate::diagnose::apply_finding`]), record the step in the plant's history and save
-/// the plant to `out`.
+/// `diagnose --apply k`: add finding `k` (1-based) of the diagnosis to the plant, refit,
+/// record the step in the plant's history, print the refit and save the plant to `out`. In
+/// output space the refit is joint with the changes recorded earlier on the configuration
+/// ([`crate::diagnose::apply_finding`]); in torque space it is the inverse model's least
+/// squares of every parameter ([`crate::diagnose::torque::apply_finding`], all records
+/// together). Returns the number of history steps of the saved plant.
 ///
 /// # Errors
-/// Torque-space data, no such finding, a finding that is not a plant edit, the refit
-/// fails, I/O.
+/// No such finding, a finding that is not a plant edit (or, in torque space, not linear in
+/// its parameters), the refit fails, I/O.
 pub fn apply_finding(
     plant: &Plant,
     inputs: &Inputs,
@@ -502,40 +504,112 @@ pub fn apply_finding(
     findings: &[Finding],
     k: usize,
     out: &Path,
-) -> Result<Refit> {
-    let Data::Output { config, records } = data else {
-        bail!("--apply works in output space (position data; --space output)");
-    };
+) -> Result<usize> {
     let f = findings
         .get(k.wrapping_sub(1))
         .ok_or_else(|| anyhow!("--apply {k}: there are {} findings", findings.len()))?;
-    let r = crate::diagnose::apply_finding(
-        plant,
-        f,
-        config,
-        records,
-        &output_options(inputs).joint_refit(),
-    )?;
-    r.plant.save(out)?;
-    Ok(r)
+    let saved = match data {
+        Data::Output { config, records } => {
+            let r = crate::diagnose::apply_finding(
+                plant,
+                f,
+                config,
+                records,
+                &output_options(inputs).joint_refit(),
+            )?;
+            crate::outln!("applied finding {k} and refitted jointly:");
+            crate::out!("{}", refit_table(&r));
+            r.plant
+        }
+        Data::Torque { config, records } => {
+            let r =
+                crate::diagnose::torque::apply_finding(plant, f, config, records, &inputs.idim)?;
+            crate::outln!(
+                "applied finding {k} and refitted in torque space (IDIM-LS, every parameter):"
+            );
+            crate::out!("{}", torque_refit_table(&r));
+            r.plant
+        }
+    };
+    saved.save(out)?;
+    Ok(saved.history.len())
+}
+
+/// The before/after table of a torque-space refit: RMS torque residual per joint, the
+/// relative error, and the fitted values.
+pub fn torque_refit_table(r: &crate::identify::refit::TorqueRefit) -> String {
+    let mut s = format!(
+        "{:<8} {:>14} {:>14} {:>8}\n",
+        "joint", "RMS before", "RMS after", "fall %"
+    );
+    for ((j, b), (_, a)) in r.before.iter().zip(&r.after) {
+        let _ = writeln!(
+            s,
+            "{j:<8} {b:>14.4e} {a:>14.4e} {:>8.1}",
+            100.0 * (1.0 - a / b)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "relative error {:.3} % → {:.3} % (torque residual, N·m or N)",
+        r.relative.0, r.relative.1
+    );
+    s += &crate::report::fit_table(&r.fit);
+    s
 }
 
 /// `diagnose --apply all-significant`: apply the leading finding and diagnose again until
-/// nothing significant is missing ([`crate::diagnose::apply_all_significant`]), printing
-/// each diagnosis (its `top` findings) and each step's refit table as they end; the plant
-/// after the last kept step is saved to `out`.
+/// nothing significant is missing, printing each diagnosis (its `top` findings) and each
+/// step's refit table as they end; the plant after the last kept step is saved to `out`.
+/// Output space: [`crate::diagnose::apply_all_significant`]; torque space (all records
+/// together): [`crate::diagnose::torque::apply_all_significant`]. Returns why the loop
+/// stopped, the steps kept and the saved plant's history length.
 ///
 /// # Errors
-/// Torque-space data; as [`crate::diagnose::apply_all_significant`]; I/O.
+/// As those loops; I/O.
 pub fn apply_all_command(
     plant: &Plant,
     inputs: &Inputs,
     data: &Data,
     out: &Path,
     top: usize,
-) -> Result<crate::diagnose::AppliedLoop> {
-    let Data::Output { config, records } = data else {
-        bail!("--apply works in output space (position data; --space output)");
+) -> Result<(crate::diagnose::LoopEnd, usize, usize)> {
+    let (config, records) = match data {
+        Data::Output { config, records } => (config, records),
+        Data::Torque { config, records } => {
+            let done = crate::diagnose::torque::apply_all_significant(
+                plant,
+                config,
+                records,
+                &inputs.idim,
+                crate::diagnose::apply::MAX_APPLIED_STEPS,
+                &|turn| match turn {
+                    crate::diagnose::torque::Turn::Diagnosed(findings) => {
+                        crate::outln!(
+                            "plant {}, torque space (inverse model), configuration {config}, {} record(s) together:",
+                            plant.name(),
+                            records.len()
+                        );
+                        crate::out!("{}", crate::diagnose::table_with(findings, top, &[]));
+                    }
+                    crate::diagnose::torque::Turn::Applied(f, r) => {
+                        if f.values.is_empty() {
+                            crate::outln!("step: refitted the plant's own parameters ({:.1} % of the residual); IDIM-LS:", 100.0 * f.explained);
+                        } else {
+                            crate::outln!(
+                                "step: {} ({:.1} % explained, ΔBIC {:.1}); IDIM-LS, every parameter:",
+                                crate::diagnose::apply::change_text(f),
+                                100.0 * f.explained,
+                                f.delta_bic
+                            );
+                        }
+                        crate::out!("{}", torque_refit_table(r));
+                    }
+                },
+            )?;
+            done.plant.save(out)?;
+            return Ok((done.end, done.steps.len(), done.plant.history.len()));
+        }
     };
     let done = crate::diagnose::apply_all_significant(
         plant,
@@ -567,7 +641,7 @@ pub fn apply_all_command(
         crate::outln!("{r}");
     }
     done.plant.save(out)?;
-    Ok(done)
+    Ok((done.end, done.steps.len(), done.plant.history.len()))
 }
 
 fn save_with_history(r: &Refit, change: &str, records: &[Record], out: &Path) -> Result<()> {
@@ -577,31 +651,50 @@ fn save_with_history(r: &Refit, change: &str, records: &[Record], out: &Path) ->
 }
 
 /// `lockstep refit`: fit `names` of the plant on the data, print before/after, append the
-/// step to the history, save to `out`.
+/// step to the history, save to `out`. Position data: output error ([`refit`]);
+/// torque-measured data: the inverse model's least squares of `names`, the others held
+/// ([`crate::identify::refit::refit_torque_names`]).
 ///
 /// # Errors
-/// As [`refit`]; I/O.
+/// As [`refit`] / [`crate::identify::refit::refit_torque_names`]; I/O.
 pub fn refit_command(
     plant: &Plant,
     inputs: &Inputs,
     names: &[String],
     change: &str,
     out: &Path,
-) -> Result<Refit> {
+) -> Result<()> {
     if names.is_empty() {
         bail!("--params: name the parameters to refit, e.g. --params Ks_3,qeq_3");
     }
-    let (config, records) = output_records(plant, inputs)?;
-    let r = refit(
-        plant,
-        plant,
-        &config,
-        &records,
-        names,
-        &refit_options(inputs),
-    )?;
-    save_with_history(&r, change, &records, out)?;
-    Ok(r)
+    match inputs.load(plant)? {
+        Data::Output { config, records } => {
+            let r = refit(
+                plant,
+                plant,
+                &config,
+                &records,
+                names,
+                &refit_options(inputs),
+            )?;
+            crate::out!("{}", refit_table(&r));
+            save_with_history(&r, change, &records, out)
+        }
+        Data::Torque { config, records } => {
+            let r = crate::identify::refit::refit_torque_names(
+                plant,
+                &config,
+                &records,
+                &inputs.idim,
+                names,
+            )?;
+            crate::outln!("torque space (inverse model), configuration {config}:");
+            crate::out!("{}", torque_refit_table(&r));
+            let mut p = r.plant.clone();
+            p.history.push(r.history(change, &config, &records));
+            p.save(out)
+        }
+    }
 }
 
 /// Default value of a new effect's parameter: no effect where that exists (levels 0, gain
@@ -749,7 +842,7 @@ fn history_html(history: &[HistoryEntry], out: &Path) -> Result<String> {
     if history.is_empty() {
         return Ok("<p>No changes recorded yet: <code>lockstep diagnose --apply 1</code> or <code>lockstep refit</code> add entries.</p>\n".into());
     }
-    let mut s = "<table><tr><th>step</th><th>change</th><th>configuration</th><th>fitted</th><th>RMS before → after (per joint)</th></tr>\n".to_string();
+    let mut s = "<table><tr><th>step</th><th>change</th><th>configuration</th><th>fitted</th><th>RMS before → after (per joint: position error, or torque residual in torque space)</th></tr>\n".to_string();
     for (i, h) in history.iter().enumerate() {
         let fitted = h
             .fitted
@@ -774,7 +867,10 @@ fn history_html(history: &[HistoryEntry], out: &Path) -> Result<String> {
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             i + 1,
             esc(&h.change),
-            esc(&h.configuration),
+            esc(&match &h.space {
+                Some(space) => format!("{} ({space} space)", h.configuration),
+                None => h.configuration.clone(),
+            }),
             esc(&fitted),
             rms
         );
