@@ -80,10 +80,11 @@ pub enum Command {
         /// Candidates to print.
         #[arg(long, default_value_t = 5)]
         top: usize,
-        /// Add finding K (1 = the first) to the plant and refit its parameters jointly
-        /// with the changes recorded earlier on the configuration (output space);
-        /// `all-significant`: apply the leading finding and diagnose again until nothing
-        /// significant is missing.
+        /// Add finding K (1 = the first) to the plant and refit: output space, its
+        /// parameters jointly with the changes recorded earlier on the configuration;
+        /// torque space, every parameter of the inverse model (effects linear in their
+        /// parameters). `all-significant`: apply the leading finding and diagnose again
+        /// until nothing significant is missing.
         #[arg(long, requires = "out")]
         apply: Option<Apply>,
         /// With --apply: where to write the changed plant.
@@ -95,14 +96,16 @@ pub enum Command {
         #[arg(long)]
         keep_values: bool,
     },
-    /// Refit chosen parameters by output error; print the error per joint before and after;
-    /// append the step to the plant's history.
+    /// Refit chosen parameters (output error on position data; the inverse model's least
+    /// squares, the other parameters held, on torque-measured data); print the error per
+    /// joint before and after; append the step to the plant's history.
     Refit {
         #[command(flatten)]
         common: Common,
         #[command(flatten)]
         space: SpaceArgs,
-        /// Parameters to fit (each needs bounds in the plant file), e.g. Ks_3,qeq_3.
+        /// Parameters to fit (in output space each needs bounds in the plant file), e.g.
+        /// Ks_3,qeq_3.
         #[arg(long, value_delimiter = ',', required = true)]
         params: Vec<String>,
         /// What changed, for the history (default: "refitted <params>").
