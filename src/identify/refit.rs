@@ -107,24 +107,19 @@ pub struct Refit {
 impl Refit {
     /// A history entry for this refit on `records`, described by `change`.
     pub fn history(&self, change: &str, records: &[Record]) -> HistoryEntry {
-        HistoryEntry {
-            change: change.to_string(),
-            configuration: self.fit.configuration.clone(),
-            files: records
-                .iter()
-                .map(|r| r.file.display().to_string())
-                .collect(),
-            fitted: self
-                .fit
+        entry(
+            change,
+            &self.fit.configuration,
+            records.iter().map(|r| r.file.as_path()),
+            self.fit
                 .names
                 .iter()
                 .cloned()
                 .zip(self.fit.fitted.iter().copied())
                 .collect(),
-            rms_before: self.before.iter().cloned().collect(),
-            rms_after: self.after.iter().cloned().collect(),
-            space: None,
-        }
+            (&self.before, &self.after),
+            None,
+        )
     }
 }
 
@@ -190,6 +185,27 @@ pub fn refit(
     })
 }
 
+/// A history entry: `change` on configuration `configuration`, fitted on `files`, with the
+/// fitted values and the RMS per joint before and after (`space`: None for position errors).
+fn entry<'a>(
+    change: &str,
+    configuration: &str,
+    files: impl Iterator<Item = &'a std::path::Path>,
+    fitted: std::collections::BTreeMap<String, f64>,
+    (before, after): (&[(String, f64)], &[(String, f64)]),
+    space: Option<&str>,
+) -> HistoryEntry {
+    HistoryEntry {
+        change: change.to_string(),
+        configuration: configuration.to_string(),
+        files: files.map(|f| f.display().to_string()).collect(),
+        fitted,
+        rms_before: before.iter().cloned().collect(),
+        rms_after: after.iter().cloned().collect(),
+        space: space.map(str::to_string),
+    }
+}
+
 /// Result of [`refit_torque`].
 #[derive(Debug, Clone)]
 pub struct TorqueRefit {
@@ -215,25 +231,20 @@ impl TorqueRefit {
         conf_name: &str,
         records: &[crate::measurement::Measurement],
     ) -> HistoryEntry {
-        HistoryEntry {
-            change: change.to_string(),
-            configuration: conf_name.to_string(),
-            files: records
-                .iter()
-                .map(|r| r.file.display().to_string())
-                .collect(),
-            fitted: self
-                .fit
+        entry(
+            change,
+            conf_name,
+            records.iter().map(|r| r.file.as_path()),
+            self.fit
                 .names
                 .iter()
                 .zip(self.fit.theta.iter().zip(&self.fit.std))
                 .filter(|(_, (_, s))| s.is_finite())
                 .map(|(n, (v, _))| (n.clone(), *v))
                 .collect(),
-            rms_before: self.before.iter().cloned().collect(),
-            rms_after: self.after.iter().cloned().collect(),
-            space: Some("torque".into()),
-        }
+            (&self.before, &self.after),
+            Some("torque"),
+        )
     }
 }
 
