@@ -14,7 +14,7 @@
 use super::output::{diagnose_output, quantile, OutputDiagnosis, OutputOptions};
 use super::Finding;
 use crate::effects::EffectKind;
-use crate::identify::output_error::Record;
+use crate::identify::output_error::{Record, FLOOR_FACTOR};
 use crate::identify::refit::{refit, Refit, RefitOptions};
 use crate::plant::Plant;
 use anyhow::{anyhow, Result};
@@ -155,15 +155,9 @@ pub fn apply_finding(
         .cloned()
         .collect();
     let mut r = if held.is_none() {
-        refit(plant, &changed, conf_name, records, &names, options)?
-    } else if profile.is_empty() {
-        // qeq is all there is to fit: refit it from every start, keep the lowest.
-        lowest(
-            starts
-                .par_iter()
-                .map(|start| refit(plant, start, conf_name, records, &names, options))
-                .collect(),
-        )?
+        escalated(options, |o| {
+            refit(plant, &changed, conf_name, records, &names, o)
+        })?
     } else {
         // The profile's refits go through the growing horizons only (the warm-ups, once per
         // start, would cost as much as the rest); the released refit takes `options`.
@@ -171,16 +165,57 @@ pub fn apply_finding(
             warm_ups: false,
             ..options.clone()
         };
+        if profile.is_empty() {
+            // qeq is all there is to fit: refit it from every start, keep the lowest.
+            let fits = starts
+                .par_iter()
+                .map(|start| refit(plant, start, conf_name, records, &names, &profiled))
+                .collect();
+            let mut r = lowest(fits)?;
+            let entry = r.history(&change_text(finding), records);
+            r.plant.history.push(entry);
+            return Ok(r);
+        }
         let fits: Vec<Result<Refit>> = starts
             .par_iter()
             .map(|start| refit(plant, start, conf_name, records, &profile, &profiled))
             .collect();
         let start = lowest(fits)?.plant;
-        refit(plant, &start, conf_name, records, &names, options)?
+        escalated(options, |o| {
+            refit(plant, &start, conf_name, records, &names, o)
+        })?
     };
     let entry = r.history(&change_text(finding), records);
     r.plant.history.push(entry);
     Ok(r)
+}
+
+/// `fit` through the growing horizons; where `options` asks for the warm-ups and that fit
+/// ends above the noise on some joint ([`FLOOR_FACTOR`] × σ̂), again with them (they cost
+/// as much again), keeping the lower cost.
+pub(super) fn escalated(
+    options: &RefitOptions,
+    fit: impl Fn(&RefitOptions) -> Result<Refit>,
+) -> Result<Refit> {
+    let horizons = fit(&RefitOptions {
+        warm_ups: false,
+        ..options.clone()
+    })?;
+    let above = horizons
+        .fit
+        .statistics
+        .joints
+        .iter()
+        .any(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise);
+    if !(options.warm_ups && above) {
+        return Ok(horizons);
+    }
+    let warm = fit(options)?;
+    Ok(if warm.fit.cost_after < horizons.fit.cost_after {
+        warm
+    } else {
+        horizons
+    })
 }
 
 /// Quantiles of a joint's measured motion where an equilibrium position is tried: the

@@ -21,8 +21,8 @@
 //! plant (the linearisation understates large effects such as a 30 % gain error), so the
 //! ranking is that of the fitted costs. Where the plant gives bounds, the values the
 //! configuration determines ([`super::apply::configuration_values`]) are refitted first
-//! (from the plant's values through growing horizons and, beside them, through the coupled
-//! preset's warm-ups: [`OutputOptions::values_warm_ups`]) —
+//! (from the plant's values through growing horizons and, where those end above the noise,
+//! through the coupled preset's warm-ups too: [`OutputOptions::values_warm_ups`]) —
 //! r is then the residual of that plant — and again beside each candidate in its
 //! confirming fit, whose ΔBIC counts only the candidate's own numbers
 //! ([`OutputOptions::refit_values`]). The diagnosis also reports the effective number of
@@ -72,9 +72,11 @@ pub struct OutputOptions {
     /// values again beside it, so a first refit stopped short of its minimum would credit
     /// the rest of the way to whichever candidate is confirmed.
     pub values_max_iter: usize,
-    /// That first refit also starts through the warm-ups ([`RefitOptions::warm_ups`]):
-    /// from a start far off (a CAD model, a datasheet) the output error of a long file has
-    /// local minima the growing horizons end in (DIDIM starts from the torque balance too).
+    /// Where that first refit through the growing horizons ends above the noise on some
+    /// joint ([`FLOOR_FACTOR`] × σ̂), it is run again with the warm-ups
+    /// ([`RefitOptions::warm_ups`]) and the lower cost kept: from a start far off (a CAD
+    /// model, a datasheet) the output error of a long file has local minima the horizons
+    /// end in (DIDIM starts from the torque balance too).
     pub values_warm_ups: bool,
 }
 
@@ -297,18 +299,15 @@ pub fn diagnose_output(
     let values_refit = if values.is_empty() {
         None
     } else {
+        // The growing horizons first; the warm-ups only where those stop above the noise.
         Some(
-            refit(
-                plant,
-                plant,
-                conf_name,
-                records,
-                &values,
+            super::apply::escalated(
                 &RefitOptions {
                     max_iter: options.values_max_iter,
                     warm_ups: options.values_warm_ups,
                     ..options.fit.clone()
                 },
+                |o| refit(plant, plant, conf_name, records, &values, o),
             )
             .map_err(|e| anyhow!("refitting the plant's values first: {e:#}"))?,
         )

@@ -185,6 +185,9 @@ pub fn refit(
     })
 }
 
+/// A figure per joint: (joint name, value).
+type JointFigures = [(String, f64)];
+
 /// A history entry: `change` on configuration `configuration`, fitted on `files`, with the
 /// fitted values and the RMS per joint before and after (`space`: None for position errors).
 fn entry<'a>(
@@ -192,7 +195,7 @@ fn entry<'a>(
     configuration: &str,
     files: impl Iterator<Item = &'a std::path::Path>,
     fitted: std::collections::BTreeMap<String, f64>,
-    (before, after): (&[(String, f64)], &[(String, f64)]),
+    (before, after): (&JointFigures, &JointFigures),
     space: Option<&str>,
 ) -> HistoryEntry {
     HistoryEntry {
