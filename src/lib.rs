@@ -12,6 +12,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod effects;
 pub mod excitation;
+pub mod expression;
 pub mod files;
 pub mod identify;
 pub mod measurement;

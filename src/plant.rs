@@ -28,6 +28,7 @@
 //! body (mass > 0, inertia positive definite, triangle inequality) and reports by link.
 
 use crate::effects::{Effect, EffectKind};
+use crate::expression::Expression;
 use crate::files::write_atomic;
 use crate::simulation::{InputCoupling, JointTerms, LuGre, PlantModel, Stribeck};
 use anyhow::{bail, Context, Result};
@@ -50,6 +51,8 @@ pub struct Plant {
     pub description: String,
     /// Effects in file order.
     pub effects: Vec<Effect>,
+    /// User-defined effects ([`crate::expression`]), in file order.
+    pub expressions: Vec<ExpressionEffect>,
     /// Parameter values by name: rigid body (the model file's inertial symbols or
     /// barycentric parameters) and effect parameters.
     pub parameters: BTreeMap<String, f64>,
@@ -66,6 +69,27 @@ pub struct Plant {
     /// Correlations of recorded values one step fitted together, each pair once with the
     /// lexically smaller name first ([`PlantFile::correlations`], [`Plant::correlation`]).
     pub correlations: BTreeMap<String, BTreeMap<String, f64>>,
+}
+
+/// A user-defined effect: a named torque term, written as an expression of the joints'
+/// states and its own parameters ([`crate::expression`]), taken from each joint it acts on
+/// (τ_i = [D q̈ + C q̇ + φ]_i + Σ effects_i, as the built-ins).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExpressionEffect {
+    /// Name, unique in the plant.
+    pub name: String,
+    /// Joint indices it acts on.
+    pub joints: Vec<usize>,
+    /// The torque (N·m or N) and its declared parameters (plant parameter names).
+    pub expression: Expression,
+}
+
+impl ExpressionEffect {
+    /// Whether the effect acts in a configuration with free joints `free`: on at least
+    /// one of them.
+    pub fn acts_with(&self, free: &[usize]) -> bool {
+        self.joints.iter().any(|j| free.contains(j))
+    }
 }
 
 /// One physical-consistency finding of a link of a plant.
@@ -132,6 +156,7 @@ impl Plant {
             model: m,
             description: String::new(),
             effects,
+            expressions: Vec::new(),
             parameters: BTreeMap::new(),
             bounds: BTreeMap::new(),
             history: Vec::new(),
@@ -216,6 +241,15 @@ impl Plant {
                     .map_err(|err| anyhow::anyhow!("effect {}: {err}", i + 1))?;
             }
         }
+        for (i, x) in spec.expressions.iter().enumerate() {
+            let item = format!("expression {} ('{}')", i + 1, x.name);
+            let joints = x
+                .joints
+                .iter()
+                .map(|j| plant.joint_index(j, &item))
+                .collect::<Result<Vec<_>>>()?;
+            plant.add_expression(&x.name, joints, &x.torque, &x.parameters)?;
+        }
         let known = plant.known_names();
         let check_name = |k: &str, what: &str| -> Result<()> {
             if !known.iter().any(|n| n == k) {
@@ -292,7 +326,102 @@ impl Plant {
             .map(|(k, [lo, hi])| (k.clone(), (*lo, *hi)))
             .collect();
         plant.link_forms()?;
+        plant.check_divisors()?;
         Ok(plant)
+    }
+
+    /// Add a user-defined effect: `torque` parsed for this model with the declared
+    /// `parameters`, acting on the joints `joints` (model indices).
+    ///
+    /// # Errors
+    /// A name that is empty, not unique or not a plain name; no joint, or a joint given
+    /// twice; a parse error ([`Expression::parse`], with its column); a parameter whose
+    /// name another part of the plant already uses (a rigid-body symbol, a built-in
+    /// effect's or another expression's parameter).
+    pub fn add_expression(
+        &mut self,
+        name: &str,
+        joints: Vec<usize>,
+        torque: &str,
+        parameters: &[String],
+    ) -> Result<()> {
+        let item = format!("expression '{name}'");
+        if name.is_empty() || !name.chars().all(|c| c.is_alphanumeric() || c == '_') {
+            bail!("{item}: expected a name of letters, digits and '_'");
+        }
+        if self.expressions.iter().any(|x| x.name == name) {
+            bail!("{item}: the plant already has an expression of that name");
+        }
+        if joints.is_empty() {
+            bail!("{item}: expected at least one joint in 'joints'");
+        }
+        for (i, j) in joints.iter().enumerate() {
+            if joints[..i].contains(j) {
+                bail!("{item}: joint '{}' is given twice", self.model.joints[*j]);
+            }
+        }
+        let expression = Expression::parse(torque, self.model.joints.len(), parameters)
+            .map_err(|e| anyhow::anyhow!("{item}: 'torque' {e}"))?;
+        let taken = self.known_names();
+        for p in parameters {
+            if taken.contains(p) {
+                bail!(
+                    "{item}: parameter '{p}' is already a parameter of this plant (a rigid-body symbol, an effect's or another expression's); give it another name"
+                );
+            }
+        }
+        self.expressions.push(ExpressionEffect {
+            name: name.to_string(),
+            joints,
+            expression,
+        });
+        Ok(())
+    }
+
+    /// Every parameter an expression divides by has bounds that exclude 0 (a fit cannot
+    /// then reach a division by zero).
+    ///
+    /// # Errors
+    /// A divisor parameter without bounds or with bounds that contain 0, named with the
+    /// expression and the column of the division.
+    pub fn check_divisors(&self) -> Result<()> {
+        for x in &self.expressions {
+            for &(i, col) in &x.expression.divisors {
+                let p = &x.expression.parameters[i];
+                match self.bounds.get(p) {
+                    Some(&(lo, hi)) if lo > 0.0 || hi < 0.0 => {}
+                    Some(&(lo, hi)) => bail!(
+                        "expression '{}': column {col} divides by '{p}', whose bounds [{lo}, {hi}] contain 0; give bounds that exclude 0",
+                        x.name
+                    ),
+                    None => bail!(
+                        "expression '{}': column {col} divides by '{p}', which has no bounds; give it bounds that exclude 0 under [bounds]",
+                        x.name
+                    ),
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Parameters of the user-defined effects that act with the free joints `free`
+    /// ([`ExpressionEffect::acts_with`]), in plant order.
+    pub fn expression_parameters_with(&self, free: &[usize]) -> Vec<String> {
+        self.expressions
+            .iter()
+            .filter(|x| x.acts_with(free))
+            .flat_map(|x| x.expression.parameters.iter().cloned())
+            .collect()
+    }
+
+    /// True when every effect of the plant, built-in and user-defined, is linear in its
+    /// parameters: then the inverse model's least squares (IDIM) fits them all.
+    pub fn is_linear(&self) -> bool {
+        self.effects.iter().all(|e| e.kind.is_linear())
+            && self
+                .expressions
+                .iter()
+                .all(|x| x.expression.is_linear_in_parameters())
     }
 
     /// Add an effect.
@@ -362,6 +491,13 @@ impl Plant {
             for n in e.parameter_names() {
                 if !v.contains(&n) {
                     v.push(n);
+                }
+            }
+        }
+        for x in &self.expressions {
+            for n in &x.expression.parameters {
+                if !v.contains(n) {
+                    v.push(n.clone());
                 }
             }
         }
@@ -795,6 +931,14 @@ impl Plant {
                 }
             }
         }
+        for x in &self.expressions {
+            for &j in &x.joints {
+                if let Some(a) = free_index(j) {
+                    let term = self.torque_term(x, j, conf.free, q_locked)?;
+                    terms[a].extra.push(term);
+                }
+            }
+        }
         let mut q = q_locked.to_vec();
         for &k in conf.free {
             q[k] = 0.0;
@@ -809,6 +953,90 @@ impl Plant {
                 integrator: crate::simulation::Integrator::default(),
             },
             findings,
+        })
+    }
+
+    /// The user-defined effect `x` on joint `j` compiled for a simulation with free joints
+    /// `free`: parameter values and the locked joints' positions `q_locked` (NJ) folded in,
+    /// the locked joints' velocities, commands and deflections 0.
+    ///
+    /// # Errors
+    /// A parameter without value; the torque reads an acceleration (q̈ enters the inverse
+    /// model only) or nests too deeply.
+    fn torque_term(
+        &self,
+        x: &ExpressionEffect,
+        j: usize,
+        free: &[usize],
+        q_locked: &[f64],
+    ) -> Result<crate::simulation::TorqueTerm> {
+        use crate::expression::{Program, Symbol};
+        use crate::simulation::{TermInput, TERM_INPUTS};
+        let name = self.name();
+        let e = &x.expression;
+        let values = e
+            .parameters
+            .iter()
+            .map(|p| self.value(p))
+            .collect::<Result<Vec<_>>>()?;
+        let free_index = |k: usize| free.iter().position(|&f| f == k);
+        let fixed = |s: Symbol| -> Option<f64> {
+            match s {
+                Symbol::Param(i) => Some(values[i]),
+                Symbol::Q(k) if free_index(k).is_none() => Some(q_locked[k]),
+                Symbol::Qd(k) | Symbol::Qdd(k) | Symbol::Tau(k) | Symbol::Z(k)
+                    if free_index(k).is_none() =>
+                {
+                    Some(0.0)
+                }
+                _ => None,
+            }
+        };
+        let build = |node: &crate::expression::Node| -> Result<(Program, Vec<TermInput>)> {
+            let program = Program::compile(node, &fixed)
+                .map_err(|m| anyhow::anyhow!("{name}: expression '{}': {m}", x.name))?;
+            if program.inputs.len() > TERM_INPUTS {
+                bail!(
+                    "{name}: expression '{}' reads {} state variables, at most {TERM_INPUTS}",
+                    x.name,
+                    program.inputs.len()
+                );
+            }
+            let inputs = program
+                .inputs
+                .iter()
+                .map(|s| {
+                    let a = |k: usize| free_index(k).unwrap_or(0);
+                    match *s {
+                        Symbol::Q(k) => Ok(TermInput::Q(a(k))),
+                        Symbol::Qd(k) => Ok(TermInput::Qd(a(k))),
+                        Symbol::Z(k) => Ok(TermInput::Z(a(k))),
+                        Symbol::Tau(k) => Ok(TermInput::Tau(a(k))),
+                        Symbol::Qdd(k) => Err(anyhow::anyhow!(
+                            "{name}: expression '{}' reads the acceleration qdd{k}, which enters the inverse model (torque space) only; the simulator takes q, qd, z and tau",
+                            x.name
+                        )),
+                        Symbol::Param(i) => Err(anyhow::anyhow!(
+                            "{name}: expression '{}': parameter '{}' was not substituted",
+                            x.name,
+                            e.parameters[i]
+                        )),
+                    }
+                })
+                .collect::<Result<Vec<_>>>()?;
+            Ok((program, inputs))
+        };
+        let (torque, inputs) = build(&e.root)?;
+        let slope = if e.symbols().contains(&Symbol::Qd(j)) {
+            Some(build(&e.derivative(Symbol::Qd(j)))?)
+        } else {
+            None
+        };
+        Ok(crate::simulation::TorqueTerm {
+            name: x.name.clone(),
+            torque,
+            inputs,
+            slope,
         })
     }
 
@@ -869,10 +1097,25 @@ impl Plant {
                 }),
             }
         }
+        let expressions = self
+            .expressions
+            .iter()
+            .map(|x| ExpressionSpec {
+                name: x.name.clone(),
+                joints: x
+                    .joints
+                    .iter()
+                    .map(|&j| self.model.joints[j].to_string())
+                    .collect(),
+                torque: x.expression.text.clone(),
+                parameters: x.expression.parameters.clone(),
+            })
+            .collect();
         PlantFile {
             model: self.model.name.to_string(),
             description: self.description.clone(),
             effects,
+            expressions,
             parameters: self.parameters.clone(),
             bounds: self
                 .bounds

@@ -2,7 +2,8 @@
 //! kernels plus the joint effects of thesis 3.3–3.5 and Figure 3.5 (docs/src/design/digest.md §2).
 //!
 //! Per free joint i the rigid body receives
-//! Q_i = Kp_i·τ'_i − b_i(q_i)·F_i(q̇_i, z_i) − Ks_i (q_i − qeq_i) − offset_i, where τ' is the
+//! Q_i = Kp_i·τ'_i − b_i(q_i)·F_i(q̇_i, z_i) − Ks_i (q_i − qeq_i) − offset_i − Σ u_i(q, q̇, z, τ),
+//! with u_i the user-defined terms on the joint ([`TorqueTerm`], [`crate::expression`]), where τ' is the
 //! commanded torque after the tendon input couplings (4.5–4.6), τ'_i = τ_i + Σ G_{j→i} τ_j,
 //! F_i is viscous + Coulomb + static Stribeck (3.3.1) + LuGre friction (3.6–3.8), and
 //! b_i = FrictionBias_i where q_i < qeq_i, else 1 (4.3.5). The state is (q_F, q̇_F, z_F) with
@@ -21,6 +22,7 @@
 //!
 //! Units: rad, rad/s, N·m (m, m/s, N for prismatic joints), s.
 
+use crate::expression::Program;
 use generated::Configuration;
 
 mod etdrk4;
@@ -31,8 +33,78 @@ use etdrk4::EtdScratch;
 pub use friction::*;
 pub use input::*;
 
+/// A user-defined torque term on one free joint ([`crate::expression`]), compiled with the
+/// plant's parameter values and the locked joints' states folded in
+/// ([`crate::plant::Plant::simulator`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TorqueTerm {
+    /// Name of the user-defined effect.
+    pub name: String,
+    /// The torque it takes from the joint (N·m or N).
+    pub torque: Program,
+    /// Where each input of `torque` comes from.
+    pub inputs: Vec<TermInput>,
+    /// ∂torque/∂q̇ of this joint, with its inputs (the damping [`Integrator::Etdrk4`] takes
+    /// exactly); None when the torque does not read this joint's velocity.
+    pub slope: Option<(Program, Vec<TermInput>)>,
+}
+
+/// An input of a [`TorqueTerm`]: a state or command of a free joint (free index).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TermInput {
+    /// Position q.
+    Q(usize),
+    /// Velocity q̇.
+    Qd(usize),
+    /// LuGre bristle deflection z.
+    Z(usize),
+    /// Commanded torque τ (before gain and input couplings).
+    Tau(usize),
+}
+
+/// Most inputs a [`TorqueTerm`] may read.
+pub const TERM_INPUTS: usize = 32;
+
+impl TorqueTerm {
+    /// The torque at positions `q`, velocities `qd`, deflections `z` and commands `tau`
+    /// (free joints, NF each).
+    #[inline]
+    pub fn torque(&self, q: &[f64], qd: &[f64], z: &[f64], tau: &[f64]) -> f64 {
+        eval_term(&self.torque, &self.inputs, q, qd, z, tau)
+    }
+
+    /// ∂torque/∂q̇ of its joint at the same arguments (0 when it does not read it).
+    #[inline]
+    pub fn slope(&self, q: &[f64], qd: &[f64], z: &[f64], tau: &[f64]) -> f64 {
+        self.slope
+            .as_ref()
+            .map_or(0.0, |(p, i)| eval_term(p, i, q, qd, z, tau))
+    }
+}
+
+#[inline]
+fn eval_term(
+    program: &Program,
+    inputs: &[TermInput],
+    q: &[f64],
+    qd: &[f64],
+    z: &[f64],
+    tau: &[f64],
+) -> f64 {
+    let mut v = [0.0; TERM_INPUTS];
+    for (slot, input) in v.iter_mut().zip(inputs) {
+        *slot = match *input {
+            TermInput::Q(a) => q[a],
+            TermInput::Qd(a) => qd[a],
+            TermInput::Z(a) => z[a],
+            TermInput::Tau(a) => tau[a],
+        };
+    }
+    program.eval(&v[..inputs.len()])
+}
+
 /// The effects on one free joint.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct JointTerms {
     /// Plant gain Kp (commanded to applied torque).
     pub gain: f64,
@@ -51,6 +123,9 @@ pub struct JointTerms {
     /// Friction position bias (FrictionBias, qeq (rad)) (thesis 4.3.5): all friction of the
     /// joint is multiplied by FrictionBias where q < qeq.
     pub bias: Option<(f64, f64)>,
+    /// User-defined torque terms ([`crate::expression`]), taken from the joint as the
+    /// spring is.
+    pub extra: Vec<TorqueTerm>,
 }
 
 impl Default for JointTerms {
@@ -64,6 +139,7 @@ impl Default for JointTerms {
             lugre: None,
             spring: None,
             bias: None,
+            extra: Vec::new(),
         }
     }
 }
@@ -395,7 +471,12 @@ impl PlantModel {
             let (f, d) = self.friction_on_side(i, x.q[i], x.qd[i], x.z[i], side);
             zd[i] = d;
             let spring = t.spring.map_or(0.0, |(ks, qeq)| ks * (x.q[i] - qeq));
-            out[i] = t.gain * tc[i] - f - spring - t.offset;
+            let extra: f64 = t
+                .extra
+                .iter()
+                .map(|e| e.torque(&x.q, &x.qd, &x.z, tau))
+                .sum();
+            out[i] = t.gain * tc[i] - f - spring - t.offset - extra;
         }
     }
 

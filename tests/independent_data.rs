@@ -122,7 +122,7 @@ fn the_simulator_reproduces_an_independent_integrator_on_a_continuous_input() {
 }
 
 /// The truth plant, compared as a user would (default options: the file's declared hold,
-/// the default step checked and refined), sits at the sensor's noise on every joint; the
+/// the default step checked and refined) on the 8 s files of the hidden-effect cases, sits at the sensor's noise on every joint; the
 /// comparison names the hold it used and, with the zero-order hold forced on these data,
 /// reports that another hold fits markedly better.
 #[test]
@@ -131,7 +131,7 @@ fn the_truth_sits_at_the_noise_floor_on_independent_data() {
     let sigma = common::sensor_sigma();
     let mut worst = Vec::new();
     for (config, table, test, bound) in CASES {
-        let rec = record(&spec(config, table, test));
+        let rec = record(&hidden_spec(config, table, test));
         assert_eq!(rec.hold, Hold::Bandlimited);
         let c = compare_output(
             &truth,

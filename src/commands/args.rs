@@ -5,17 +5,30 @@ use super::*;
 #[derive(Debug, Subcommand)]
 pub enum EffectAction {
     /// Add an effect with neutral values (no effect: levels 0, gain and friction-bias
-    /// factor 1); `--set` and `--bound` give values and bounds.
+    /// factor 1; a user-defined effect's parameters 0); `--set` and `--bound` give values
+    /// and bounds.
     Add {
         /// Kind: viscous, coulomb, asymmetric_friction, offset, gain, stribeck, lugre,
-        /// spring, friction_bias, input_coupling (alias: coupling).
+        /// spring, friction_bias, input_coupling (alias: coupling), or expression (a
+        /// user-defined effect: --name, --torque, --params).
         kind: String,
         /// Plant file.
         #[arg(long)]
         plant: PathBuf,
-        /// Joint the effect acts on.
+        /// Joint the effect acts on (expression: one or more, e.g. q4,q5).
         #[arg(long)]
         joint: Option<String>,
+        /// expression: the effect's name, unique in the plant.
+        #[arg(long)]
+        name: Option<String>,
+        /// expression: the torque it takes from each joint, e.g. "K3*(q3 - qeq3)^3" (symbols
+        /// qk, qdk, qddk, tauk, zk of joint k; functions sin cos tan exp ln sqrt abs sign
+        /// tanh atan sinh cosh min max; ^ power).
+        #[arg(long)]
+        torque: Option<String>,
+        /// expression: its parameters, e.g. K3,qeq3.
+        #[arg(long, value_delimiter = ',')]
+        params: Vec<String>,
         /// input_coupling: the joint whose command is passed on.
         #[arg(long)]
         from: Option<String>,

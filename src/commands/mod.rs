@@ -366,6 +366,9 @@ fn run_command(cli: Cli) -> Result<()> {
                     kind,
                     plant,
                     joint,
+                    name,
+                    torque,
+                    params,
                     from,
                     to,
                     set,
@@ -382,16 +385,35 @@ fn run_command(cli: Cli) -> Result<()> {
                 kind
             };
             let set: Vec<(String, f64)> = merged("--set", set)?.into_iter().collect();
-            let (new, effect) = effect_add(
-                &p,
-                &kind,
-                joint.as_deref(),
-                (from.as_deref(), to.as_deref()),
-                &set,
-                &bound,
-                &out,
-            )?;
-            let added = effect.parameter_names();
+            let (new, added) = if kind == "expression" {
+                let (Some(name), Some(joint), Some(torque)) = (&name, &joint, &torque) else {
+                    bail!("expression needs --name, --joint and --torque (e.g. --name cubic --joint q3 --torque \"K3*q3^3\" --params K3)");
+                };
+                let new = lockstep::report::diagnosis::expression_add(
+                    &p,
+                    name,
+                    joint,
+                    (torque, &params),
+                    &set,
+                    &bound,
+                    &out,
+                )?;
+                (new, params)
+            } else {
+                if name.is_some() || torque.is_some() || !params.is_empty() {
+                    bail!("--name, --torque and --params are for 'expression' (a user-defined effect), not '{kind}'");
+                }
+                let (new, effect) = effect_add(
+                    &p,
+                    &kind,
+                    joint.as_deref(),
+                    (from.as_deref(), to.as_deref()),
+                    &set,
+                    &bound,
+                    &out,
+                )?;
+                (new, effect.parameter_names())
+            };
             lockstep::outln!(
                 "added {kind} to {}: {}",
                 out.display(),

@@ -90,6 +90,11 @@ pub fn configuration_values(
             }
         }
     }
+    for name in plant.expression_parameters_with(conf.free) {
+        if fittable(plant, &name) && !names.contains(&name) {
+            names.push(name);
+        }
+    }
     let rigid: Vec<String> = plant
         .model
         .inertial_symbols
@@ -193,7 +198,10 @@ pub fn apply_finding(
 /// `fit` through the growing horizons; where `options` asks for the warm-ups and that fit
 /// ends above the noise on some joint ([`FLOOR_FACTOR`] × σ̂), again with them (they cost
 /// as much again), keeping the lower cost.
-pub(super) fn escalated(
+///
+/// # Errors
+/// The first error of `fit`.
+pub fn escalated(
     options: &RefitOptions,
     fit: impl Fn(&RefitOptions) -> Result<Refit>,
 ) -> Result<Refit> {

@@ -349,6 +349,7 @@ impl EquationError {
         let mut z = vec![0.0; nf];
         let mut tau = vec![0.0; nf];
         let mut tc = vec![0.0; nf];
+        let (mut qk, mut qdk) = (vec![0.0; nf], vec![0.0; nf]);
         let mut row = 0;
         for k in 1..n - EDGE {
             // Bristles: the velocity of sample k held over the period before it.
@@ -368,6 +369,8 @@ impl EquationError {
             }
             for a in 0..nf {
                 tau[a] = f.tau[a][k];
+                qk[a] = f.q[a][k];
+                qdk[a] = f.qd[a][k];
             }
             model.coupled_command(&tau, &mut tc);
             for (a, t) in model.terms.iter().enumerate() {
@@ -378,6 +381,7 @@ impl EquationError {
                     friction *= 1.0 + (factor - 1.0) * below;
                 }
                 let spring = t.spring.map_or(0.0, |(ks, qeq)| ks * (q - qeq));
+                let extra: f64 = t.extra.iter().map(|e| e.torque(&qk, &qdk, &z, &tau)).sum();
                 let yk = &f.y[(row * nf + a) * np..(row * nf + a + 1) * np];
                 let rigid: f64 = yk.iter().zip(p).map(|(y, p)| y * p).sum();
                 let gain = if t.gain.abs() > f64::MIN_POSITIVE {
@@ -386,7 +390,8 @@ impl EquationError {
                     1.0
                 };
                 out.push(
-                    (t.gain * tc[a] - friction - spring - t.offset - rigid) / gain * self.scale[a],
+                    (t.gain * tc[a] - friction - spring - extra - t.offset - rigid) / gain
+                        * self.scale[a],
                 );
             }
             row += 1;

@@ -115,6 +115,11 @@ pub fn observation(
         }
         names.extend(e.parameter_names());
     }
+    // User-defined effects: one column per parameter, ∂u/∂θ (the effect linear in θ).
+    let columns = expression_columns(plant, conf.free)?;
+    for c in &columns {
+        names.push(c.name.clone());
+    }
     let ncol = names.len();
     let mut y_all: Vec<f64> = Vec::new();
     let mut w_cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
@@ -210,6 +215,12 @@ pub fn observation(
                         c += 1;
                     }
                 }
+                for col in &columns {
+                    if col.joints.contains(&conf.free[a]) {
+                        wr[a][c][r] = col.value(&qk, (&qd, &qdd), conf.free, &m.tau, k);
+                    }
+                    c += 1;
+                }
             }
         }
         // A value the float format cannot carry through the filter and the differences
@@ -272,6 +283,92 @@ pub fn observation(
         w,
         rows,
     })
+}
+
+/// The regressor column of one parameter of a user-defined effect: ∂u/∂θ, which reads no
+/// parameter (the effect is linear in its parameters).
+struct ExpressionColumn {
+    name: String,
+    joints: Vec<usize>,
+    program: crate::expression::Program,
+}
+
+impl ExpressionColumn {
+    /// The column at sample `k`: positions `q` (NJ, filtered), velocities and accelerations
+    /// `(qd, qdd)` of the free joints (NF × samples), the measured torques `tau` (NJ ×
+    /// samples); a locked joint's velocity, acceleration and command are 0.
+    fn value(
+        &self,
+        q: &[f64],
+        (qd, qdd): (&[Vec<f64>], &[Vec<f64>]),
+        free: &[usize],
+        tau: &[Vec<f64>],
+        k: usize,
+    ) -> f64 {
+        use crate::expression::Symbol;
+        let mut v = [0.0; crate::simulation::TERM_INPUTS];
+        for (slot, s) in v.iter_mut().zip(&self.program.inputs) {
+            let at = |x: &[Vec<f64>], j: usize| {
+                free.iter().position(|&f| f == j).map_or(0.0, |a| x[a][k])
+            };
+            *slot = match *s {
+                Symbol::Q(j) => q[j],
+                Symbol::Qd(j) => at(qd, j),
+                Symbol::Qdd(j) => at(qdd, j),
+                Symbol::Tau(j) => free.contains(&j).then(|| tau[j][k]).unwrap_or(0.0),
+                Symbol::Z(_) | Symbol::Param(_) => 0.0,
+            };
+        }
+        self.program.eval(&v[..self.program.inputs.len()])
+    }
+}
+
+/// The regressor columns of the user-defined effects of `plant` that act on the free
+/// joints `free`.
+///
+/// # Errors
+/// An effect that is not linear in its parameters, or that reads a LuGre deflection (a
+/// simulator state the inverse model does not have).
+fn expression_columns(plant: &Plant, free: &[usize]) -> Result<Vec<ExpressionColumn>> {
+    use crate::expression::{Program, Symbol};
+    let mut out = Vec::new();
+    for x in plant.expressions.iter().filter(|x| x.acts_with(free)) {
+        let e = &x.expression;
+        if !e.is_linear_in_parameters() {
+            bail!(
+                "{}: expression '{}' is not linear in its parameters, so the inverse-model \
+                 least squares (IDIM) cannot fit it; use output-error identification or \
+                 remove the effect",
+                plant.name(),
+                x.name
+            );
+        }
+        if e.symbols().iter().any(|s| matches!(s, Symbol::Z(_))) {
+            bail!(
+                "{}: expression '{}' reads a LuGre deflection (z), a simulator state the inverse model does not have",
+                plant.name(),
+                x.name
+            );
+        }
+        for (i, p) in e.parameters.iter().enumerate() {
+            let program = Program::compile(&e.derivative(Symbol::Param(i)), &|_| None)
+                .map_err(|m| anyhow::anyhow!("{}: expression '{}': {m}", plant.name(), x.name))?;
+            if program.inputs.len() > crate::simulation::TERM_INPUTS {
+                bail!(
+                    "{}: expression '{}' reads more than {} state variables",
+                    plant.name(),
+                    x.name,
+                    crate::simulation::TERM_INPUTS
+                );
+            }
+            out.push(ExpressionColumn {
+                name: p.clone(),
+                joints: x.joints.clone(),
+                program,
+            });
+        }
+    }
+    Ok(out)
 }
 
 /// Result of a least-squares fit.

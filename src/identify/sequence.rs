@@ -137,6 +137,12 @@ fn plan_with(plant: &Plant, sequence: &str, occ: &Occurrence) -> Result<Vec<Step
                 }
             }
         }
+        for n in plant.expression_parameters_with(conf.free) {
+            if !effect_done.contains(&n) {
+                effect_done.push(n.clone());
+                names.push(n);
+            }
+        }
         let (held, fitted): (Vec<String>, Vec<String>) = names
             .into_iter()
             .partition(|n| plant.bounds.get(n).is_some_and(|&(lo, hi)| lo == hi));

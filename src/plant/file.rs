@@ -20,6 +20,21 @@ pub struct EffectSpec {
     pub to: Option<String>,
 }
 
+/// `[[expression]]` as written: a user-defined effect ([`crate::expression`]).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExpressionSpec {
+    /// Name of the effect (unique in the plant), e.g. `cubic_stiffness_q3`.
+    pub name: String,
+    /// Joint variables it acts on: the torque is taken from each of them.
+    pub joints: Vec<String>,
+    /// The torque the effect takes from each joint (N·m or N), e.g. `K3*(q3 - qeq3)^3`.
+    pub torque: String,
+    /// Its parameters (names used in `torque`; values under `[parameters]`).
+    #[serde(default)]
+    pub parameters: Vec<String>,
+}
+
 /// The plant file as written.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -32,6 +47,9 @@ pub struct PlantFile {
     /// Effects.
     #[serde(default, rename = "effect")]
     pub effects: Vec<EffectSpec>,
+    /// User-defined effects.
+    #[serde(default, rename = "expression", skip_serializing_if = "Vec::is_empty")]
+    pub expressions: Vec<ExpressionSpec>,
     /// Parameter values (SI).
     #[serde(default)]
     pub parameters: BTreeMap<String, f64>,

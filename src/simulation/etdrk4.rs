@@ -208,7 +208,7 @@ impl PlantModel {
         self.etdrk4_in_place(x, h, w);
         let r = (0..self.nf())
             .map(|i| {
-                let (c_end, ..) = self.friction_slopes(i, x, w.sides[i]);
+                let (c_end, ..) = self.friction_slopes(i, x, w.sides[i], &w.tau[0]);
                 let mut jump = (c_end - w.etd.frozen_c[i]).abs();
                 let (v0, v1) = (x0.qd[i], x.qd[i]);
                 if let Some(l) = &self.terms[i].lugre {
@@ -254,12 +254,14 @@ impl PlantModel {
     }
 
     /// Slope ∂F_i/∂q̇_i of all friction of free joint `i` (bias factor included, Coulomb's
-    /// jump left out) and ∂ż_i/∂q̇_i, ∂ż_i/∂z_i of its LuGre term (0 without one), at `x`.
+    /// jump left out) and of its user-defined terms (at the commands `tau`), and ∂ż_i/∂q̇_i,
+    /// ∂ż_i/∂z_i of its LuGre term (0 without one), at `x`.
     pub(super) fn friction_slopes(
         &self,
         i: usize,
         x: &State,
         below: Option<bool>,
+        tau: &[f64],
     ) -> (f64, f64, f64) {
         let t = &self.terms[i];
         let (v, z) = (x.qd[i], x.z[i]);
@@ -273,7 +275,12 @@ impl PlantModel {
             df += dfl;
             (dzv, dzz) = (a, b);
         }
-        (df * self.bias_factor(i, x.q[i], below), dzv, dzz)
+        let extra: f64 = t
+            .extra
+            .iter()
+            .map(|e| e.slope(&x.q, &x.qd, &x.z, tau))
+            .sum();
+        (df * self.bias_factor(i, x.q[i], below) + extra, dzv, dzz)
     }
 
     /// The friction bias factor of free joint `i` at position `q` (thesis 4.3.5):
@@ -306,7 +313,7 @@ impl PlantModel {
         let e = &mut w.etd;
         (self.conf.mass_matrix)(&w.q_full, &self.p, &mut e.mass);
         for i in 0..nf {
-            let (df, dzv, dzz) = self.friction_slopes(i, x, w.sides[i]);
+            let (df, dzv, dzz) = self.friction_slopes(i, x, w.sides[i], &w.tau[0]);
             e.c[i] = df;
             e.g[i] = dzv;
             e.lambda[2 * nf + i] = dzz.min(0.0);

@@ -22,12 +22,19 @@ use ode_solvers::{DVector, Dop853, System};
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// A torque the plant's equations do not have, written here by hand (a hidden effect that
+/// lockstep's own code must not make): the torque it takes from each free joint (NF) at a
+/// state.
+pub type Hidden<'a> = &'a (dyn Fn(&State) -> Vec<f64> + Sync);
+
 /// The plant's state equation driven by the continuous excitation.
 struct Driven<'a> {
     model: &'a PlantModel,
     test: &'a Test,
     /// Model joint index of each free joint.
     free: &'a [usize],
+    /// A hidden torque, taken from the joints.
+    hidden: Option<Hidden<'a>>,
 }
 
 impl Driven<'_> {
@@ -54,7 +61,14 @@ impl System<f64, DVector<f64>> for Driven<'_> {
             qd: y.rows(nf, nf).iter().copied().collect(),
             z: y.rows(2 * nf, nf).iter().copied().collect(),
         };
-        let d = self.model.derivative(&x, &self.tau(t));
+        let d = match self.hidden {
+            Some(h) => {
+                let taken: Vec<f64> = h(&x).iter().map(|u| -u).collect();
+                self.model
+                    .derivative_with_external(&x, &self.tau(t), &taken)
+            }
+            None => self.model.derivative(&x, &self.tau(t)),
+        };
         for a in 0..nf {
             dy[a] = d.q[a];
             dy[nf + a] = d.qd[a];
@@ -101,6 +115,11 @@ pub struct Spec<'a> {
 /// the continuous excitation, sample at 100 Hz and write `path` (CSV: `t`, `tau{j}`,
 /// `q{j}` of every joint) and its side file (configuration, `hold = "bandlimited"`).
 pub fn write(plant: &Plant, spec: &Spec, path: &Path) {
+    write_with(plant, spec, path, None)
+}
+
+/// [`write`] with a hidden torque taken from the free joints ([`Hidden`]).
+pub fn write_with(plant: &Plant, spec: &Spec, path: &Path, hidden: Option<Hidden>) {
     const RATE: f64 = 100.0;
     let m = plant.model;
     let nj = m.joints.len();
@@ -122,6 +141,7 @@ pub fn write(plant: &Plant, spec: &Spec, path: &Path) {
         model: &model,
         test: &test,
         free: &free,
+        hidden,
     };
     let y0 = DVector::zeros(3 * nf);
     let mut solver = Dop853::from_param(
@@ -176,6 +196,7 @@ pub fn write(plant: &Plant, spec: &Spec, path: &Path) {
         model: &model,
         test: &test,
         free: &free,
+        hidden: None,
     };
     for k in 0..n {
         let t = k as f64 / RATE;

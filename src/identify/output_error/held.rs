@@ -345,6 +345,14 @@ pub(crate) fn enters(
         .iter()
         .filter(|e| e.parameter_names().iter().any(|n| n == name))
         .peekable();
+    let mut expressions = plant
+        .expressions
+        .iter()
+        .filter(|x| x.expression.parameters.iter().any(|n| n == name))
+        .peekable();
+    if expressions.peek().is_some() {
+        return expressions.any(|x| x.acts_with(conf.free));
+    }
     owners.peek().is_none() || owners.any(|e| e.acts_with(conf.free))
 }
 
