@@ -7,6 +7,9 @@
 //!   needed 15 min per minute of data).
 //! - `steps/<config>`: 1 s (6,000 steps) per configuration, for steps per second against the
 //!   number of free joints (c1: 1, k1: 2, k2: 3, k3: 4, k4: 5, k5: 6).
+//! - `effects/k5_10s_{built_in,expression}_springs`: 10 s of k5 with the six cable-drag
+//!   springs built in, and written by hand as user-defined effects `Ks*(qj - qe)`
+//!   (`crate::expression`; target: an expression effect costs ≤ 3× the built-in, issue 54).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 mod common;
@@ -48,7 +51,62 @@ fn run(sim: &PlantModel, tau: &[Vec<f64>], t: &[f64]) -> f64 {
     tr.q[0][t.len() - 1]
 }
 
+/// The k5 simulation of `plant` (10 s).
+fn setup_plant(
+    plant: &lockstep::plant::Plant,
+    seconds: f64,
+) -> (PlantModel, Vec<Vec<f64>>, Vec<f64>) {
+    let sim = plant
+        .simulator("k5", &[0.0; 6], ConsistencyPolicy::Refuse)
+        .unwrap()
+        .model;
+    let ex = Excitations::bundled(plant.model).unwrap();
+    let test = ex.table("4.7").unwrap().test(None).unwrap();
+    let (t, u, _) = test.sample(6, sim.conf.free, seconds, 100.0);
+    let tau = sim.conf.free.iter().map(|&j| u[j].clone()).collect();
+    (sim, tau, t)
+}
+
+/// The plant with its six built-in springs replaced by `Ks*(qj - qe)` expressions.
+fn springs_by_hand(plant: &lockstep::plant::Plant) -> lockstep::plant::Plant {
+    let mut p = plant.clone();
+    p.effects
+        .retain(|e| e.kind != lockstep::effects::EffectKind::Spring);
+    for j in 0..6 {
+        let (ks, qe) = (format!("Ks{j}"), format!("qe{j}"));
+        p.add_expression(
+            &format!("spring_{j}"),
+            vec![j],
+            &format!("{ks}*(q{j} - {qe})"),
+            &[ks.clone(), qe.clone()],
+        )
+        .unwrap();
+        let (v, q) = (
+            plant.parameters[&format!("Ks_{j}")],
+            plant.parameters[&format!("qeq_{j}")],
+        );
+        p.parameters.insert(ks, v);
+        p.parameters.insert(qe, q);
+    }
+    p
+}
+
 fn bench(c: &mut Criterion) {
+    {
+        let plant = common::appendix_d_coupled();
+        let by_hand = springs_by_hand(&plant);
+        let mut g = c.benchmark_group("effects");
+        g.sample_size(10).measurement_time(Duration::from_secs(10));
+        let (sim, tau, t) = setup_plant(&plant, 10.0);
+        g.bench_function("k5_10s_built_in_springs", |b| {
+            b.iter(|| run(&sim, &tau, &t))
+        });
+        let (sim, tau, t) = setup_plant(&by_hand, 10.0);
+        g.bench_function("k5_10s_expression_springs", |b| {
+            b.iter(|| run(&sim, &tau, &t))
+        });
+        g.finish();
+    }
     let (sim, tau, t) = setup("k5", 60.0);
     let mut g = c.benchmark_group("simulate");
     g.sample_size(10).measurement_time(Duration::from_secs(20));

@@ -7,7 +7,8 @@
 mod common;
 
 use common::independent::{self, Spec};
-use lockstep::diagnose::{diagnose_output, OutputOptions};
+use lockstep::diagnose::apply::MAX_APPLIED_STEPS;
+use lockstep::diagnose::{apply_all_significant, diagnose_output, OutputOptions, Turn};
 use lockstep::effects::EffectKind;
 use lockstep::identify::idim::{least_squares, observation, IdimOptions};
 use lockstep::identify::refit::{refit, RefitOptions};
@@ -160,6 +161,49 @@ fn a_hidden_cubic_stiffness_is_not_called_nothing_and_the_users_expression_takes
         "the cubic stiffness was called nothing: {}",
         d.verdict()
     );
+    assert!(
+        d.verdict()
+            .starts_with("the residual has structure the catalogue lacks, on q3"),
+        "{}",
+        d.verdict()
+    );
+    // The loop applies the structure found (a user-defined effect), refits, diagnoses again.
+    let done = apply_all_significant(
+        &truth,
+        "c3",
+        records,
+        &OutputOptions::default(),
+        MAX_APPLIED_STEPS,
+        &|turn| {
+            if let Turn::Applied(step) = turn {
+                eprintln!(
+                    "applied {}: {:?}\n{}",
+                    step.finding.name,
+                    step.finding.values,
+                    lockstep::report::diagnosis::refit_table(&step.refit)
+                );
+            }
+        },
+    )
+    .unwrap();
+    let last = &done.last.joints[0];
+    eprintln!(
+        "loop: {} after {} step(s), q3 {:.3e} rad ({:.2} σ)\n{}",
+        done.end,
+        done.steps.len(),
+        last.rms,
+        last.rms / common::sensor_sigma(),
+        done.plant.to_toml().unwrap()
+    );
+    assert!(last.rms <= 1.1 * common::sensor_sigma(), "q3 {}", last.rms);
+    let applied = &done.steps[0].finding;
+    assert!(
+        applied.expression.is_some() && applied.name.contains("q3^3"),
+        "{}",
+        applied.name
+    );
+    assert_eq!(done.plant.expressions.len(), 1);
+    // The user who knows the physics writes it by hand.
     let mut with = truth.clone();
     with.add_expression(
         "cubic_stiffness",

@@ -25,6 +25,7 @@
 
 pub mod apply;
 pub mod output;
+pub mod structure;
 pub mod torque;
 
 pub use apply::{apply_all_significant, apply_finding, AppliedLoop, LoopEnd, LoopStep, Turn};
@@ -84,6 +85,9 @@ pub struct Finding {
     pub alike: Vec<String>,
     /// What to do instead of a plant edit (a finding about how the input was applied).
     pub advice: Option<String>,
+    /// A user-defined effect to add ([`structure`]: terms outside the catalogue); its
+    /// parameters are `values`.
+    pub expression: Option<crate::plant::ExpressionSpec>,
 }
 
 impl Finding {
@@ -115,6 +119,7 @@ impl Finding {
             confirmed: false,
             alike: Vec::new(),
             advice: None,
+            expression: None,
         }
     }
 
@@ -145,6 +150,20 @@ impl Finding {
             }
             p.add_effect(e)?;
         }
+        if let Some(x) = &self.expression {
+            let joints = x
+                .joints
+                .iter()
+                .map(|j| {
+                    p.model
+                        .joints
+                        .iter()
+                        .position(|k| k == j)
+                        .ok_or_else(|| anyhow::anyhow!("unknown joint '{j}'"))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            p.add_expression(&x.name, joints, &x.torque, &x.parameters)?;
+        }
         for ((n, v), b) in self.values.iter().zip(&self.bounds) {
             p.parameters.insert(n.clone(), *v);
             p.bounds.insert(n.clone(), *b);
@@ -164,6 +183,39 @@ impl Finding {
     /// Names of the plant parameters the finding sets (to refit after applying it).
     pub fn parameter_names(&self) -> Vec<String> {
         self.values.iter().map(|(n, _)| n.clone()).collect()
+    }
+}
+
+/// The structure search ([`structure`]) runs only where no significant catalogued
+/// candidate explains this share of the residual: a catalogued effect that explains
+/// nearly all of it is applied first, and what it leaves is searched in the next round
+/// (on a coupling hidden in k1, a library model — the coupling's τ5 and two harmonics
+/// under 1e-4 N·m — had outranked the coupling it restated).
+pub const STRUCTURE_SEARCH_BELOW: f64 = 0.95;
+
+/// A structure outside the catalogue ([`structure`]) leads only where it beats
+/// every significant catalogued finding by more than this ΔBIC (Kass and Raftery 1995:
+/// above 10, very strong evidence): a library model that only restates a catalogued
+/// effect (q + 1 is a spring) or does not clearly beat one is not preferred to the
+/// effect with a physical name.
+pub const STRUCTURE_MARGIN: f64 = 10.0;
+
+/// Move the best significant catalogued finding ahead of structure findings that do not
+/// beat it by [`STRUCTURE_MARGIN`]. `findings` is sorted by ΔBIC.
+pub(crate) fn prefer_the_catalogue(findings: &mut Vec<Finding>) {
+    let Some(c) = findings
+        .iter()
+        .position(|f| f.significant && f.expression.is_none())
+    else {
+        return;
+    };
+    let bar = findings[c].delta_bic - STRUCTURE_MARGIN;
+    let ahead = findings[..c]
+        .iter()
+        .position(|f| f.expression.is_some() && f.delta_bic >= bar);
+    if let Some(i) = ahead {
+        let f = findings.remove(c);
+        findings.insert(i, f);
     }
 }
 
@@ -311,13 +363,19 @@ pub fn table_with(findings: &[Finding], k: usize, above_noise: &[String]) -> Str
     s
 }
 
-/// The verdict in one line: the leading finding when it is significant; else "nothing
+/// The verdict in one line: the leading finding when it is significant (terms outside the
+/// catalogue, [`structure`], said as such); else "nothing
 /// significant is missing" when `above_noise` (the joints whose error is above their
 /// noise, e.g. "q3 9.0 σ̂") is empty, or, when it is not, that the residual is
 /// unexplained: an effect outside the catalogue, or plant values far off that a refit
 /// would move.
 pub fn verdict(findings: &[Finding], above_noise: &[String]) -> String {
     match findings.first() {
+        Some(f) if f.significant && f.expression.is_some() => format!(
+            "the residual has structure the catalogue lacks, on {}: {} (--apply adds it as a user-defined effect)",
+            f.joint,
+            f.estimate_text()
+        ),
         Some(f) if f.significant => format!("most likely missing: {} on {}", f.name, f.joint),
         _ if !above_noise.is_empty() => format!(
             "unexplained: the error is above the noise ({}) but no candidate of the catalogue explains a significant share of it; the missing effect is outside the catalogue, or the plant's values are far off: where the plant gives bounds the output-space diagnosis refitted them within those (wider bounds, or lockstep identify, may reach further); without bounds, refit them (lockstep refit, lockstep identify)",

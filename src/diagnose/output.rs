@@ -39,6 +39,14 @@
 //! plant has it, its gain off, either sign), and a plant-gain error (Kp_i; added as a gain
 //! when the joint has none). Rigid-body parameter
 //! errors are not candidates here: identification refits them.
+//!
+//! Structure outside the catalogue: where no catalogued candidate explains
+//! [`super::STRUCTURE_SEARCH_BELOW`] of the residual or takes the error to the noise, each
+//! joint above its noise gets a candidate from a library of functions
+//! ([`super::structure`]): their
+//! output sensitivities, the residual's sparse model on them, written as a user-defined
+//! effect and confirmed by an output-error fit ([`super::STRUCTURE_MARGIN`] decides against a
+//! catalogued effect it does not clearly beat).
 
 use super::{effective_samples, Finding};
 use crate::effects::{Effect, EffectKind};
@@ -539,6 +547,28 @@ pub fn diagnose_output(
             .map(|k| format!("{} on {}", findings[k].name, findings[k].joint))
             .collect();
     }
+    // Structure outside the catalogue (a sparse model of the residual on a library's
+    // sensitivities, confirmed by an output-error fit), only where no significant
+    // catalogued candidate explains STRUCTURE_SEARCH_BELOW of the residual or leaves less
+    // than FLOOR_FACTOR² times the noise's energy (σ̂² per sample of each joint; the
+    // segments are each file's joints in turn): what a catalogued effect leaves is
+    // searched once it is applied.
+    let nf = conf.free.len();
+    let noise_energy: f64 = segments
+        .iter()
+        .enumerate()
+        .map(|(i, &len)| joints.get(i % nf).map_or(0.0, |j| j.noise * j.noise) * len as f64)
+        .sum();
+    let catalogue_suffices = findings.iter().filter(|f| f.significant).any(|f| {
+        f.explained >= super::STRUCTURE_SEARCH_BELOW
+            || sst * (1.0 - f.explained) <= FLOOR_FACTOR * FLOOR_FACTOR * noise_energy
+    });
+    if !catalogue_suffices {
+        let structures =
+            structure_candidates(plant, conf, (&out, &yhat, &r), &joints, &oe, options)?;
+        simulations += structures.1;
+        findings.extend(structures.0);
+    }
     // How the input was applied: the other holds, and a delay.
     let timing = timing_candidates(plant, &out, (&y, &r), sst, records)?;
     simulations += timing.1;
@@ -551,6 +581,7 @@ pub fn diagnose_output(
     }
     findings.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     prefer_edits_among_equals(&mut findings);
+    super::prefer_the_catalogue(&mut findings);
     let above_noise = joints
         .iter()
         .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
@@ -572,6 +603,273 @@ pub fn diagnose_output(
         step,
         values_refit,
     })
+}
+
+/// Most library terms per joint whose output sensitivities the structure search simulates
+/// (the ones whose equation-error columns are most aligned with the joint's equation
+/// error).
+pub const STRUCTURE_TERMS: usize = 24;
+
+/// The findings of structure outside the catalogue ([`super::structure`]), and the
+/// simulations run. Per free joint whose position error is above its noise
+/// ([`FLOOR_FACTOR`] σ̂): the library's terms (at most [`STRUCTURE_TERMS`], those most
+/// aligned with the joint's equation error, cut-offs by residual analysis) are each added as a small torque u = β φ on the joint
+/// and their output sensitivities ∂ŷ/∂β simulated; the position residual's sparse model
+/// on them ([`super::structure::sparse_model`]: stepwise on the BIC, polynomial
+/// hierarchy) is written as a user-defined effect `structure_qj` (coefficients `sj_1`, …,
+/// bounds ±10 times each coefficient's size) and confirmed by an output-error fit of its
+/// coefficients, its figures those of the fitted plant. The equation error alone chose the
+/// wrong support (q² + q + 1 for a cubic, measured on c3) and finds structure of its own
+/// on the truth's data (its filtering and estimated velocities): it only ranks the terms
+/// and sizes the probes here. Without an equation error (a file too short for the
+/// filter) the library's first terms are probed at unit size.
+///
+/// # Errors
+/// None beyond the plant's own simulation (kept as `Result` for the callers' `?`).
+fn structure_candidates(
+    plant: &Plant,
+    conf: &'static generated::Configuration,
+    (out, yhat, r): (&Outputs, &[f64], &[f64]),
+    joints: &[JointFit],
+    oe: &crate::identify::output_error::OutputErrorOptions,
+    options: &OutputOptions,
+) -> Result<(Vec<Finding>, usize)> {
+    use crate::identify::equation_error::{Cutoff, EquationError};
+    let m = plant.model;
+    let records = &out.problem.records;
+    let sst: f64 = r.iter().map(|x| x * x).sum();
+    let n = r.len();
+    if sst <= 0.0 {
+        return Ok((Vec::new(), 0));
+    }
+    let ee = EquationError::new(plant, conf, records, Cutoff::Residual)
+        .ok()
+        .and_then(|ee| ee.residuals(plant).ok().map(|e| (ee, e)));
+    let segments = out.segments();
+    let mut simulations = 0;
+    // Per joint searched: its index, the library terms to probe (indices), the library's
+    // texts and each probe's size.
+    type Search = (usize, Vec<usize>, (Vec<String>, Vec<bool>), Vec<f64>);
+    let mut searches: Vec<Search> = Vec::new();
+    for (a, &j) in conf.free.iter().enumerate() {
+        let lib = super::structure::library(j, conf.free, m.joints.len());
+        let texts: Vec<String> = lib.iter().map(|t| t.text.clone()).collect();
+        let lead: Vec<bool> = lib.iter().map(|t| !t.catalogued).collect();
+        // Searched where the position error is above the noise (the equation error's own
+        // sparse model was significant on the truth's data too: its filtering and
+        // estimated velocities leave structure of their own). The equation error's
+        // columns rank the terms and set each probe's size.
+        let gate = joints
+            .get(a)
+            .is_some_and(|f| f.noise > 0.0 && f.rms > FLOOR_FACTOR * f.noise);
+        let mut order: Vec<usize> = (0..lib.len()).collect();
+        let mut size = vec![1.0; lib.len()];
+        if let Some((ee, e)) = &ee {
+            let fns: Vec<_> = lib
+                .iter()
+                .map(|t| move |q: &[f64], qd: &[f64], tau: &[f64]| t.value(conf.free, q, qd, tau))
+                .collect();
+            let refs: Vec<(usize, crate::identify::equation_error::TorqueFn)> = fns
+                .iter()
+                .map(|f| (a, f as crate::identify::equation_error::TorqueFn))
+                .collect();
+            if let Ok(columns) = ee.torque_columns(plant, &refs) {
+                let (by_joint, _) = ee.by_joint(e);
+                let cols: Vec<Vec<f64>> = columns
+                    .iter()
+                    .map(|c| ee.by_joint(c).0.swap_remove(a))
+                    .collect();
+                let ra = &by_joint[a];
+                let align: Vec<f64> = cols.iter().map(|c| cosine(c, ra).abs()).collect();
+                order.sort_by(|&x, &y| align[y].total_cmp(&align[x]));
+                // A probe whose torque is 1e-3 of the joint's commanded torque (RMS):
+                // the columns are torques over Kp s.
+                for (k, c) in cols.iter().enumerate() {
+                    let rms = rms(c);
+                    if rms > 0.0 && rms.is_finite() {
+                        size[k] = 1e-3 / rms;
+                    }
+                }
+            }
+        }
+        if !gate {
+            continue;
+        }
+        order.truncate(STRUCTURE_TERMS);
+        searches.push((j, order, (texts, lead), size));
+    }
+    // The output sensitivities of a joint's terms, each added as a small torque to `base`
+    // whose simulated positions are `base_y`.
+    let probe = |base: &Plant, base_y: &[f64], (j, order, (texts, lead), size): &Search| {
+        let probes: Vec<Option<Vec<f64>>> = order
+            .par_iter()
+            .map(|&k| {
+                let mut p = base.clone();
+                let param = "lockstep_probe_beta";
+                p.add_expression(
+                    "lockstep_structure_probe",
+                    vec![*j],
+                    &format!("{param}*({})", texts[k]),
+                    &[param.to_string()],
+                )
+                .ok()?;
+                p.parameters.insert(param.into(), size[k]);
+                let y = out.simulate(&p).ok()?;
+                let col: Vec<f64> = y
+                    .iter()
+                    .zip(base_y)
+                    .map(|(a, b)| (a - b) / size[k])
+                    .collect();
+                col.iter().all(|v| v.is_finite()).then_some(col)
+            })
+            .collect();
+        let mut cols = Vec::new();
+        let mut kept = Vec::new();
+        let mut leads = Vec::new();
+        for (&k, c) in order.iter().zip(probes) {
+            if let Some(c) = c {
+                cols.push(c);
+                kept.push(texts[k].clone());
+                leads.push(lead[k]);
+            }
+        }
+        (cols, kept, leads)
+    };
+    // The structure as a finding, confirmed by an output-error fit of its coefficients
+    // from `plant`, and the fitted plant.
+    let confirm = |st: &super::structure::Structure| -> (Option<(Finding, Plant)>, usize) {
+        let joint = m.joints[st.joint];
+        let (name, prefix) = super::structure::free_names(plant, st.joint);
+        let (torque, params, values) = st.effect(&prefix);
+        let mut f = Finding::new(
+            joint,
+            st.name(),
+            None,
+            None,
+            st.terms
+                .iter()
+                .map(|t| (t.text.clone(), t.coefficient))
+                .collect(),
+            (sst * (1.0 - st.explained), sst, n as f64, st.terms.len()),
+        );
+        f.meaning = super::structure::MEANING.to_string();
+        f.expression = Some(crate::plant::ExpressionSpec {
+            name,
+            joints: vec![joint.to_string()],
+            torque,
+            parameters: params.clone(),
+        });
+        f.bounds = values
+            .iter()
+            .map(|v| (v - 10.0 * v.abs(), v + 10.0 * v.abs()))
+            .collect();
+        f.values = params.into_iter().zip(values).collect();
+        let Ok(start) = f.apply(plant) else {
+            return (None, 0);
+        };
+        let problem = Problem::new(
+            &start,
+            conf,
+            f.parameter_names(),
+            records.to_vec(),
+            &[],
+            oe.clone(),
+        )
+        .and_then(|p| {
+            if options.fit.estimate_initial {
+                p.with_initial_positions_of(&start)
+                    .map_err(anyhow::Error::from)
+            } else {
+                Ok(p)
+            }
+        });
+        let Ok(fit) = problem.and_then(|p| p.fit(&|_| {})) else {
+            return (None, 0);
+        };
+        if !fit.cost_after.is_finite() {
+            return (None, fit.evaluations);
+        }
+        for (v, fitted) in f.values.iter_mut().zip(&fit.fitted) {
+            v.1 = *fitted;
+        }
+        for (e, fitted) in f.estimate.iter_mut().zip(&fit.fitted) {
+            e.1 = *fitted;
+        }
+        let (delta_bic, explained) = super::bic(fit.cost_after, sst, n as f64, f.values.len());
+        f.delta_bic = delta_bic;
+        f.explained = explained;
+        f.significant = super::significant(delta_bic, explained);
+        f.confirmed = true;
+        let Ok(fitted) = f.apply(plant) else {
+            return (None, fit.evaluations);
+        };
+        (Some((f, fitted)), fit.evaluations)
+    };
+    let y: Vec<f64> = r.iter().zip(yhat).map(|(a, b)| a + b).collect();
+    let found: Vec<(Option<Finding>, usize)> = searches
+        .par_iter()
+        .map(|search| {
+            let (cols, kept, leads) = probe(plant, yhat, search);
+            let mut sims = cols.len();
+            let Some(st) =
+                super::structure::sparse_model(search.0, r, &segments, &cols, (&kept, &leads))
+                    .filter(|st| st.significant())
+            else {
+                return (None, sims);
+            };
+            let (first, s) = confirm(&st);
+            sims += s;
+            let Some((first, fitted)) = first else {
+                return (None, sims);
+            };
+            // Once more, linearised at the fitted plant, where the sensitivities describe
+            // what the structure does (at the given plant a large effect's linearisation
+            // asks for extra terms: a cubic came with q̇³, q̇ and sin(4q) beside its
+            // powers, measured on c3): the residual with the structure's own share put
+            // back, y − ŷ(fitted) + Σ θ_k s_k(fitted), selected again.
+            let Ok(y1) = out.simulate(&fitted) else {
+                return (Some(first), sims);
+            };
+            sims += 1;
+            let (cols1, kept1, leads1) = probe(&fitted, &y1, search);
+            sims += cols1.len();
+            let mut augmented: Vec<f64> = y.iter().zip(&y1).map(|(a, b)| a - b).collect();
+            for ((text, _), (_, theta)) in first.estimate.iter().zip(&first.values) {
+                if let Some(c) = kept1.iter().position(|t| t == text) {
+                    for (v, s) in augmented.iter_mut().zip(&cols1[c]) {
+                        *v += theta * s;
+                    }
+                }
+            }
+            let again = super::structure::sparse_model(
+                search.0,
+                &augmented,
+                &segments,
+                &cols1,
+                (&kept1, &leads1),
+            )
+            .filter(|st2| {
+                st2.significant() && {
+                    let mut a: Vec<&str> = st2.terms.iter().map(|t| t.text.as_str()).collect();
+                    let mut b: Vec<&str> = st.terms.iter().map(|t| t.text.as_str()).collect();
+                    a.sort();
+                    b.sort();
+                    a != b
+                }
+            });
+            let Some(st2) = again else {
+                return (Some(first), sims);
+            };
+            let (second, s) = confirm(&st2);
+            sims += s;
+            match second {
+                Some((second, _)) if second.delta_bic < first.delta_bic => (Some(second), sims),
+                _ => (Some(first), sims),
+            }
+        })
+        .collect();
+    simulations += found.iter().map(|c| c.1).sum::<usize>();
+    Ok((found.into_iter().filter_map(|c| c.0).collect(), simulations))
 }
 
 /// ΔBIC differences below this are not worth more than a bare mention (Kass and Raftery

@@ -264,9 +264,92 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
             }
             out.push(f);
         }
+        // Structure outside the catalogue: the projected residual's sparse model on the
+        // joint's own library terms, projected too ([`super::structure`]); linear in its
+        // coefficients, so the refit of `--apply` fits it with the rest.
+        let lib = super::structure::library(j, &[j], m.joints.len());
+        let texts: Vec<String> = lib.iter().map(|t| t.text.clone()).collect();
+        let lead: Vec<bool> = lib.iter().map(|t| !t.catalogued).collect();
+        let cols: Vec<Vec<f64>> = lib
+            .iter()
+            .map(|t| {
+                let v: Vec<f64> = q
+                    .iter()
+                    .zip(&qd)
+                    .map(|(&qa, &qda)| t.value(&[j], &[qa], &[qda], &[0.0]))
+                    .collect();
+                // A term the plant's columns already span (its viscous q̇) projects to
+                // what differs between the term at the decimated rows and the column
+                // decimated through the filter — which normalised fits the filter's own
+                // residual (a q̇ "explaining" 17 % of EMPS's truth data): left out when
+                // 99 % of it is spanned.
+                let p = project(&v);
+                let norm = |x: &[f64]| x.iter().map(|a| a * a).sum::<f64>().sqrt();
+                if norm(&p) > 1e-2 * norm(&v) {
+                    p
+                } else {
+                    vec![0.0; p.len()]
+                }
+            })
+            .collect();
+        // Only where no significant catalogued effect explains STRUCTURE_SEARCH_BELOW of
+        // the joint's residual (what it leaves is searched once it is added).
+        let catalogue_suffices = out.iter().any(|f| {
+            f.joint == m.joints[j]
+                && f.significant
+                && f.kind.is_some()
+                && f.explained >= super::STRUCTURE_SEARCH_BELOW
+        });
+        if let Some(st) = super::structure::sparse_model(j, &e, &[n], &cols, (&texts, &lead))
+            .filter(|st| st.significant() && !catalogue_suffices)
+        {
+            out.push(structure_finding(plant, &st, sst, n));
+        }
     }
     out.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    super::prefer_the_catalogue(&mut out);
     Ok(out)
+}
+
+/// The finding of a sparse model `st` of a joint's projected residual (energy `sst` over
+/// `n` rows): the user-defined effect `structure_qj` with coefficients `sj_1`, … (a free
+/// prefix where the plant has those), its figures those of the sparse model.
+fn structure_finding(
+    plant: &Plant,
+    st: &super::structure::Structure,
+    sst: f64,
+    n: usize,
+) -> Finding {
+    let m = plant.model;
+    let joint = m.joints[st.joint];
+    let (name, prefix) = super::structure::free_names(plant, st.joint);
+    let (torque, params, values) = st.effect(&prefix);
+    let mut f = Finding::new(
+        joint,
+        st.name(),
+        None,
+        None,
+        st.terms
+            .iter()
+            .map(|t| (t.text.clone(), t.coefficient))
+            .collect(),
+        (sst * (1.0 - st.explained), sst, n as f64, st.terms.len()),
+    );
+    f.delta_bic = st.delta_bic;
+    f.significant = st.significant();
+    f.meaning = super::structure::MEANING.to_string();
+    f.expression = Some(crate::plant::ExpressionSpec {
+        name,
+        joints: vec![joint.to_string()],
+        torque,
+        parameters: params.clone(),
+    });
+    f.bounds = values
+        .iter()
+        .map(|v| (v - 10.0 * v.abs() - 1.0, v + 10.0 * v.abs() + 1.0))
+        .collect();
+    f.values = params.into_iter().zip(values).collect();
+    f
 }
 
 /// Add `finding` (from [`diagnose_torque`]) to `plant` and refit in torque space

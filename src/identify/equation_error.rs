@@ -143,6 +143,10 @@ const BIAS_WIDTH: f64 = 2e-3;
 /// Order of the Butterworth position filter.
 const ORDER: usize = 4;
 
+/// A torque u(q, q̇, τ) of the free joints' positions, velocities and commands (NF each),
+/// N·m or N ([`EquationError::torque_columns`]).
+pub type TorqueFn<'a> = &'a (dyn Fn(&[f64], &[f64], &[f64]) -> f64 + Sync);
+
 /// One file prepared for the equation error.
 #[derive(Debug, Clone)]
 struct Prepared {
@@ -306,6 +310,76 @@ impl EquationError {
     /// True when there are no residuals.
     pub fn is_empty(&self) -> bool {
         self.len == 0
+    }
+
+    /// The columns, aligned with [`EquationError::residuals`], of torques taken from free
+    /// joints: for each `(a, u)`, u(q, q̇, τ) of the free joints' filtered positions,
+    /// velocities and held commands (NF each) at the rows of joint a, divided by that
+    /// joint's Kp_a s_a (0 at the other joints' rows). A torque u missing from `plant`
+    /// leaves the residual e ≈ Σ θ u / (Kp s): the least squares of e on such columns
+    /// estimates θ in torque units (N·m or N). Also the residuals' segment lengths (one per
+    /// file and free joint, for [`crate::diagnose::effective_samples`] after
+    /// [`EquationError::by_joint`]).
+    ///
+    /// # Errors
+    /// The plant cannot be configured (a parameter without value, …).
+    pub fn torque_columns(
+        &self,
+        plant: &Plant,
+        terms: &[(usize, TorqueFn)],
+    ) -> Result<Vec<Vec<f64>>> {
+        let nf = self.conf.free.len();
+        let Some(first) = self.files.first() else {
+            return Ok(vec![Vec::new(); terms.len()]);
+        };
+        let model = plant
+            .simulator(self.conf.name, &first.q_all, ConsistencyPolicy::Warn)?
+            .model;
+        let mut out = vec![Vec::with_capacity(self.len); terms.len()];
+        let (mut q, mut qd, mut tau) = (vec![0.0; nf], vec![0.0; nf], vec![0.0; nf]);
+        for f in &self.files {
+            let n = f.q[0].len();
+            for k in EDGE..n - EDGE {
+                for a in 0..nf {
+                    q[a] = f.q[a][k];
+                    qd[a] = f.qd[a][k];
+                    tau[a] = f.tau[a][k];
+                }
+                for a in 0..nf {
+                    let gain = model.terms[a].gain;
+                    let gain = if gain.abs() > f64::MIN_POSITIVE {
+                        gain
+                    } else {
+                        1.0
+                    };
+                    for (c, (b, u)) in out.iter_mut().zip(terms) {
+                        c.push(if *b == a {
+                            u(&q, &qd, &tau) * self.scale[a] / gain
+                        } else {
+                            0.0
+                        });
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// `v` (aligned with [`EquationError::residuals`]) split by free joint: NF vectors,
+    /// each joint's rows in order (files one after the other), and the lengths of the
+    /// files' segments in each.
+    pub fn by_joint(&self, v: &[f64]) -> (Vec<Vec<f64>>, Vec<usize>) {
+        let nf = self.conf.free.len();
+        let mut out = vec![Vec::with_capacity(v.len() / nf.max(1)); nf];
+        for (i, x) in v.iter().enumerate() {
+            out[i % nf].push(*x);
+        }
+        let segments = self
+            .files
+            .iter()
+            .map(|f| f.q[0].len().saturating_sub(2 * EDGE))
+            .collect();
+        (out, segments)
     }
 
     /// The residuals e_a,k of `plant`, file by file, sample by sample, joint by joint.

@@ -315,7 +315,13 @@ impl ExpressionColumn {
                 Symbol::Q(j) => q[j],
                 Symbol::Qd(j) => at(qd, j),
                 Symbol::Qdd(j) => at(qdd, j),
-                Symbol::Tau(j) => free.contains(&j).then(|| tau[j][k]).unwrap_or(0.0),
+                Symbol::Tau(j) => {
+                    if free.contains(&j) {
+                        tau[j][k]
+                    } else {
+                        0.0
+                    }
+                }
                 Symbol::Z(_) | Symbol::Param(_) => 0.0,
             };
         }
