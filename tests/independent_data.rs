@@ -69,11 +69,14 @@ fn hidden_spec<'a>(config: &'a str, table: &'a str, test: Option<&'a str>) -> Sp
 }
 
 /// The cases of the acceptance: single joints (c3, c2), the base pair with the friction
-/// bias (c7), the wrist (k1) and three coupled joints (k3).
+/// bias (c7), the wrist (k1) and three coupled joints (k3), with the bound on RMS/σ of the
+/// truth: for the single joints 1 + 3/√(2n), n = 800 samples of an 8 s file (the RMS of n
+/// white samples has relative standard deviation 1/√(2n): 2.5 %; c7's q0 measured 1.059
+/// on the 8 s file, 1.05 was the bound for the 15 s files).
 const CASES: [(&str, &str, Option<&str>, f64); 5] = [
-    ("c3", "4.3", Some("J3"), 1.05),
-    ("c2", "4.3", Some("J5"), 1.05),
-    ("c7", "4.4", Some("J01-1"), 1.05),
+    ("c3", "4.3", Some("J3"), 1.075),
+    ("c2", "4.3", Some("J5"), 1.075),
+    ("c7", "4.4", Some("J01-1"), 1.075),
     ("k1", "4.7", None, 1.2),
     ("k3", "4.7", None, 1.2),
 ];

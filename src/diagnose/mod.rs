@@ -171,6 +171,47 @@ impl Finding {
         Ok(p)
     }
 
+    /// The finding of a sparse model `st` of a joint's residual (energy `sst` over `n`
+    /// samples, [`structure`]): the user-defined effect `structure_qj` with coefficients
+    /// `sj_1`, … (a free prefix where the plant has those), bounds ±(10 |c| + `pad`) about
+    /// each coefficient c, its figures those of the sparse model.
+    pub fn of_structure(
+        plant: &Plant,
+        st: &structure::Structure,
+        (sst, n): (f64, usize),
+        pad: f64,
+    ) -> Finding {
+        let joint = plant.model.joints[st.joint];
+        let (name, prefix) = structure::free_names(plant, st.joint);
+        let (torque, params, values) = st.effect(&prefix);
+        let mut f = Finding::new(
+            joint,
+            st.name(),
+            None,
+            None,
+            st.terms
+                .iter()
+                .map(|t| (t.text.clone(), t.coefficient))
+                .collect(),
+            (sst * (1.0 - st.explained), sst, n as f64, st.terms.len()),
+        );
+        f.delta_bic = st.delta_bic;
+        f.significant = st.significant();
+        f.meaning = structure::MEANING.to_string();
+        f.expression = Some(crate::plant::ExpressionSpec {
+            name,
+            joints: vec![joint.to_string()],
+            torque,
+            parameters: params.clone(),
+        });
+        f.bounds = values
+            .iter()
+            .map(|v| (v - 10.0 * v.abs() - pad, v + 10.0 * v.abs() + pad))
+            .collect();
+        f.values = params.into_iter().zip(values).collect();
+        f
+    }
+
     /// The estimate as `name = value, …`.
     pub fn estimate_text(&self) -> String {
         self.estimate

@@ -472,23 +472,7 @@ pub fn diagnose_output(
             return (None, 0);
         };
         // The candidate plant's own initial positions (a nuisance of each model).
-        let problem = Problem::new(
-            &start,
-            conf,
-            names.clone(),
-            records.to_vec(),
-            &[],
-            oe.clone(),
-        )
-        .and_then(|p| {
-            if options.fit.estimate_initial {
-                p.with_initial_positions_of(&start)
-                    .map_err(anyhow::Error::from)
-            } else {
-                Ok(p)
-            }
-        });
-        let Ok(fit) = problem.and_then(|p| p.fit(&|_| {})) else {
+        let Some(fit) = fit_from(&start, conf, names.clone(), records, &oe, options) else {
             return (None, 0);
         };
         // The fitted cost replaces the linearised one even where it is higher: the
@@ -603,6 +587,29 @@ pub fn diagnose_output(
         step,
         values_refit,
     })
+}
+
+/// The output-error fit of `names` of `start` (configuration `conf`) on `records`, from
+/// each file's initial positions estimated for `start` where the options ask for it; None
+/// when the problem cannot be set up or the fit fails.
+fn fit_from(
+    start: &Plant,
+    conf: &'static generated::Configuration,
+    names: Vec<String>,
+    records: &[Record],
+    oe: &crate::identify::output_error::OutputErrorOptions,
+    options: &OutputOptions,
+) -> Option<crate::identify::output_error::FitResult> {
+    let problem =
+        Problem::new(start, conf, names, records.to_vec(), &[], oe.clone()).and_then(|p| {
+            if options.fit.estimate_initial {
+                p.with_initial_positions_of(start)
+                    .map_err(anyhow::Error::from)
+            } else {
+                Ok(p)
+            }
+        });
+    problem.and_then(|p| p.fit(&|_| {})).ok()
 }
 
 /// Most library terms per joint whose output sensitivities the structure search simulates
@@ -738,52 +745,11 @@ fn structure_candidates(
     // The structure as a finding, confirmed by an output-error fit of its coefficients
     // from `plant`, and the fitted plant.
     let confirm = |st: &super::structure::Structure| -> (Option<(Finding, Plant)>, usize) {
-        let joint = m.joints[st.joint];
-        let (name, prefix) = super::structure::free_names(plant, st.joint);
-        let (torque, params, values) = st.effect(&prefix);
-        let mut f = Finding::new(
-            joint,
-            st.name(),
-            None,
-            None,
-            st.terms
-                .iter()
-                .map(|t| (t.text.clone(), t.coefficient))
-                .collect(),
-            (sst * (1.0 - st.explained), sst, n as f64, st.terms.len()),
-        );
-        f.meaning = super::structure::MEANING.to_string();
-        f.expression = Some(crate::plant::ExpressionSpec {
-            name,
-            joints: vec![joint.to_string()],
-            torque,
-            parameters: params.clone(),
-        });
-        f.bounds = values
-            .iter()
-            .map(|v| (v - 10.0 * v.abs(), v + 10.0 * v.abs()))
-            .collect();
-        f.values = params.into_iter().zip(values).collect();
+        let mut f = Finding::of_structure(plant, st, (sst, n), 0.0);
         let Ok(start) = f.apply(plant) else {
             return (None, 0);
         };
-        let problem = Problem::new(
-            &start,
-            conf,
-            f.parameter_names(),
-            records.to_vec(),
-            &[],
-            oe.clone(),
-        )
-        .and_then(|p| {
-            if options.fit.estimate_initial {
-                p.with_initial_positions_of(&start)
-                    .map_err(anyhow::Error::from)
-            } else {
-                Ok(p)
-            }
-        });
-        let Ok(fit) = problem.and_then(|p| p.fit(&|_| {})) else {
+        let Some(fit) = fit_from(&start, conf, f.parameter_names(), records, oe, options) else {
             return (None, 0);
         };
         if !fit.cost_after.is_finite() {

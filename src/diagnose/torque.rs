@@ -303,53 +303,12 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
         if let Some(st) = super::structure::sparse_model(j, &e, &[n], &cols, (&texts, &lead))
             .filter(|st| st.significant() && !catalogue_suffices)
         {
-            out.push(structure_finding(plant, &st, sst, n));
+            out.push(Finding::of_structure(plant, &st, (sst, n), 1.0));
         }
     }
     out.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     super::prefer_the_catalogue(&mut out);
     Ok(out)
-}
-
-/// The finding of a sparse model `st` of a joint's projected residual (energy `sst` over
-/// `n` rows): the user-defined effect `structure_qj` with coefficients `sj_1`, … (a free
-/// prefix where the plant has those), its figures those of the sparse model.
-fn structure_finding(
-    plant: &Plant,
-    st: &super::structure::Structure,
-    sst: f64,
-    n: usize,
-) -> Finding {
-    let m = plant.model;
-    let joint = m.joints[st.joint];
-    let (name, prefix) = super::structure::free_names(plant, st.joint);
-    let (torque, params, values) = st.effect(&prefix);
-    let mut f = Finding::new(
-        joint,
-        st.name(),
-        None,
-        None,
-        st.terms
-            .iter()
-            .map(|t| (t.text.clone(), t.coefficient))
-            .collect(),
-        (sst * (1.0 - st.explained), sst, n as f64, st.terms.len()),
-    );
-    f.delta_bic = st.delta_bic;
-    f.significant = st.significant();
-    f.meaning = super::structure::MEANING.to_string();
-    f.expression = Some(crate::plant::ExpressionSpec {
-        name,
-        joints: vec![joint.to_string()],
-        torque,
-        parameters: params.clone(),
-    });
-    f.bounds = values
-        .iter()
-        .map(|v| (v - 10.0 * v.abs() - 1.0, v + 10.0 * v.abs() + 1.0))
-        .collect();
-    f.values = params.into_iter().zip(values).collect();
-    f
 }
 
 /// Add `finding` (from [`diagnose_torque`]) to `plant` and refit in torque space
