@@ -177,6 +177,37 @@ fn peaks(f: &[f64], a: &[f64], k: usize) -> Vec<f64> {
     p.into_iter().map(|x| x.0).collect()
 }
 
+/// Bins of the trend line drawn over the residual against position and velocity.
+pub const TREND_BINS: usize = 40;
+
+/// The trend of `y` against `x`: the samples sorted by x and cut into `bins` groups of
+/// equal count, each group's mean x and mean y (a binned-mean smoother: a missing cubic
+/// stiffness or a position ripple shows as a curve through the scatter, issue 54 item 4).
+/// Non-finite pairs are left out; fewer samples than bins give one point per sample.
+pub fn trend(x: &[f64], y: &[f64], bins: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut pairs: Vec<(f64, f64)> = x
+        .iter()
+        .zip(y)
+        .filter(|(a, b)| a.is_finite() && b.is_finite())
+        .map(|(a, b)| (*a, *b))
+        .collect();
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let n = pairs.len();
+    let bins = bins.clamp(1, n.max(1));
+    (0..bins)
+        .filter_map(|b| {
+            let group = &pairs[b * n / bins..(b + 1) * n / bins];
+            (!group.is_empty()).then(|| {
+                let k = group.len() as f64;
+                (
+                    group.iter().map(|p| p.0).sum::<f64>() / k,
+                    group.iter().map(|p| p.1).sum::<f64>() / k,
+                )
+            })
+        })
+        .unzip()
+}
+
 /// The residual tests of residual `e` (sampling period `dt`) against `inputs`, lags up to
 /// `max_lag` (MATLAB's default 25).
 pub fn residual_tests(
@@ -620,16 +651,22 @@ pub fn plot(
             vec![line("y − ŷ", c.t.clone(), e.clone())],
         ),
         panel(
-            "residual vs position".into(),
+            "residual vs position (trend: a cubic or a ripple shows as a curve)".into(),
             "position (rad or m)",
             &ylab,
-            vec![points("y − ŷ", c.q.clone(), e.clone())],
+            vec![points("y − ŷ", c.q.clone(), e.clone()), {
+                let (x, y) = trend(&c.q, &e, TREND_BINS);
+                line("trend (binned mean)", x, y)
+            }],
         ),
         panel(
             "residual vs velocity (a step at 0: Coulomb friction; a hump: Stribeck)".into(),
             "velocity (rad/s or m/s)",
             &ylab,
-            vec![points("q̇ > 0", vp, ep), points("q̇ < 0", vn, en)],
+            vec![points("q̇ > 0", vp, ep), points("q̇ < 0", vn, en), {
+                let (x, y) = trend(&c.qd, &e, TREND_BINS);
+                line("trend (binned mean)", x, y)
+            }],
         ),
     ];
     for (name, u) in c.inputs.iter().filter(|(n, _)| n.starts_with("tau")) {
@@ -686,4 +723,34 @@ pub fn plot(
         ));
     }
     figure(stem, &panels, 1000)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cubic under noise: the binned means follow x³ (each bin's mean of x³ against the
+    /// cube of its mean x differs by the bin's spread, under 1e-3 here), in order.
+    #[test]
+    fn the_trend_follows_a_cubic_through_noise() {
+        let n = 8000;
+        let x: Vec<f64> = (0..n)
+            .map(|k| -1.0 + 2.0 * (k as f64 * 0.618_034).fract())
+            .collect();
+        let y: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(k, v)| v.powi(3) + 0.05 * ((k as f64 * 12.9898).sin() * 43758.5453).fract())
+            .collect();
+        let (tx, ty) = trend(&x, &y, 40);
+        assert_eq!(tx.len(), 40);
+        assert!(tx.windows(2).all(|w| w[0] < w[1]));
+        for (a, b) in tx.iter().zip(&ty) {
+            assert!((b - a.powi(3)).abs() < 0.01, "{a}: {b} vs {}", a.powi(3));
+        }
+        assert_eq!(
+            trend(&[1.0, 2.0], &[3.0, 4.0], 40),
+            (vec![1.0, 2.0], vec![3.0, 4.0])
+        );
+    }
 }
