@@ -20,16 +20,7 @@ use lockstep::simulation::{Hold, InputSignal, PlantModel, State};
 use std::time::Duration;
 
 fn setup(config: &str, seconds: f64) -> (PlantModel, Vec<Vec<f64>>, Vec<f64>) {
-    let plant = common::appendix_d_coupled();
-    let sim = plant
-        .simulator(config, &[0.0; 6], ConsistencyPolicy::Refuse)
-        .unwrap()
-        .model;
-    let ex = Excitations::bundled(plant.model).unwrap();
-    let test = ex.table("4.7").unwrap().test(None).unwrap();
-    let (t, u, _) = test.sample(6, sim.conf.free, seconds, 100.0);
-    let tau = sim.conf.free.iter().map(|&j| u[j].clone()).collect();
-    (sim, tau, t)
+    setup_plant(&common::appendix_d_coupled(), config, seconds)
 }
 
 fn run(sim: &PlantModel, tau: &[Vec<f64>], t: &[f64]) -> f64 {
@@ -51,13 +42,15 @@ fn run(sim: &PlantModel, tau: &[Vec<f64>], t: &[f64]) -> f64 {
     tr.q[0][t.len() - 1]
 }
 
-/// The k5 simulation of `plant` (10 s).
+/// The simulator of `plant` in `config`, the Table 4.7 inputs of its free joints for
+/// `seconds` at 100 Hz, and their times.
 fn setup_plant(
     plant: &lockstep::plant::Plant,
+    config: &str,
     seconds: f64,
 ) -> (PlantModel, Vec<Vec<f64>>, Vec<f64>) {
     let sim = plant
-        .simulator("k5", &[0.0; 6], ConsistencyPolicy::Refuse)
+        .simulator(config, &[0.0; 6], ConsistencyPolicy::Refuse)
         .unwrap()
         .model;
     let ex = Excitations::bundled(plant.model).unwrap();
@@ -97,11 +90,11 @@ fn bench(c: &mut Criterion) {
         let by_hand = springs_by_hand(&plant);
         let mut g = c.benchmark_group("effects");
         g.sample_size(10).measurement_time(Duration::from_secs(10));
-        let (sim, tau, t) = setup_plant(&plant, 10.0);
+        let (sim, tau, t) = setup_plant(&plant, "k5", 10.0);
         g.bench_function("k5_10s_built_in_springs", |b| {
             b.iter(|| run(&sim, &tau, &t))
         });
-        let (sim, tau, t) = setup_plant(&by_hand, 10.0);
+        let (sim, tau, t) = setup_plant(&by_hand, "k5", 10.0);
         g.bench_function("k5_10s_expression_springs", |b| {
             b.iter(|| run(&sim, &tau, &t))
         });

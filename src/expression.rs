@@ -750,6 +750,9 @@ enum Instr {
 /// Deepest stack a [`Program`] may need.
 const STACK: usize = 64;
 
+/// Most inputs (distinct state variables) a [`Program`] may read.
+pub const INPUTS: usize = 32;
+
 /// A tree compiled to a flat instruction list with its inputs numbered ([`Program::inputs`]),
 /// constants folded: what the simulator's inner loop evaluates.
 #[derive(Debug, Clone, PartialEq)]
@@ -764,7 +767,8 @@ impl Program {
     /// constant (parameters, locked joints' positions) and folding constants.
     ///
     /// # Errors
-    /// The expression needs a deeper stack than [`STACK`] (too deeply nested).
+    /// The expression needs a deeper stack than [`STACK`] (too deeply nested) or reads
+    /// more than [`INPUTS`] state variables.
     pub fn compile(node: &Node, fixed: &dyn Fn(Symbol) -> Option<f64>) -> Result<Program, String> {
         let folded = fold(node, fixed);
         let mut p = Program {
@@ -775,6 +779,12 @@ impl Program {
         if depth > STACK {
             return Err(format!(
                 "the expression nests too deeply (needs {depth} stack levels, at most {STACK})"
+            ));
+        }
+        if p.inputs.len() > INPUTS {
+            return Err(format!(
+                "the expression reads {} state variables, at most {INPUTS}",
+                p.inputs.len()
             ));
         }
         Ok(p)
@@ -841,6 +851,15 @@ impl Program {
             }
         }
         stack[0]
+    }
+
+    /// The value with each input's value given by `at` (the symbol it stands for).
+    pub fn eval_at(&self, at: impl Fn(Symbol) -> f64) -> f64 {
+        let mut v = [0.0; INPUTS];
+        for (slot, s) in v.iter_mut().zip(&self.inputs) {
+            *slot = at(*s);
+        }
+        self.eval(&v[..self.inputs.len()])
     }
 
     /// True when the program is a constant (reads nothing).

@@ -971,7 +971,7 @@ impl Plant {
         q_locked: &[f64],
     ) -> Result<crate::simulation::TorqueTerm> {
         use crate::expression::{Program, Symbol};
-        use crate::simulation::{TermInput, TERM_INPUTS};
+        use crate::simulation::TermInput;
         let name = self.name();
         let e = &x.expression;
         let values = e
@@ -995,13 +995,6 @@ impl Plant {
         let build = |node: &crate::expression::Node| -> Result<(Program, Vec<TermInput>)> {
             let program = Program::compile(node, &fixed)
                 .map_err(|m| anyhow::anyhow!("{name}: expression '{}': {m}", x.name))?;
-            if program.inputs.len() > TERM_INPUTS {
-                bail!(
-                    "{name}: expression '{}' reads {} state variables, at most {TERM_INPUTS}",
-                    x.name,
-                    program.inputs.len()
-                );
-            }
             let inputs = program
                 .inputs
                 .iter()

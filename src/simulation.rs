@@ -62,9 +62,6 @@ pub enum TermInput {
     Tau(usize),
 }
 
-/// Most inputs a [`TorqueTerm`] may read.
-pub const TERM_INPUTS: usize = 32;
-
 impl TorqueTerm {
     /// The torque at positions `q`, velocities `qd`, deflections `z` and commands `tau`
     /// (free joints, NF each).
@@ -91,7 +88,7 @@ fn eval_term(
     z: &[f64],
     tau: &[f64],
 ) -> f64 {
-    let mut v = [0.0; TERM_INPUTS];
+    let mut v = [0.0; crate::expression::INPUTS];
     for (slot, input) in v.iter_mut().zip(inputs) {
         *slot = match *input {
             TermInput::Q(a) => q[a],

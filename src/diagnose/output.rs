@@ -649,9 +649,26 @@ fn structure_candidates(
     if sst <= 0.0 {
         return Ok((Vec::new(), 0));
     }
+    // Searched where the position error is above the noise (the equation error's own
+    // sparse model was significant on the truth's data too: its filtering and estimated
+    // velocities leave structure of their own).
+    let above = |a: usize| {
+        joints
+            .get(a)
+            .is_some_and(|f| f.noise > 0.0 && f.rms > FLOOR_FACTOR * f.noise)
+    };
+    if !(0..conf.free.len()).any(above) {
+        return Ok((Vec::new(), 0));
+    }
+    // The equation error, split by joint: its columns rank each joint's terms and set each
+    // probe's size.
     let ee = EquationError::new(plant, conf, records, Cutoff::Residual)
         .ok()
-        .and_then(|ee| ee.residuals(plant).ok().map(|e| (ee, e)));
+        .and_then(|ee| {
+            let e = ee.residuals(plant).ok()?;
+            let by_joint = ee.by_joint(&e).0;
+            Some((ee, by_joint))
+        });
     let segments = out.segments();
     let mut simulations = 0;
     // Per joint searched: its index, the library terms to probe (indices), the library's
@@ -659,19 +676,15 @@ fn structure_candidates(
     type Search = (usize, Vec<usize>, (Vec<String>, Vec<bool>), Vec<f64>);
     let mut searches: Vec<Search> = Vec::new();
     for (a, &j) in conf.free.iter().enumerate() {
+        if !above(a) {
+            continue;
+        }
         let lib = super::structure::library(j, conf.free, m.joints.len());
         let texts: Vec<String> = lib.iter().map(|t| t.text.clone()).collect();
         let lead: Vec<bool> = lib.iter().map(|t| !t.catalogued).collect();
-        // Searched where the position error is above the noise (the equation error's own
-        // sparse model was significant on the truth's data too: its filtering and
-        // estimated velocities leave structure of their own). The equation error's
-        // columns rank the terms and set each probe's size.
-        let gate = joints
-            .get(a)
-            .is_some_and(|f| f.noise > 0.0 && f.rms > FLOOR_FACTOR * f.noise);
         let mut order: Vec<usize> = (0..lib.len()).collect();
         let mut size = vec![1.0; lib.len()];
-        if let Some((ee, e)) = &ee {
+        if let Some((ee, by_joint)) = &ee {
             let fns: Vec<_> = lib
                 .iter()
                 .map(|t| move |q: &[f64], qd: &[f64], tau: &[f64]| t.value(conf.free, q, qd, tau))
@@ -681,7 +694,6 @@ fn structure_candidates(
                 .map(|f| (a, f as crate::identify::equation_error::TorqueFn))
                 .collect();
             if let Ok(columns) = ee.torque_columns(plant, &refs) {
-                let (by_joint, _) = ee.by_joint(e);
                 let cols: Vec<Vec<f64>> = columns
                     .iter()
                     .map(|c| ee.by_joint(c).0.swap_remove(a))
@@ -698,9 +710,6 @@ fn structure_candidates(
                     }
                 }
             }
-        }
-        if !gate {
-            continue;
         }
         order.truncate(STRUCTURE_TERMS);
         searches.push((j, order, (texts, lead), size));

@@ -45,17 +45,13 @@ impl LibraryTerm {
     /// The term's value at the states of the free joints `free` (model indices; `q`,
     /// `qd`, `tau` NF each).
     pub fn value(&self, free: &[usize], q: &[f64], qd: &[f64], tau: &[f64]) -> f64 {
-        let mut v = [0.0; 4];
-        for (slot, s) in v.iter_mut().zip(&self.program.inputs) {
-            let at = |k: usize| free.iter().position(|&f| f == k).unwrap_or(0);
-            *slot = match *s {
-                Symbol::Q(k) => q[at(k)],
-                Symbol::Qd(k) => qd[at(k)],
-                Symbol::Tau(k) => tau[at(k)],
-                _ => 0.0,
-            };
-        }
-        self.program.eval(&v[..self.program.inputs.len().min(4)])
+        let at = |k: usize| free.iter().position(|&f| f == k).unwrap_or(0);
+        self.program.eval_at(|s| match s {
+            Symbol::Q(k) => q[at(k)],
+            Symbol::Qd(k) => qd[at(k)],
+            Symbol::Tau(k) => tau[at(k)],
+            _ => 0.0,
+        })
     }
 }
 

@@ -306,26 +306,21 @@ impl ExpressionColumn {
         k: usize,
     ) -> f64 {
         use crate::expression::Symbol;
-        let mut v = [0.0; crate::simulation::TERM_INPUTS];
-        for (slot, s) in v.iter_mut().zip(&self.program.inputs) {
-            let at = |x: &[Vec<f64>], j: usize| {
-                free.iter().position(|&f| f == j).map_or(0.0, |a| x[a][k])
-            };
-            *slot = match *s {
-                Symbol::Q(j) => q[j],
-                Symbol::Qd(j) => at(qd, j),
-                Symbol::Qdd(j) => at(qdd, j),
-                Symbol::Tau(j) => {
-                    if free.contains(&j) {
-                        tau[j][k]
-                    } else {
-                        0.0
-                    }
+        let at =
+            |x: &[Vec<f64>], j: usize| free.iter().position(|&f| f == j).map_or(0.0, |a| x[a][k]);
+        self.program.eval_at(|s| match s {
+            Symbol::Q(j) => q[j],
+            Symbol::Qd(j) => at(qd, j),
+            Symbol::Qdd(j) => at(qdd, j),
+            Symbol::Tau(j) => {
+                if free.contains(&j) {
+                    tau[j][k]
+                } else {
+                    0.0
                 }
-                Symbol::Z(_) | Symbol::Param(_) => 0.0,
-            };
-        }
-        self.program.eval(&v[..self.program.inputs.len()])
+            }
+            Symbol::Z(_) | Symbol::Param(_) => 0.0,
+        })
     }
 }
 
@@ -359,14 +354,6 @@ fn expression_columns(plant: &Plant, free: &[usize]) -> Result<Vec<ExpressionCol
         for (i, p) in e.parameters.iter().enumerate() {
             let program = Program::compile(&e.derivative(Symbol::Param(i)), &|_| None)
                 .map_err(|m| anyhow::anyhow!("{}: expression '{}': {m}", plant.name(), x.name))?;
-            if program.inputs.len() > crate::simulation::TERM_INPUTS {
-                bail!(
-                    "{}: expression '{}' reads more than {} state variables",
-                    plant.name(),
-                    x.name,
-                    crate::simulation::TERM_INPUTS
-                );
-            }
             out.push(ExpressionColumn {
                 name: p.clone(),
                 joints: x.joints.clone(),
