@@ -89,17 +89,27 @@ pub struct ResidualTests {
     pub lags_outside: usize,
     /// Inputs whose cross-correlation leaves its bound at some lag.
     pub correlated_inputs: Vec<String>,
+    /// The portmanteau test over lags 1..=M ([`whiteness`]): the residual is white when
+    /// it passes.
+    pub whiteness: Whiteness,
 }
 
 impl ResidualTests {
-    /// One line for a reader: is the residual white, does it depend on an input.
+    /// One line for a reader: is the residual white ([`Whiteness::white`]), does it
+    /// depend on an input.
     pub fn verdict(&self) -> String {
-        let white = if self.lags_outside * 20 <= self.max_lag {
-            "the residual is white (the model explains the dynamics)".to_string()
+        let white = if self.whiteness.white() {
+            format!(
+                "the residual is white ({}; the model explains the dynamics)",
+                self.whiteness.text()
+            )
         } else {
             format!(
-                "the residual is not white ({} of {} lags outside ±{:.3}): dynamics the model lacks",
-                self.lags_outside, self.max_lag, self.autocorrelation_bound
+                "the residual is not white ({}; {} of {} lags outside ±{:.3}): dynamics the model lacks",
+                self.whiteness.text(),
+                self.lags_outside,
+                self.max_lag,
+                self.autocorrelation_bound
             )
         };
         if self.correlated_inputs.is_empty() {
@@ -110,6 +120,96 @@ impl ResidualTests {
                 self.correlated_inputs.join(", ")
             )
         }
+    }
+}
+
+/// Significance level of the whiteness test: a white residual fails it with this
+/// probability.
+pub const WHITENESS_LEVEL: f64 = 0.01;
+
+/// The Ljung–Box portmanteau test of a residual's whiteness (Ljung & Box, Biometrika
+/// 65, 1978): with ρ_k the autocorrelation at lag k pooled over the residual's segments
+/// (each demeaned; lags taken within a segment, so files are not joined) and N samples in
+/// all, Q = N (N + 2) Σ_{k=1}^{M} ρ_k² / (N − k), which is χ²(M) for a white residual;
+/// the residual is white when Q ≤ the χ²(M) quantile at 1 − [`WHITENESS_LEVEL`]
+/// (Wilson–Hilferty: M (1 − 2/(9M) + z √(2/(9M)))³, z = 2.326; within 0.5 % of the
+/// exact quantile for M ≥ 10).
+#[derive(Debug, Clone, Default)]
+pub struct Whiteness {
+    /// Q.
+    pub statistic: f64,
+    /// The χ²(M) quantile Q is compared with.
+    pub critical: f64,
+    /// Lags M.
+    pub max_lag: usize,
+    /// The largest |ρ_k|, 1 ≤ k ≤ M: about the share of the residual's energy in its
+    /// coloured part (a white residual has ρ_k ≈ 0; a component smooth or periodic at the
+    /// sampling scale carrying a share s of the energy gives |ρ_k| ≈ s at some lag).
+    pub largest: f64,
+}
+
+impl Whiteness {
+    /// Q ≤ the critical value (also true of a residual too short or without energy).
+    pub fn white(&self) -> bool {
+        self.statistic <= self.critical
+    }
+
+    /// "Ljung–Box Q = 31.2 ≤ 44.3 over 25 lags".
+    pub fn text(&self) -> String {
+        format!(
+            "Ljung–Box Q = {:.1} {} {:.1} over {} lags",
+            self.statistic,
+            if self.white() { "≤" } else { ">" },
+            self.critical,
+            self.max_lag
+        )
+    }
+}
+
+/// The whiteness test ([`Whiteness`]) of a residual given as `segments` (each one file's
+/// samples in time order), lags 1..=`max_lag` (fewer when the segments are short).
+pub fn whiteness(segments: &[&[f64]], max_lag: usize) -> Whiteness {
+    let n: usize = segments.iter().map(|s| s.len()).sum();
+    let longest = segments.iter().map(|s| s.len()).max().unwrap_or(0);
+    let m = max_lag.min(longest.saturating_sub(2));
+    let centred: Vec<Vec<f64>> = segments.iter().map(|s| demean(s)).collect();
+    let lagged = |k: usize| -> f64 {
+        centred
+            .iter()
+            .map(|e| {
+                e.iter()
+                    .zip(e.iter().skip(k))
+                    .map(|(a, b)| a * b)
+                    .sum::<f64>()
+            })
+            .sum()
+    };
+    let r0 = lagged(0);
+    let nf = n as f64;
+    let rho: Vec<f64> = if r0 > 0.0 {
+        (1..=m).map(|k| lagged(k) / r0).collect()
+    } else {
+        Vec::new()
+    };
+    let statistic = nf
+        * (nf + 2.0)
+        * rho
+            .iter()
+            .enumerate()
+            .map(|(i, r)| r * r / (nf - (i + 1) as f64))
+            .sum::<f64>();
+    let critical = if m > 0 {
+        let mf = m as f64;
+        let a = 2.0 / (9.0 * mf);
+        mf * (1.0 - a + 2.326_347_874 * a.sqrt()).powi(3)
+    } else {
+        f64::INFINITY
+    };
+    Whiteness {
+        statistic,
+        critical,
+        max_lag: m,
+        largest: rho.iter().fold(0.0f64, |a, r| a.max(r.abs())),
     }
 }
 
@@ -277,6 +377,7 @@ pub fn residual_tests(
         input_frequencies,
         lags_outside,
         correlated_inputs: correlated,
+        whiteness: whiteness(&[e], m),
     }
 }
 
@@ -728,6 +829,43 @@ pub fn plot(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The critical values against the χ² table (Abramowitz & Stegun 26.8, upper 1 %
+    /// points: M = 10: 23.209, 25: 44.314, 50: 76.154), and Q of a segmented residual:
+    /// an alternating sequence (ρ_k = (−1)^k) fails, its segments joined or not; two
+    /// segments of uniform pseudo-random numbers (SplitMix64) pass.
+    #[test]
+    fn ljung_box_critical_values_and_segments() {
+        for (m, table) in [(10, 23.209), (25, 44.314), (50, 76.154)] {
+            let e: Vec<f64> = (0..1000).map(|k| ((k * 7919) % 1000) as f64).collect();
+            let w = whiteness(&[&e], m);
+            assert!(
+                (w.critical / table - 1.0).abs() < 5e-3,
+                "{m}: {}",
+                w.critical
+            );
+        }
+        let alternating: Vec<f64> = (0..400)
+            .map(|k| if k % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        let w = whiteness(&[&alternating[..200], &alternating[200..]], 25);
+        assert!(!w.white() && w.statistic > 1000.0, "{w:?}");
+        let mut state = 7u64;
+        let uniform: Vec<f64> = (0..4000)
+            .map(|_| {
+                state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+                let mut z = state;
+                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+                ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect();
+        let w = whiteness(&[&uniform[..2000], &uniform[2000..]], 25);
+        assert!(w.white(), "{w:?}");
+        assert_eq!(w.max_lag, 25);
+        assert_eq!(whiteness(&[&[1.0, 2.0]], 25).max_lag, 0);
+        assert!(whiteness(&[&[1.0, 2.0]], 25).white());
+    }
 
     /// A cubic under noise: the binned means follow x³ (each bin's mean of x³ against the
     /// cube of its mean x differs by the bin's spread, under 1e-3 here), in order.

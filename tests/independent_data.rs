@@ -699,6 +699,11 @@ fn values_merely_off_are_refitted_not_called_a_missing_effect_c3() {
         r.fit.starts.iter().map(|s| &s.status).collect::<Vec<_>>()
     );
     assert!(!d.findings[0].significant, "{}", d.verdict());
+    assert!(
+        d.verdict().starts_with("nothing significant is missing"),
+        "{}",
+        d.verdict()
+    );
     assert!(d.above_noise.is_empty(), "{:?}", d.above_noise);
     for ((joint, before), (_, after)) in r.before.iter().zip(&r.after) {
         let ratio = after / common::sensor_sigma();

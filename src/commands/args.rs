@@ -115,6 +115,7 @@ impl Common {
                 estimate_initial: space.initial == "estimate",
                 hold: space.hold,
                 refit_values: lockstep::diagnose::OutputOptions::default().refit_values,
+                candidates: Vec::new(),
             },
         ))
     }

@@ -95,6 +95,11 @@ pub enum Command {
         /// for) are refitted first and beside each candidate.
         #[arg(long)]
         keep_values: bool,
+        /// A TOML file of candidate effects of your own ([[candidate]]: name, joints,
+        /// torque, parameters with start and bounds), tested and ranked beside the
+        /// catalogue; --apply adds one as a user-defined effect.
+        #[arg(long)]
+        candidates: Option<PathBuf>,
     },
     /// Refit chosen parameters (output error on position data; the inverse model's least
     /// squares, the other parameters held, on torque-measured data); print the error per
@@ -298,12 +303,22 @@ fn run_command(cli: Cli) -> Result<()> {
             apply,
             out,
             keep_values,
+            candidates,
         } => {
             if let Some(out) = &out {
                 lockstep::files::check_writable(&[out])?;
             }
             let (plant, mut inputs) = common.inputs(&space)?;
             inputs.refit_values = !keep_values;
+            if let Some(path) = &candidates {
+                use lockstep::diagnose::candidates;
+                inputs.candidates = candidates::read(path)?;
+                let (_, left_out) = candidates::for_plant(&inputs.candidates, &plant)
+                    .map_err(|e| anyhow::anyhow!("{}: {e:#}", path.display()))?;
+                for line in left_out {
+                    lockstep::outln!("{line}");
+                }
+            }
             let data = inputs.load(&plant)?;
             if let (Some(Apply::AllSignificant), Some(out)) = (apply, &out) {
                 // The loop diagnoses (and prints) the plant itself, before each step.
@@ -330,14 +345,21 @@ fn run_command(cli: Cli) -> Result<()> {
                         if records.len() > 1 =>
                     {
                         let obs = observation(&plant, config, records, &inputs.idim)?;
-                        let findings = lockstep::diagnose::diagnose_torque(&plant, &obs)?;
+                        let (user, _) = lockstep::diagnose::candidates::columns(
+                            &inputs.candidates,
+                            &plant,
+                            config,
+                            records,
+                            &inputs.idim,
+                        )?;
+                        let d = lockstep::diagnose::torque::diagnosis_with(&plant, &obs, &user)?;
                         lockstep::outln!(
                             "plant {}, all {} records together:",
                             plant.name(),
                             records.len()
                         );
-                        lockstep::out!("{}", lockstep::diagnose::table_with(&findings, top, &[]));
-                        Some(findings)
+                        lockstep::out!("{}", d.table(top));
+                        Some(d.findings)
                     }
                     _ => None,
                 };

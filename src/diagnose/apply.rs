@@ -340,8 +340,9 @@ pub struct LoopStep {
 pub enum LoopEnd {
     /// The leading finding is not significant: nothing significant is missing.
     NothingMissing,
-    /// No finding is significant, yet the error is above the noise on some joint (listed):
-    /// what is missing is outside the catalogue, or the plant's values are far off.
+    /// No finding is significant, yet what is left is not noise (listed: joints above
+    /// their noise, joints whose residual is not white): what is missing is outside the
+    /// catalogue and the library, or the plant's values are far off.
     Unexplained(Vec<String>),
     /// The leading finding is about the data's input, not the plant (its advice).
     InputAdvice(String),
@@ -361,8 +362,8 @@ impl std::fmt::Display for LoopEnd {
             LoopEnd::NothingMissing => write!(f, "nothing significant is missing"),
             LoopEnd::Unexplained(j) => write!(
                 f,
-                "stopped: the error is above the noise ({}) but no candidate explains it",
-                j.join(", ")
+                "stopped: what is left is not noise ({}) but no candidate explains it",
+                j.join("; ")
             ),
             LoopEnd::InputAdvice(a) => write!(f, "stopped at a finding about the input: {a}"),
             LoopEnd::NoImprovement(w) => {
@@ -428,8 +429,8 @@ pub fn apply_all_significant(
         let top = d.findings.first().cloned().ok_or_else(|| {
             anyhow!("configuration '{conf_name}': the diagnosis has no candidates")
         })?;
-        let end = if !top.significant && !d.above_noise.is_empty() {
-            Some(LoopEnd::Unexplained(d.above_noise.clone()))
+        let end = if !top.significant && !d.left().is_empty() {
+            Some(LoopEnd::Unexplained(d.left()))
         } else if !top.significant {
             Some(LoopEnd::NothingMissing)
         } else if let (true, Some(a)) = (top.values.is_empty(), &top.advice) {

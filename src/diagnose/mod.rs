@@ -24,6 +24,7 @@
 //! to add (or the existing parameter to change) and the estimated parameter values.
 
 pub mod apply;
+pub mod candidates;
 pub mod output;
 pub mod structure;
 pub mod torque;
@@ -85,9 +86,12 @@ pub struct Finding {
     pub alike: Vec<String>,
     /// What to do instead of a plant edit (a finding about how the input was applied).
     pub advice: Option<String>,
-    /// A user-defined effect to add ([`structure`]: terms outside the catalogue); its
-    /// parameters are `values`.
+    /// A user-defined effect to add ([`structure`]: terms outside the catalogue, or a
+    /// user's candidate, [`candidates`]); its parameters are `values`.
     pub expression: Option<crate::plant::ExpressionSpec>,
+    /// Terms outside the catalogue found by the sparse regression ([`structure`]), not
+    /// an effect the catalogue or the user named.
+    pub structure: bool,
 }
 
 impl Finding {
@@ -120,6 +124,7 @@ impl Finding {
             alike: Vec::new(),
             advice: None,
             expression: None,
+            structure: false,
         }
     }
 
@@ -198,6 +203,7 @@ impl Finding {
         f.delta_bic = st.delta_bic;
         f.significant = st.significant();
         f.meaning = structure::MEANING.to_string();
+        f.structure = true;
         f.expression = Some(crate::plant::ExpressionSpec {
             name,
             joints: vec![joint.to_string()],
@@ -244,16 +250,13 @@ pub const STRUCTURE_MARGIN: f64 = 10.0;
 /// Move the best significant catalogued finding ahead of structure findings that do not
 /// beat it by [`STRUCTURE_MARGIN`]. `findings` is sorted by ΔBIC.
 pub(crate) fn prefer_the_catalogue(findings: &mut Vec<Finding>) {
-    let Some(c) = findings
-        .iter()
-        .position(|f| f.significant && f.expression.is_none())
-    else {
+    let Some(c) = findings.iter().position(|f| f.significant && !f.structure) else {
         return;
     };
     let bar = findings[c].delta_bic - STRUCTURE_MARGIN;
     let ahead = findings[..c]
         .iter()
-        .position(|f| f.expression.is_some() && f.delta_bic >= bar);
+        .position(|f| f.structure && f.delta_bic >= bar);
     if let Some(i) = ahead {
         let f = findings.remove(c);
         findings.insert(i, f);
@@ -365,9 +368,10 @@ pub fn table(findings: &[Finding], k: usize) -> String {
     table_with(findings, k, &[])
 }
 
-/// The ranking as text: the top `k` candidates and the [`verdict`] given the joints whose
-/// error is above their noise.
-pub fn table_with(findings: &[Finding], k: usize, above_noise: &[String]) -> String {
+/// The ranking as text: the top `k` candidates and the [`verdict`] given what the residual
+/// shows that is not noise (`left`: joints above their noise, joints whose residual is
+/// not white).
+pub fn table_with(findings: &[Finding], k: usize, left: &[String]) -> String {
     let mut s = format!(
         "{:<4} {:<6} {:<36} {:>10} {:>11}  {}\n",
         "rank", "joint", "candidate", "explained", "ΔBIC", "estimate"
@@ -399,30 +403,58 @@ pub fn table_with(findings: &[Finding], k: usize, above_noise: &[String]) -> Str
             s += &format!("       {a}\n");
         }
     }
-    s += &verdict(findings, above_noise);
+    s += &verdict(findings, left);
     s.push('\n');
     s
 }
 
-/// The verdict in one line: the leading finding when it is significant (terms outside the
-/// catalogue, [`structure`], said as such); else "nothing
-/// significant is missing" when `above_noise` (the joints whose error is above their
-/// noise, e.g. "q3 9.0 σ̂") is empty, or, when it is not, that the residual is
-/// unexplained: an effect outside the catalogue, or plant values far off that a refit
-/// would move.
-pub fn verdict(findings: &[Finding], above_noise: &[String]) -> String {
+/// Lags of the whiteness test of a joint's residual (MATLAB `resid`'s default, as
+/// [`crate::compare`]).
+pub const WHITENESS_LAGS: usize = 25;
+
+/// The smallest coloured share of a residual ([`crate::compare::Whiteness::largest`]) that
+/// makes a residual that fails the whiteness test "not noise" for the verdict: a fit that
+/// stopped a little short of its optimum (the truth refitted from 10 % off to 1.03 σ on
+/// c3: Ljung–Box Q = 56.5 over a critical 44.3, largest |ρ_k| about 0.06) fails the test
+/// with nothing missing; a missing effect that leaves the residual at 1.5 σ has a
+/// coloured share above 0.5.
+pub const NOT_WHITE_SHARE: f64 = 0.1;
+
+/// "q3 not white: Ljung–Box Q = 310.2 > 44.3 over 25 lags, largest |ρ| 0.82" when the
+/// residual of `joint`, given as `segments` (one per file, in time order), fails the
+/// whiteness test ([`crate::compare::whiteness`], [`WHITENESS_LAGS`] lags) with a
+/// coloured share of at least [`NOT_WHITE_SHARE`]; None otherwise.
+pub fn not_white(joint: &str, segments: &[&[f64]]) -> Option<String> {
+    let w = crate::compare::whiteness(segments, WHITENESS_LAGS);
+    (!w.white() && w.largest >= NOT_WHITE_SHARE).then(|| {
+        format!(
+            "{joint} not white: {}, largest |ρ| {:.2}",
+            w.text(),
+            w.largest
+        )
+    })
+}
+
+/// The verdict in one line, one of three outcomes (issue 54): the leading finding when it
+/// is significant (a catalogued effect, or terms outside the catalogue, [`structure`],
+/// said as such); else, when `left` (what the residual shows that is not noise: joints
+/// whose error is above their noise, e.g. "q3 9.0 σ̂", or whose residual is not white,
+/// [`not_white`]) is not empty, that the residual is unexplained: an effect outside the
+/// catalogue and the library, coloured noise, or plant values far off that a refit would
+/// move; "nothing significant is missing" only when `left` is empty.
+pub fn verdict(findings: &[Finding], left: &[String]) -> String {
     match findings.first() {
-        Some(f) if f.significant && f.expression.is_some() => format!(
+        Some(f) if f.significant && f.structure => format!(
             "the residual has structure the catalogue lacks, on {}: {} (--apply adds it as a user-defined effect)",
             f.joint,
             f.estimate_text()
         ),
         Some(f) if f.significant => format!("most likely missing: {} on {}", f.name, f.joint),
-        _ if !above_noise.is_empty() => format!(
-            "unexplained: the error is above the noise ({}) but no candidate of the catalogue explains a significant share of it; the missing effect is outside the catalogue, or the plant's values are far off: where the plant gives bounds the output-space diagnosis refitted them within those (wider bounds, or lockstep identify, may reach further); without bounds, refit them (lockstep refit, lockstep identify)",
-            above_noise.join(", ")
+        _ if !left.is_empty() => format!(
+            "unexplained: what is left is not noise ({}) but no candidate of the catalogue and no term of the library explains a significant share of it: the missing effect is outside both (an effect with a state of its own: a resonance, hysteresis, backlash, a delay), the noise is coloured (a filtered sensor: compare's residual spectrum shows it), or the plant's values are far off: where the plant gives bounds the output-space diagnosis refitted them within those (wider bounds, or lockstep identify, may reach further); without bounds, refit them (lockstep refit, lockstep identify)",
+            left.join("; ")
         ),
-        _ => "nothing significant is missing (no candidate has ΔBIC < -10 and explains >= 5 % of the residual)".to_string(),
+        _ => "nothing significant is missing (no candidate has ΔBIC < -10 and explains >= 5 % of the residual, and the residual is white or its coloured part is under 10 % of it)".to_string(),
     }
 }
 

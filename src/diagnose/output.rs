@@ -86,6 +86,9 @@ pub struct OutputOptions {
     /// model, a datasheet) the output error of a long file has local minima the horizons
     /// end in (DIDIM starts from the torque balance too).
     pub values_warm_ups: bool,
+    /// The user's candidate effects ([`super::candidates`]), each fitted by output error
+    /// and ranked with the catalogue (those the plant has already are left out).
+    pub candidates: Vec<super::candidates::UserCandidate>,
 }
 
 impl Default for OutputOptions {
@@ -100,6 +103,7 @@ impl Default for OutputOptions {
             refit_values: true,
             values_max_iter: 200,
             values_warm_ups: true,
+            candidates: Vec::new(),
         }
     }
 }
@@ -139,6 +143,10 @@ pub struct OutputDiagnosis {
     /// the residual is not noise yet nothing in the catalogue explains it
     /// ([`OutputDiagnosis::verdict`]).
     pub above_noise: Vec<String>,
+    /// Free joints whose residual is not white ([`super::not_white`]). With no significant
+    /// finding, a non-empty list (or `above_noise`) means something is left that nothing
+    /// in the catalogue or the library explains ([`OutputDiagnosis::verdict`]).
+    pub not_white: Vec<String>,
     /// Simulations run.
     pub simulations: usize,
     /// The integration step's check against the noise (the step used, and the floor).
@@ -154,15 +162,25 @@ pub struct OutputDiagnosis {
 }
 
 impl OutputDiagnosis {
-    /// The verdict in one line ([`super::verdict`] with this diagnosis's joints above the
-    /// noise).
+    /// The verdict in one line ([`super::verdict`] with what this diagnosis's residual
+    /// shows that is not noise, [`OutputDiagnosis::left`]).
     pub fn verdict(&self) -> String {
-        super::verdict(&self.findings, &self.above_noise)
+        super::verdict(&self.findings, &self.left())
     }
 
     /// The ranking (top `k`) and the verdict as text.
     pub fn table(&self, k: usize) -> String {
-        super::table_with(&self.findings, k, &self.above_noise)
+        super::table_with(&self.findings, k, &self.left())
+    }
+
+    /// What the residual shows that is not noise: the joints above their noise, then the
+    /// joints whose residual is not white.
+    pub fn left(&self) -> Vec<String> {
+        self.above_noise
+            .iter()
+            .chain(&self.not_white)
+            .cloned()
+            .collect()
     }
 
     /// The plant the findings are relative to: `given` (the plant diagnosed) with the
@@ -345,6 +363,12 @@ pub fn diagnose_output(
     let sst: f64 = r.iter().map(|x| x * x).sum();
     let joints = out.problem.joint_fits(&base);
     let segments = out.segments();
+    let above_noise: Vec<String> = joints
+        .iter()
+        .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
+        .map(|j| format!("{} {:.1} σ̂", j.joint, j.rms / j.noise))
+        .collect();
+    let not_white = not_white_joints(m, conf, &r, &segments);
     let cands = catalogue(plant, conf, records, &base)?;
     // Sensitivity columns, all candidates in parallel.
     let columns: Vec<Option<Vec<f64>>> = cands
@@ -419,6 +443,7 @@ pub fn diagnose_output(
     // only its independent samples called a 10 %-off plant's missing spring chance;
     // docs/src/record/independent-data.md).
     let columns: Vec<&[f64]> = best.iter().map(|l| l.column.as_slice()).collect();
+    let columns_len = columns.len();
     let effective = {
         let left = super::least_squares_residual(&columns, &r).unwrap_or_else(|| r.clone());
         effective_samples(&left, &segments)
@@ -523,6 +548,57 @@ pub fn diagnose_output(
             findings[i] = f;
         }
     }
+    // The user's candidates: each added at its start values and its parameters fitted
+    // beside the configuration's values, as a confirmation is.
+    let (user, _) = super::candidates::for_plant(&options.candidates, plant)?;
+    let fitted: Vec<(Finding, usize)> = user
+        .par_iter()
+        .map(|u| {
+            let failed = |why: &str, sims: usize| {
+                let mut f = u.finding(&u.start, (sst, sst, n as f64));
+                f.meaning = format!("{} (not tested: {why})", f.meaning);
+                (f, sims)
+            };
+            let Ok(start) = u.plant(plant) else {
+                return failed("the plant refused it", 0);
+            };
+            let mut names = u.spec.parameters.clone();
+            for v in &values {
+                if !names.contains(v) {
+                    names.push(v.clone());
+                }
+            }
+            let Some(fit) = fit_from(&start, conf, names, records, &oe, options) else {
+                return failed("its output-error fit failed", 0);
+            };
+            if !fit.cost_after.is_finite() {
+                return failed("its output-error fit diverged", fit.evaluations);
+            }
+            let own: Vec<f64> = u
+                .spec
+                .parameters
+                .iter()
+                .zip(&u.start)
+                .map(|(p, s)| {
+                    fit.names
+                        .iter()
+                        .position(|x| x == p)
+                        .map_or(*s, |i| fit.fitted[i])
+                })
+                .collect();
+            let mut f = u.finding(&own, (fit.cost_after, sst, n as f64));
+            f.confirmed = true;
+            (f, fit.evaluations)
+        })
+        .collect();
+    for (f, sims) in fitted {
+        simulations += sims;
+        findings.push(f);
+    }
+    let columns: Vec<&[f64]> = columns
+        .into_iter()
+        .chain(std::iter::repeat_n(&[][..], findings.len() - columns_len))
+        .collect();
     // Candidates the data cannot tell apart: sensitivities nearly collinear.
     for i in 0..findings.len() {
         findings[i].alike = (0..findings.len())
@@ -547,9 +623,24 @@ pub fn diagnose_output(
         f.explained >= super::STRUCTURE_SEARCH_BELOW
             || sst * (1.0 - f.explained) <= FLOOR_FACTOR * FLOOR_FACTOR * noise_energy
     });
+    // Searched where the position error is above the noise or the residual is not white
+    // (the equation error's own sparse model was significant on the truth's data too: its
+    // filtering and estimated velocities leave structure of their own, so it does not
+    // decide where to search).
+    let searched: Vec<bool> = conf
+        .free
+        .iter()
+        .map(|&j| {
+            let joint = m.joints[j];
+            above_noise
+                .iter()
+                .any(|x| x.split(' ').next() == Some(joint))
+                || not_white.iter().any(|x| x.split(' ').next() == Some(joint))
+        })
+        .collect();
     if !catalogue_suffices {
         let structures =
-            structure_candidates(plant, conf, (&out, &yhat, &r), &joints, &oe, options)?;
+            structure_candidates(plant, conf, (&out, &yhat, &r), &searched, &oe, options)?;
         simulations += structures.1;
         findings.extend(structures.0);
     }
@@ -566,11 +657,6 @@ pub fn diagnose_output(
     findings.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     prefer_edits_among_equals(&mut findings);
     super::prefer_the_catalogue(&mut findings);
-    let above_noise = joints
-        .iter()
-        .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
-        .map(|j| format!("{} {:.1} σ̂", j.joint, j.rms / j.noise))
-        .collect();
     Ok(OutputDiagnosis {
         configuration: conf.name.to_string(),
         findings,
@@ -578,6 +664,7 @@ pub fn diagnose_output(
         samples: n,
         effective_samples: effective,
         above_noise,
+        not_white,
         simulations,
         floor_share: if sst > 0.0 {
             step.floor_energy / sst
@@ -612,6 +699,28 @@ fn fit_from(
     problem.and_then(|p| p.fit(&|_| {})).ok()
 }
 
+/// The free joints of `conf` whose stacked residual `r` (segments of lengths `segments`,
+/// file by file, each file's free joints in order) is not white ([`super::not_white`]).
+fn not_white_joints(
+    m: &generated::Model,
+    conf: &generated::Configuration,
+    r: &[f64],
+    segments: &[usize],
+) -> Vec<String> {
+    let nfree = conf.free.len().max(1);
+    let mut start = 0;
+    let mut by_joint: Vec<Vec<&[f64]>> = vec![Vec::new(); nfree];
+    for (i, &len) in segments.iter().enumerate() {
+        by_joint[i % nfree].push(&r[start..start + len]);
+        start += len;
+    }
+    conf.free
+        .iter()
+        .zip(&by_joint)
+        .filter_map(|(&j, segs)| super::not_white(m.joints[j], segs))
+        .collect()
+}
+
 /// Most library terms per joint whose output sensitivities the structure search simulates
 /// (the ones whose equation-error columns are most aligned with the joint's equation
 /// error).
@@ -637,7 +746,7 @@ fn structure_candidates(
     plant: &Plant,
     conf: &'static generated::Configuration,
     (out, yhat, r): (&Outputs, &[f64], &[f64]),
-    joints: &[JointFit],
+    searched: &[bool],
     oe: &crate::identify::output_error::OutputErrorOptions,
     options: &OutputOptions,
 ) -> Result<(Vec<Finding>, usize)> {
@@ -649,14 +758,7 @@ fn structure_candidates(
     if sst <= 0.0 {
         return Ok((Vec::new(), 0));
     }
-    // Searched where the position error is above the noise (the equation error's own
-    // sparse model was significant on the truth's data too: its filtering and estimated
-    // velocities leave structure of their own).
-    let above = |a: usize| {
-        joints
-            .get(a)
-            .is_some_and(|f| f.noise > 0.0 && f.rms > FLOOR_FACTOR * f.noise)
-    };
+    let above = |a: usize| searched.get(a).copied().unwrap_or(false);
     if !(0..conf.free.len()).any(above) {
         return Ok((Vec::new(), 0));
     }

@@ -55,6 +55,47 @@ type Candidate = (
 /// # Errors
 /// A parameter of the plant without value (from [`predict`]).
 pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>> {
+    diagnosis(plant, obs).map(|d| d.findings)
+}
+
+/// A torque-space diagnosis: the findings and what the residual shows that is not noise.
+#[derive(Debug, Clone)]
+pub struct TorqueDiagnosis {
+    /// Candidates, best (lowest ΔBIC) first ([`diagnose_torque`]).
+    pub findings: Vec<Finding>,
+    /// Joints whose residual, with the plant's own parameters refitted (projected off the
+    /// regressor), is not white ([`super::not_white`], each record a segment): with no
+    /// significant finding, something is left that neither the catalogue nor the library
+    /// explains ([`super::verdict`]).
+    pub not_white: Vec<String>,
+}
+
+impl TorqueDiagnosis {
+    /// The ranking (top `k`) and the verdict as text.
+    pub fn table(&self, k: usize) -> String {
+        super::table_with(&self.findings, k, &self.not_white)
+    }
+}
+
+/// [`diagnose_torque`] with the whiteness of each joint's residual ([`TorqueDiagnosis`]).
+///
+/// # Errors
+/// As [`diagnose_torque`].
+pub fn diagnosis(plant: &Plant, obs: &Observation) -> Result<TorqueDiagnosis> {
+    diagnosis_with(plant, obs, &[])
+}
+
+/// [`diagnosis`] with the user's candidates ([`super::candidates::columns`]: each with its
+/// regressor columns, rows as `obs`), each fitted by least squares on every joint it acts
+/// on, together with the plant's own parameters (projected as the catalogue's are).
+///
+/// # Errors
+/// As [`diagnose_torque`].
+pub fn diagnosis_with(
+    plant: &Plant,
+    obs: &Observation,
+    user: &[(&super::candidates::UserCandidate, Vec<Vec<f64>>)],
+) -> Result<TorqueDiagnosis> {
     let yhat = predict(plant, obs)?;
     let m = plant.model;
     let mut joints: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
@@ -66,6 +107,7 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
             .collect()
     };
     let mut out = Vec::new();
+    let mut not_white = Vec::new();
     for &j in &joints {
         let idx = rows_of(j);
         let n = idx.len();
@@ -92,6 +134,20 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
         let sst: f64 = e.iter().map(|x| x * x).sum();
         if n < 10 || sst <= 0.0 || sst0 <= 0.0 {
             continue;
+        }
+        let segments: Vec<&[f64]> = {
+            let mut s: Vec<&[f64]> = Vec::new();
+            let mut start = 0;
+            for k in 1..=n {
+                if k == n || obs.rows[idx[k]].record != obs.rows[idx[k - 1]].record {
+                    s.push(&e[start..k]);
+                    start = k;
+                }
+            }
+            s
+        };
+        if let Some(w) = super::not_white(m.joints[j], &segments) {
+            not_white.push(w);
         }
         if 1.0 - sst / sst0 > 1e-6 {
             let mut f = Finding::new(
@@ -221,6 +277,23 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
                 ));
             }
         }
+        for (u, columns) in user
+            .iter()
+            .filter(|(u, _)| u.spec.joints.iter().any(|x| x == m.joints[j]))
+        {
+            let cols: Vec<Vec<f64>> = columns
+                .iter()
+                .map(|c| project(&idx.iter().map(|&i| c[i]).collect::<Vec<_>>()))
+                .collect();
+            if cols.iter().all(|c| c.iter().all(|x| x.abs() < 1e-12)) {
+                continue;
+            }
+            if let Some((x, sse)) = fit(&cols, &e) {
+                let mut f = u.finding(x.as_slice(), (sse, sst, n as f64));
+                f.joint = m.joints[j].to_string();
+                out.push(f);
+            }
+        }
         for (name, kind, from, symbols, cols) in cands {
             let cols: Vec<Vec<f64>> = cols.iter().map(|c| project(c)).collect();
             if cols.iter().all(|c| c.iter().all(|x| x.abs() < 1e-12)) {
@@ -308,7 +381,10 @@ pub fn diagnose_torque(plant: &Plant, obs: &Observation) -> Result<Vec<Finding>>
     }
     out.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
     super::prefer_the_catalogue(&mut out);
-    Ok(out)
+    Ok(TorqueDiagnosis {
+        findings: out,
+        not_white,
+    })
 }
 
 /// Add `finding` (from [`diagnose_torque`]) to `plant` and refit in torque space
@@ -347,7 +423,7 @@ pub fn apply_finding(
 pub enum Turn<'a> {
     /// A diagnosis of the plant as it is (all records together; before each step, and the
     /// last).
-    Diagnosed(&'a [Finding]),
+    Diagnosed(&'a TorqueDiagnosis),
     /// A step kept: the finding applied and the refit.
     Applied(&'a Finding, &'a TorqueRefit),
 }
@@ -370,7 +446,7 @@ pub struct AppliedLoop {
 }
 
 /// `diagnose --apply all-significant` in torque space: diagnose `plant` on all `records`
-/// of configuration `conf_name` together, and while the leading plant edit is significant,
+/// of configuration `conf_name` together (beside the user's `candidates`), and while the leading plant edit is significant,
 /// apply it and refit ([`apply_finding`]). When the plant's own parameters are not at their
 /// least-squares values ("refit existing parameters" significant), they are refitted first,
 /// as a step of its own. Stops when nothing significant is missing, when the leading
@@ -383,22 +459,24 @@ pub fn apply_all_significant(
     plant: &Plant,
     conf_name: &str,
     records: &[Measurement],
-    options: &IdimOptions,
+    (options, candidates): (&IdimOptions, &[super::candidates::UserCandidate]),
     max_steps: usize,
     progress: &dyn Fn(Turn),
 ) -> Result<AppliedLoop> {
-    let diagnosed = |p: &Plant| -> Result<Vec<Finding>> {
+    let diagnosed = |p: &Plant| -> Result<TorqueDiagnosis> {
         let obs = observation(p, conf_name, records, options)?;
-        let findings = diagnose_torque(p, &obs)?;
-        progress(Turn::Diagnosed(&findings));
-        Ok(findings)
+        let (user, _) = super::candidates::columns(candidates, p, conf_name, records, options)?;
+        let d = diagnosis_with(p, &obs, &user)?;
+        progress(Turn::Diagnosed(&d));
+        Ok(d)
     };
     let squared = |rms: &[(String, f64)]| rms.iter().map(|(_, e)| e * e).sum::<f64>();
     let mut current = plant.clone();
     let mut steps: Vec<(Option<Finding>, TorqueRefit)> = Vec::new();
-    let mut findings = diagnosed(&current)?;
-    let first = findings.clone();
-    if let Some(refit_values) = findings
+    let mut d = diagnosed(&current)?;
+    let first = d.findings.clone();
+    if let Some(refit_values) = d
+        .findings
         .iter()
         .find(|f| f.significant && f.values.is_empty() && f.kind.is_none())
         .cloned()
@@ -409,14 +487,21 @@ pub fn apply_all_significant(
         progress(Turn::Applied(&refit_values, &r));
         current = r.plant.clone();
         steps.push((None, r));
-        findings = diagnosed(&current)?;
+        d = diagnosed(&current)?;
     }
+    let nothing = |d: &TorqueDiagnosis| {
+        if d.not_white.is_empty() {
+            LoopEnd::NothingMissing
+        } else {
+            LoopEnd::Unexplained(d.not_white.clone())
+        }
+    };
     let end = loop {
-        let Some(top) = findings.iter().find(|f| f.effect.is_some()).cloned() else {
-            break LoopEnd::NothingMissing;
+        let Some(top) = d.findings.iter().find(|f| f.effect.is_some()).cloned() else {
+            break nothing(&d);
         };
         if !top.significant {
-            break LoopEnd::NothingMissing;
+            break nothing(&d);
         }
         if top.effect.is_some_and(|e| !e.kind.is_linear()) {
             break LoopEnd::NotLinear(format!("{} on {}", top.name, top.joint));
@@ -431,13 +516,13 @@ pub fn apply_all_significant(
         progress(Turn::Applied(&top, &r));
         current = r.plant.clone();
         steps.push((Some(top), r));
-        findings = diagnosed(&current)?;
+        d = diagnosed(&current)?;
     };
     Ok(AppliedLoop {
         plant: current,
         first,
         steps,
-        last: findings,
+        last: d.findings,
         end,
     })
 }

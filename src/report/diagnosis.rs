@@ -3,7 +3,7 @@
 //! self-contained HTML report that collects them with the plant's history.
 
 use crate::compare::{compare_observation, compare_output, plot, write_residual_csv, Comparison};
-use crate::diagnose::{diagnose_output, diagnose_torque, Finding, OutputOptions};
+use crate::diagnose::{diagnose_output, Finding, OutputOptions};
 use crate::effects::{Effect, EffectKind};
 use crate::files::write_atomic;
 use crate::identify::idim::{observation, IdimOptions};
@@ -73,6 +73,8 @@ pub struct Inputs {
     /// Output-space diagnosis: refit the configuration's values first and beside each
     /// candidate ([`OutputOptions::refit_values`]).
     pub refit_values: bool,
+    /// Diagnosis: the user's candidate effects ([`crate::diagnose::candidates`]).
+    pub candidates: Vec<crate::diagnose::candidates::UserCandidate>,
 }
 
 /// Position records of one configuration: `config` or the files' own (side file or file
@@ -346,30 +348,48 @@ pub struct Compared {
 /// output space (with the configuration).
 ///
 /// # Errors
-/// As [`diagnose_output`] / [`diagnose_torque`].
+/// As [`diagnose_output`] / [`crate::diagnose::torque::diagnosis`].
 pub fn diagnose(plant: &Plant, inputs: &Inputs, data: &Data) -> Result<Vec<Diagnosed>> {
     match data {
         Data::Output { config, records } => {
             let d = diagnose_output(plant, config, records, &output_options(inputs))?;
             Ok(vec![(
                 output_title(config, records, &d),
-                d.findings,
-                d.above_noise,
+                d.findings.clone(),
+                d.left(),
             )])
         }
         Data::Torque { config, records } => records
             .iter()
-            .map(|m| {
+            .enumerate()
+            .map(|(k, m)| {
                 let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
-                Ok((stem(&m.file), diagnose_torque(plant, &obs)?, Vec::new()))
+                let one = std::slice::from_ref(m);
+                let (user, left_out) = crate::diagnose::candidates::columns(
+                    &inputs.candidates,
+                    plant,
+                    config,
+                    one,
+                    &inputs.idim,
+                )?;
+                if k == 0 {
+                    for line in left_out
+                        .iter()
+                        .filter(|l| !l.contains("has this effect already"))
+                    {
+                        crate::outln!("{line}");
+                    }
+                }
+                let d = crate::diagnose::torque::diagnosis_with(plant, &obs, &user)?;
+                Ok((stem(&m.file), d.findings, d.not_white))
             })
             .collect(),
     }
 }
 
-/// One diagnosis of [`diagnose`]: its title, the findings best first, and the joints
-/// whose error is above their noise (output space; empty in torque space), which the
-/// verdict needs ([`crate::diagnose::verdict`]).
+/// One diagnosis of [`diagnose`]: its title, the findings best first, and what its
+/// residual shows that is not noise (joints above their noise, in output space; joints
+/// whose residual is not white), which the verdict needs ([`crate::diagnose::verdict`]).
 pub type Diagnosed = (String, Vec<Finding>, Vec<String>);
 
 /// Which hold each record's input was simulated with, and where it came from.
@@ -404,6 +424,7 @@ fn output_options(inputs: &Inputs) -> OutputOptions {
             ..refit_options(inputs)
         },
         refit_values: inputs.refit_values,
+        candidates: inputs.candidates.clone(),
         ..OutputOptions::default()
     }
 }
@@ -581,16 +602,16 @@ pub fn apply_all_command(
                 plant,
                 config,
                 records,
-                &inputs.idim,
+                (&inputs.idim, &inputs.candidates),
                 crate::diagnose::apply::MAX_APPLIED_STEPS,
                 &|turn| match turn {
-                    crate::diagnose::torque::Turn::Diagnosed(findings) => {
+                    crate::diagnose::torque::Turn::Diagnosed(d) => {
                         crate::outln!(
                             "plant {}, torque space (inverse model), configuration {config}, {} record(s) together:",
                             plant.name(),
                             records.len()
                         );
-                        crate::out!("{}", crate::diagnose::table_with(findings, top, &[]));
+                        crate::out!("{}", d.table(top));
                     }
                     crate::diagnose::torque::Turn::Applied(f, r) => {
                         if f.values.is_empty() {
