@@ -70,8 +70,10 @@ pub enum Command {
     },
     /// Name the missing physical effect: rank a catalogue of candidate effects by how much
     /// of the residual each explains (ΔBIC), in torque space (inverse model) or output space
-    /// (simulated positions). `--apply K --out P.toml` adds finding K, refits it and records
-    /// the step in the plant's history.
+    /// (simulated positions); where none suffices, the built-ins outside the plant's own
+    /// effects (cubic stiffness, cogging, quadratic drag, load-dependent friction) and a
+    /// sparse description of the residual. `--apply K --out P.toml` adds finding K, refits
+    /// it and records the step in the plant's history.
     Diagnose {
         #[command(flatten)]
         common: Common,

@@ -128,7 +128,13 @@ pub fn change_text(finding: &Finding) -> String {
     match (&finding.effect, &finding.from) {
         (Some(e), Some(from)) => format!("added {} from {from} to {}", e.kind, finding.joint),
         (Some(_), None) => format!("added {} on {}", finding.name, finding.joint),
-        (None, _) => format!("refitted {} on {}", finding.name, finding.joint),
+        (None, _) => match &finding.expression {
+            Some(x) => format!(
+                "added {} on {} (user-defined effect {})",
+                finding.name, finding.joint, x.name
+            ),
+            None => format!("refitted {} on {}", finding.name, finding.joint),
+        },
     }
 }
 

@@ -553,43 +553,7 @@ pub fn diagnose_output(
     let (user, _) = super::candidates::for_plant(&options.candidates, plant)?;
     let fitted: Vec<(Finding, usize)> = user
         .par_iter()
-        .map(|u| {
-            let failed = |why: &str, sims: usize| {
-                let mut f = u.finding(&u.start, (sst, sst, n as f64));
-                f.meaning = format!("{} (not tested: {why})", f.meaning);
-                (f, sims)
-            };
-            let Ok(start) = u.plant(plant) else {
-                return failed("the plant refused it", 0);
-            };
-            let mut names = u.spec.parameters.clone();
-            for v in &values {
-                if !names.contains(v) {
-                    names.push(v.clone());
-                }
-            }
-            let Some(fit) = fit_from(&start, conf, names, records, &oe, options) else {
-                return failed("its output-error fit failed", 0);
-            };
-            if !fit.cost_after.is_finite() {
-                return failed("its output-error fit diverged", fit.evaluations);
-            }
-            let own: Vec<f64> = u
-                .spec
-                .parameters
-                .iter()
-                .zip(&u.start)
-                .map(|(p, s)| {
-                    fit.names
-                        .iter()
-                        .position(|x| x == p)
-                        .map_or(*s, |i| fit.fitted[i])
-                })
-                .collect();
-            let mut f = u.finding(&own, (fit.cost_after, sst, n as f64));
-            f.confirmed = true;
-            (f, fit.evaluations)
-        })
+        .map(|u| fit_candidate(u, plant, conf, &values, records, (&oe, options), (sst, n)))
         .collect();
     for (f, sims) in fitted {
         simulations += sims;
@@ -697,6 +661,60 @@ fn fit_from(
             }
         });
     problem.and_then(|p| p.fit(&|_| {})).ok()
+}
+
+/// The output-error fit of the candidate effect `u` added to `plant` at its start values:
+/// its parameters, and `values` (the configuration's values) beside them, from each file's
+/// initial positions; as a finding against the residual energy `sst` over `n` samples,
+/// confirmed, with the simulations run. A candidate the plant refuses, or whose fit fails or
+/// diverges, is a finding that explains nothing and says why in its meaning.
+fn fit_candidate(
+    u: &super::candidates::UserCandidate,
+    plant: &Plant,
+    conf: &'static generated::Configuration,
+    values: &[String],
+    records: &[Record],
+    (oe, options): (
+        &crate::identify::output_error::OutputErrorOptions,
+        &OutputOptions,
+    ),
+    (sst, n): (f64, usize),
+) -> (Finding, usize) {
+    let failed = |why: &str, sims: usize| {
+        let mut f = u.finding(&u.start, (sst, sst, n as f64));
+        f.meaning = format!("{} (not tested: {why})", f.meaning);
+        (f, sims)
+    };
+    let Ok(start) = u.plant(plant) else {
+        return failed("the plant refused it", 0);
+    };
+    let mut names = u.spec.parameters.clone();
+    for v in values {
+        if !names.contains(v) {
+            names.push(v.clone());
+        }
+    }
+    let Some(fit) = fit_from(&start, conf, names, records, oe, options) else {
+        return failed("its output-error fit failed", 0);
+    };
+    if !fit.cost_after.is_finite() {
+        return failed("its output-error fit diverged", fit.evaluations);
+    }
+    let own: Vec<f64> = u
+        .spec
+        .parameters
+        .iter()
+        .zip(&u.start)
+        .map(|(p, s)| {
+            fit.names
+                .iter()
+                .position(|x| x == p)
+                .map_or(*s, |i| fit.fitted[i])
+        })
+        .collect();
+    let mut f = u.finding(&own, (fit.cost_after, sst, n as f64));
+    f.confirmed = true;
+    (f, fit.evaluations)
 }
 
 /// The free joints of `conf` whose stacked residual `r` (segments of lengths `segments`,
@@ -882,71 +900,150 @@ fn structure_candidates(
         };
         (Some((f, fitted)), fit.evaluations)
     };
+    // The built-ins the joint's terms span ([`super::structure::Named`]): the best one the
+    // linearisation calls significant, confirmed by an output-error fit of its own
+    // parameters, named by its physics.
+    let named_candidate = |j: usize,
+                           cols: &[Vec<f64>],
+                           kept: &[String],
+                           structure: Option<&Finding>|
+     -> (Vec<Finding>, usize) {
+        let joint = m.joints[j];
+        let span = conf.free.iter().position(|&f| f == j).map_or(0.0, |a| {
+            let (lo, hi) = records
+                .iter()
+                .flat_map(|rec| rec.q[a].iter())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+                    (lo.min(x), hi.max(x))
+                });
+            hi - lo
+        });
+        let best = super::structure::named_fits(j, r, cols, kept, span)
+            .into_iter()
+            .filter(|(_, c, sse)| {
+                let (delta_bic, explained) = super::bic(*sse, sst, n as f64, c.len());
+                super::significant(delta_bic, explained)
+            })
+            .filter_map(|(named, c, _)| {
+                // The structure's fitted coefficients of the built-in's terms, where it has
+                // its leading term, are a better start than the linearisation at the
+                // given plant (a cogging from there stopped at 17 σ, measured on c3).
+                let terms = named.terms(j);
+                let coefficient = |t: &String| {
+                    structure.and_then(|f| f.estimate.iter().find(|(x, _)| x == t).map(|x| x.1))
+                };
+                let c = if coefficient(&terms[0]).is_some() {
+                    terms
+                        .iter()
+                        .map(|t| coefficient(t).unwrap_or(0.0))
+                        .collect()
+                } else {
+                    c
+                };
+                Some((named, named.effect(j, joint, &c, false)?))
+            })
+            .find(|(_, e)| {
+                !plant.expressions.iter().any(|x| x.name == e.name)
+                    && !e
+                        .parameters
+                        .iter()
+                        .any(|p| plant.parameters.contains_key(p))
+            });
+        let Some((named, e)) = best else {
+            return (Vec::new(), 0);
+        };
+        let u = super::candidates::UserCandidate {
+            spec: crate::plant::ExpressionSpec {
+                name: e.name,
+                joints: vec![joint.to_string()],
+                torque: e.torque,
+                parameters: e.parameters,
+            },
+            meaning: named.meaning().to_string(),
+            start: e.values,
+            bounds: e.bounds,
+        };
+        let (mut f, sims) = fit_candidate(&u, plant, conf, &[], records, (oe, options), (sst, n));
+        f.name = named.name();
+        (vec![f], sims)
+    };
     let y: Vec<f64> = r.iter().zip(yhat).map(|(a, b)| a + b).collect();
-    let found: Vec<(Option<Finding>, usize)> = searches
+    // The structure of one search's probes (None when not significant or its fit
+    // fails), and the simulations run.
+    let structure_of = |search: &Search,
+                        (cols, kept, leads): (&[Vec<f64>], &[String], &[bool])|
+     -> (Option<Finding>, usize) {
+        let mut sims = 0;
+        let Some(st) = super::structure::sparse_model(search.0, r, &segments, cols, (kept, leads))
+            .filter(|st| st.significant())
+        else {
+            return (None, sims);
+        };
+        let (first, s) = confirm(&st);
+        sims += s;
+        let Some((first, fitted)) = first else {
+            return (None, sims);
+        };
+        // Once more, linearised at the fitted plant, where the sensitivities describe
+        // what the structure does (at the given plant a large effect's linearisation
+        // asks for extra terms: a cubic came with q̇³, q̇ and sin(4q) beside its
+        // powers, measured on c3): the residual with the structure's own share put
+        // back, y − ŷ(fitted) + Σ θ_k s_k(fitted), selected again.
+        let Ok(y1) = out.simulate(&fitted) else {
+            return (Some(first), sims);
+        };
+        sims += 1;
+        let (cols1, kept1, leads1) = probe(&fitted, &y1, search);
+        sims += cols1.len();
+        let mut augmented: Vec<f64> = y.iter().zip(&y1).map(|(a, b)| a - b).collect();
+        for ((text, _), (_, theta)) in first.estimate.iter().zip(&first.values) {
+            if let Some(c) = kept1.iter().position(|t| t == text) {
+                for (v, s) in augmented.iter_mut().zip(&cols1[c]) {
+                    *v += theta * s;
+                }
+            }
+        }
+        let again = super::structure::sparse_model(
+            search.0,
+            &augmented,
+            &segments,
+            &cols1,
+            (&kept1, &leads1),
+        )
+        .filter(|st2| {
+            st2.significant() && {
+                let mut a: Vec<&str> = st2.terms.iter().map(|t| t.text.as_str()).collect();
+                let mut b: Vec<&str> = st.terms.iter().map(|t| t.text.as_str()).collect();
+                a.sort();
+                b.sort();
+                a != b
+            }
+        });
+        let Some(st2) = again else {
+            return (Some(first), sims);
+        };
+        let (second, s) = confirm(&st2);
+        sims += s;
+        match second {
+            Some((second, _)) if second.delta_bic < first.delta_bic => (Some(second), sims),
+            _ => (Some(first), sims),
+        }
+    };
+    let found: Vec<(Vec<Finding>, usize)> = searches
         .par_iter()
         .map(|search| {
             let (cols, kept, leads) = probe(plant, yhat, search);
             let mut sims = cols.len();
-            let Some(st) =
-                super::structure::sparse_model(search.0, r, &segments, &cols, (&kept, &leads))
-                    .filter(|st| st.significant())
-            else {
-                return (None, sims);
-            };
-            let (first, s) = confirm(&st);
+            let (structure, s) = structure_of(search, (&cols, &kept, &leads));
             sims += s;
-            let Some((first, fitted)) = first else {
-                return (None, sims);
-            };
-            // Once more, linearised at the fitted plant, where the sensitivities describe
-            // what the structure does (at the given plant a large effect's linearisation
-            // asks for extra terms: a cubic came with q̇³, q̇ and sin(4q) beside its
-            // powers, measured on c3): the residual with the structure's own share put
-            // back, y − ŷ(fitted) + Σ θ_k s_k(fitted), selected again.
-            let Ok(y1) = out.simulate(&fitted) else {
-                return (Some(first), sims);
-            };
-            sims += 1;
-            let (cols1, kept1, leads1) = probe(&fitted, &y1, search);
-            sims += cols1.len();
-            let mut augmented: Vec<f64> = y.iter().zip(&y1).map(|(a, b)| a - b).collect();
-            for ((text, _), (_, theta)) in first.estimate.iter().zip(&first.values) {
-                if let Some(c) = kept1.iter().position(|t| t == text) {
-                    for (v, s) in augmented.iter_mut().zip(&cols1[c]) {
-                        *v += theta * s;
-                    }
-                }
-            }
-            let again = super::structure::sparse_model(
-                search.0,
-                &augmented,
-                &segments,
-                &cols1,
-                (&kept1, &leads1),
-            )
-            .filter(|st2| {
-                st2.significant() && {
-                    let mut a: Vec<&str> = st2.terms.iter().map(|t| t.text.as_str()).collect();
-                    let mut b: Vec<&str> = st.terms.iter().map(|t| t.text.as_str()).collect();
-                    a.sort();
-                    b.sort();
-                    a != b
-                }
-            });
-            let Some(st2) = again else {
-                return (Some(first), sims);
-            };
-            let (second, s) = confirm(&st2);
+            let (mut here, s) = named_candidate(search.0, &cols, &kept, structure.as_ref());
             sims += s;
-            match second {
-                Some((second, _)) if second.delta_bic < first.delta_bic => (Some(second), sims),
-                _ => (Some(first), sims),
-            }
+            here.extend(structure);
+            (here, sims)
         })
         .collect();
     simulations += found.iter().map(|c| c.1).sum::<usize>();
-    Ok((found.into_iter().filter_map(|c| c.0).collect(), simulations))
+    Ok((found.into_iter().flat_map(|c| c.0).collect(), simulations))
 }
 
 /// ΔBIC differences below this are not worth more than a bare mention (Kass and Raftery

@@ -1,7 +1,7 @@
 //! Structure outside the catalogue (issue 54 item 3): when what is missing is no catalogued
 //! effect, the residual still says what it is. A sparse regression of a joint's torque
 //! residual onto a library of candidate functions — polynomials in q and q̇ up to degree 3,
-//! q̇|q̇|, sign(q̇), sin and cos of k·q (k = 1…6), the other free joints' q̇ and τ; the
+//! q̇|q̇|, sign(q̇), |τ| sign(q̇), sin and cos of k·q (k = 1…6), the other free joints' q̇ and τ; the
 //! catalogue's own signatures (1, q, q̇, sign q̇, τ of another joint) only complete a model,
 //! they do not lead one — as in
 //! SINDy (Brunton, Proctor and Kutz, PNAS 113 (2016) 3932–3937), the support chosen by
@@ -56,8 +56,8 @@ impl LibraryTerm {
 }
 
 /// The library of joint `j` (model index) among the free joints `free`, for a model of
-/// `joints` joints: its own 1, q, q², q³, q̇, q̇|q̇|, q̇³, sign(q̇), sin(kq), cos(kq)
-/// (k = 1…[`HARMONICS`]) and the other free joints' q̇ and τ.
+/// `joints` joints: its own 1, q, q², q³, q̇, q̇|q̇|, q̇³, sign(q̇), |τ| sign(q̇), sin(kq),
+/// cos(kq) (k = 1…[`HARMONICS`]) and the other free joints' q̇ and τ.
 pub fn library(j: usize, free: &[usize], joints: usize) -> Vec<LibraryTerm> {
     let mut texts: Vec<String> = vec![
         "1".into(),
@@ -68,6 +68,7 @@ pub fn library(j: usize, free: &[usize], joints: usize) -> Vec<LibraryTerm> {
         format!("qd{j}*abs(qd{j})"),
         format!("qd{j}^3"),
         format!("sign(qd{j})"),
+        format!("abs(tau{j})*sign(qd{j})"),
     ];
     for k in 1..=HARMONICS {
         let arg = if k == 1 {
@@ -102,6 +103,231 @@ pub fn library(j: usize, free: &[usize], joints: usize) -> Vec<LibraryTerm> {
         .collect()
 }
 
+/// A built-in effect recognised among a joint's library terms (issue 54 item 2): physics
+/// with a name and a signature, written as a user-defined effect when found. Each is
+/// spanned by library terms, so the structure search's columns fit it at no extra cost; the
+/// output-space diagnosis confirms the leading one by an output-error fit of its own
+/// parameters. (Backlash needs a state of the transmission, and armature inertia and a
+/// coupled motor's inertia a term of the inertia matrix: neither is a function of the
+/// joints' states, so neither is here.)
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Named {
+    /// τ = K3 (q − qc)³: a hardening (K3 > 0) or softening spring beyond its linear range
+    /// (a cable, a flexure); signature: a residual cubic in position, odd about qc.
+    CubicStiffness,
+    /// τ = A sin(k q) + B cos(k q), k per turn: cogging of a motor's magnets or a gear's
+    /// ripple, amplitude √(A² + B²); signature: a residual periodic in position.
+    Cogging(usize),
+    /// τ = c q̇|q̇|: aerodynamic or fluid drag; signature: a residual growing with the square
+    /// of the speed, odd in q̇.
+    QuadraticDrag,
+    /// τ = μ |τ| sign(q̇): Coulomb friction growing with the transmitted torque (a gear
+    /// mesh, bearings under load); signature: a step at q̇ = 0 whose height follows |τ|.
+    LoadFriction,
+}
+
+impl Named {
+    /// Every built-in: the cubic stiffness, the drag, the load-dependent friction and the
+    /// cogging of each harmonic 1…[`HARMONICS`].
+    pub fn all() -> Vec<Named> {
+        let mut v = vec![
+            Named::CubicStiffness,
+            Named::QuadraticDrag,
+            Named::LoadFriction,
+        ];
+        v.extend((1..=HARMONICS).map(Named::Cogging));
+        v
+    }
+
+    /// The finding's name: `cubic stiffness`, `cogging (6 per turn)`, ….
+    pub fn name(&self) -> String {
+        match self {
+            Named::CubicStiffness => "cubic stiffness".into(),
+            Named::Cogging(k) => format!("cogging ({k} per turn)"),
+            Named::QuadraticDrag => "quadratic drag".into(),
+            Named::LoadFriction => "load-dependent friction".into(),
+        }
+    }
+
+    /// One line of physics.
+    pub fn meaning(&self) -> &'static str {
+        match self {
+            Named::CubicStiffness => "a spring beyond its linear range: K3 (q - qc)^3, hardening for K3 > 0 (a cable, a flexure)",
+            Named::Cogging(_) => "a torque periodic in position, A sin(kq) + B cos(kq): cogging of the motor's magnets, a gear's ripple",
+            Named::QuadraticDrag => "drag growing with the square of the speed, c qd|qd|: aerodynamic or fluid drag",
+            Named::LoadFriction => "Coulomb friction growing with the transmitted torque, mu |tau| sign(qd): a gear mesh, bearings under load",
+        }
+    }
+
+    /// The library terms of joint `j` that span it.
+    pub fn terms(&self, j: usize) -> Vec<String> {
+        match self {
+            Named::CubicStiffness => vec![
+                format!("q{j}^3"),
+                format!("q{j}^2"),
+                format!("q{j}"),
+                "1".into(),
+            ],
+            Named::Cogging(k) => {
+                let arg = if *k == 1 {
+                    format!("q{j}")
+                } else {
+                    format!("{k}*q{j}")
+                };
+                vec![format!("sin({arg})"), format!("cos({arg})")]
+            }
+            Named::QuadraticDrag => vec![format!("qd{j}*abs(qd{j})")],
+            Named::LoadFriction => vec![format!("abs(tau{j})*sign(qd{j})")],
+        }
+    }
+
+    /// The user-defined effect on joint `j` (named `joint`) whose terms' least-squares
+    /// coefficients are `c` (same order as [`Named::terms`]): its name, torque, parameters,
+    /// their values and bounds (±10 times each value's size about it, the cogging's both
+    /// ±10 times its amplitude; the cubic's centre qc = −c₂/(3 c₃), within ±10 rad, ±1 rad
+    /// about it). `fixed_centre`: the cubic's qc
+    /// written as a number (one parameter, linear: torque space). None when the cubic has
+    /// no cubic coefficient.
+    pub fn effect(
+        &self,
+        j: usize,
+        joint: &str,
+        c: &[f64],
+        fixed_centre: bool,
+    ) -> Option<NamedEffect> {
+        let around = |v: f64| (v - 10.0 * v.abs() - 1e-12, v + 10.0 * v.abs() + 1e-12);
+        let (key, torque, parameters, values) = match self {
+            Named::CubicStiffness => {
+                let (a3, a2) = (*c.first()?, *c.get(1)?);
+                if a3 == 0.0 || !a3.is_finite() {
+                    return None;
+                }
+                let qc = (-a2 / (3.0 * a3)).clamp(-10.0, 10.0);
+                if fixed_centre {
+                    (
+                        "cubic_stiffness",
+                        format!("K3_{j}*(q{j} - ({qc:e}))^3"),
+                        vec![format!("K3_{j}")],
+                        vec![a3],
+                    )
+                } else {
+                    (
+                        "cubic_stiffness",
+                        format!("K3_{j}*(q{j} - qc_{j})^3"),
+                        vec![format!("K3_{j}"), format!("qc_{j}")],
+                        vec![a3, qc],
+                    )
+                }
+            }
+            Named::Cogging(_) => {
+                let [s, co]: [String; 2] = self.terms(j).try_into().ok()?;
+                (
+                    "cogging",
+                    format!("Acog_{j}*{s} + Bcog_{j}*{co}"),
+                    vec![format!("Acog_{j}"), format!("Bcog_{j}")],
+                    vec![*c.first()?, *c.get(1)?],
+                )
+            }
+            Named::QuadraticDrag => (
+                "quadratic_drag",
+                format!("cd_{j}*qd{j}*abs(qd{j})"),
+                vec![format!("cd_{j}")],
+                vec![*c.first()?],
+            ),
+            Named::LoadFriction => (
+                "load_friction",
+                format!("mu_{j}*abs(tau{j})*sign(qd{j})"),
+                vec![format!("mu_{j}")],
+                vec![*c.first()?],
+            ),
+        };
+        // The cogging's two coefficients share one scale, its amplitude (a phase near 0
+        // leaves B near 0, which must stay free).
+        let amplitude = values.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let bounds = parameters
+            .iter()
+            .zip(&values)
+            .map(|(p, &v)| {
+                if p.starts_with("qc_") {
+                    (v - 1.0, v + 1.0)
+                } else if matches!(self, Named::Cogging(_)) {
+                    (-10.0 * amplitude, 10.0 * amplitude)
+                } else {
+                    around(v)
+                }
+            })
+            .collect();
+        Some(NamedEffect {
+            name: format!("{key}_{joint}"),
+            torque,
+            parameters,
+            values,
+            bounds,
+        })
+    }
+}
+
+/// A [`Named`] built-in written as a user-defined effect.
+#[derive(Debug, Clone)]
+pub struct NamedEffect {
+    /// Effect name, e.g. `cogging_q3`.
+    pub name: String,
+    /// Torque expression.
+    pub torque: String,
+    /// Parameter names.
+    pub parameters: Vec<String>,
+    /// Their values (SI).
+    pub values: Vec<f64>,
+    /// Their bounds.
+    pub bounds: Vec<(f64, f64)>,
+}
+
+/// The built-ins of joint `j` the columns `columns` (one per library term `texts`) span,
+/// each fitted by least squares to the residual `r`: (built-in, coefficients of its terms,
+/// SSE), the cogging only at its best harmonic, best (lowest SSE) first. A harmonic k is
+/// offered only where the joint's motion spans a period of it (k · `span` ≥ 2π, `span` the
+/// range of q): over less, sin(kq) and cos(kq) are a polynomial in q (a prismatic axis's
+/// 0.2 m of motion made "cogging (6 per turn)" a spring and an offset, measured on EMPS).
+pub fn named_fits(
+    j: usize,
+    r: &[f64],
+    columns: &[Vec<f64>],
+    texts: &[String],
+    span: f64,
+) -> Vec<(Named, Vec<f64>, f64)> {
+    let mut out: Vec<(Named, Vec<f64>, f64)> = Vec::new();
+    for named in Named::all() {
+        if let Named::Cogging(k) = named {
+            if (k as f64) * span < std::f64::consts::TAU {
+                continue;
+            }
+        }
+        let idx: Option<Vec<usize>> = named
+            .terms(j)
+            .iter()
+            .map(|t| texts.iter().position(|x| x == t))
+            .collect();
+        let Some(idx) = idx else { continue };
+        let cols: Vec<Vec<f64>> = idx.iter().map(|&i| columns[i].clone()).collect();
+        let Some((x, sse)) = super::fit(&cols, r) else {
+            continue;
+        };
+        if let (Named::Cogging(_), Some(k)) = (
+            named,
+            out.iter()
+                .position(|(n, _, _)| matches!(n, Named::Cogging(_))),
+        ) {
+            if sse < out[k].2 {
+                out[k] = (named, x, sse);
+            }
+            continue;
+        }
+        out.push((named, x, sse));
+    }
+    out.sort_by(|a, b| a.2.total_cmp(&b.2));
+    out
+}
+
 /// One term of a sparse model.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct Term {
@@ -129,7 +355,7 @@ pub struct Structure {
 }
 
 /// The one line of physics of a structure finding.
-pub const MEANING: &str = "the residual has structure the catalogue lacks: a sparse regression of it onto a library of functions of the joints' states (polynomials, q̇|q̇|, sign, harmonics of q, the other joints' q̇ and τ), written as a user-defined effect";
+pub const MEANING: &str = "the residual has structure the catalogue lacks: a sparse regression of it onto a library of functions of the joints' states (polynomials, q̇|q̇|, sign, |τ| sign(q̇), harmonics of q, the other joints' q̇ and τ), written as a user-defined effect";
 
 /// A name `structure_qj` and a parameter prefix `sj` for a structure on joint `j` that
 /// `plant` does not use yet (`structure_qj_2`, `sjv2`, … when it does).
