@@ -283,6 +283,24 @@ pub struct Divergence {
     /// rigid-body parameters are not physical in this configuration and no step helps.
     /// `None`: D_FF was positive definite (or the divergence is a speed bound).
     pub inertia_min_eigenvalue: Option<f64>,
+    /// A user-defined effect that is not finite at the state before the divergent step. A
+    /// smaller step does not help: the expression is not defined there.
+    pub expression: Option<Box<UndefinedTerm>>,
+}
+
+/// A user-defined effect whose torque is not finite at a state ([`Divergence::expression`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct UndefinedTerm {
+    /// The effect's name.
+    pub name: String,
+    /// The free joint it acts on (free index).
+    pub joint: usize,
+    /// Its value there (NaN or ±∞).
+    pub value: f64,
+    /// The free joints' positions (rad or m).
+    pub q: Vec<f64>,
+    /// The free joints' velocities (rad/s or m/s).
+    pub qd: Vec<f64>,
 }
 
 /// Scratch buffers of one simulation (no allocation per step).
@@ -380,6 +398,23 @@ pub struct Trajectory {
 impl Divergence {
     /// The report with the joint called `joint` (a name where the caller knows it).
     pub fn message(&self, joint: &str) -> String {
+        if let Some(u) = &self.expression {
+            let UndefinedTerm {
+                name, value, q, qd, ..
+            } = u.as_ref();
+            let list = |v: &[f64]| {
+                v.iter()
+                    .map(|x| format!("{x:.6}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            return format!(
+                "simulation diverged at t = {:.6} s: the user-defined effect '{name}' is {value} at                  the state before that step (free joints' q = [{}], q̇ = [{}]): its expression is                  not defined there (a root or logarithm of a negative number, a division by 0);                  a smaller step will not help",
+                self.t - self.h,
+                list(q),
+                list(qd)
+            );
+        }
         match self.inertia_min_eigenvalue {
             Some(lambda) => format!(
                 "simulation diverged at t = {:.6} s: joint {joint} has {}: the inertia matrix \
@@ -655,6 +690,7 @@ impl PlantModel {
                 what,
                 h,
                 inertia_min_eigenvalue: None,
+                expression: None,
             });
         }
         Ok(())
@@ -675,13 +711,31 @@ impl PlantModel {
     /// matrix that is not positive definite at `last` where it is one.
     fn check_step(
         &self,
-        last: &State,
+        (last, tau): (&State, &[f64]),
         x: &State,
         t: f64,
         h: f64,
         max_speed: f64,
     ) -> Result<(), Divergence> {
         self.check(x, t, h, max_speed).map_err(|mut d| {
+            // A user-defined term not finite at the last state (with the step's first
+            // command) is the cause, whatever the step.
+            if last.q.iter().all(|v| v.is_finite()) && last.qd.iter().all(|v| v.is_finite()) {
+                d.expression = self.terms.iter().enumerate().find_map(|(i, t)| {
+                    t.extra.iter().find_map(|e| {
+                        let v = e.torque(&last.q, &last.qd, &last.z, tau);
+                        (!v.is_finite()).then(|| {
+                            Box::new(UndefinedTerm {
+                                name: e.name.clone(),
+                                joint: i,
+                                value: v,
+                                q: last.q.clone(),
+                                qd: last.qd.clone(),
+                            })
+                        })
+                    })
+                });
+            }
             if last.q.iter().all(|v| v.is_finite()) {
                 let lambda = self.inertia_matrix(&last.q).symmetric_eigenvalues().min();
                 if lambda <= 0.0 || lambda.is_nan() {
@@ -719,7 +773,7 @@ impl PlantModel {
             prev.copy_from(&x);
             self.step_in_place(&mut x, h, &mut w);
             let t1 = (n + 1) as f64 * h;
-            self.check_step(&prev, &x, t1, h, max_speed)?;
+            self.check_step((&prev, &w.tau[0]), &x, t1, h, max_speed)?;
             observe(t1, &x);
         }
         Ok(x)
@@ -827,7 +881,7 @@ impl PlantModel {
             let hs = t1 - t;
             prev.copy_from(&x);
             self.rk4_with_events(&mut x, t, hs, input, measured.as_ref(), &mut w);
-            self.check_step(&prev, &x, t1, h, max_speed)?;
+            self.check_step((&prev, &w.tau[0]), &x, t1, h, max_speed)?;
             while next_out < times.len() && times[next_out] <= t1 + 1e-9 * h {
                 push(&mut out, &prev, &x, t, t1, times[next_out]);
                 next_out += 1;

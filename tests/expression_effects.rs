@@ -79,6 +79,46 @@ fn a_spring_written_by_hand_simulates_as_the_built_in_c3() {
     }
 }
 
+/// An expression that is not defined where the joint goes (a logarithm of q3 + 0.05,
+/// negative once q3 < −0.05 rad): the simulation stops with the effect named, the time, the
+/// state and "a smaller step will not help", not a bare "non-finite state".
+#[test]
+fn an_expression_undefined_at_the_motion_is_named_with_the_time_and_state_c3() {
+    let mut p = common::appendix_d_coupled();
+    p.add_expression("log_spring", vec![3], "k*ln(q3 + 0.05)", &["k".into()])
+        .unwrap();
+    p.parameters.insert("k".into(), 1e-4);
+    let model = p
+        .simulator("c3", &[0.0; 6], ConsistencyPolicy::Warn)
+        .unwrap()
+        .model;
+    let d = model
+        .simulate(
+            State::at_rest(vec![0.0]),
+            1.0 / 6000.0,
+            18_000,
+            100.0,
+            |t, tau| tau[0] = -0.02 * (3.0 * t).sin(),
+            |_, _| {},
+        )
+        .unwrap_err();
+    let text = d.message("q3");
+    eprintln!("{text}");
+    let u = d.expression.clone().expect("the expression named");
+    assert_eq!((u.name.as_str(), u.joint), ("log_spring", 0));
+    assert!(
+        u.value.is_nan() && u.q[0] < -0.05,
+        "{} at q3 = {}",
+        u.value,
+        u.q[0]
+    );
+    assert!(
+        text.contains("user-defined effect 'log_spring' is NaN")
+            && text.contains("a smaller step will not help"),
+        "{text}"
+    );
+}
+
 /// The EMPS benchmark's model written as one expression gives the built-ins' IDIM-LS
 /// estimates (and the published ones, tests/emps_idim.rs) to 1e-9.
 #[test]

@@ -243,6 +243,9 @@ pub fn for_plant<'a>(
     Ok((kept, left_out))
 }
 
+/// A candidate and its regressor columns (one per parameter, rows as the observation).
+pub type CandidateColumns<'a> = (&'a UserCandidate, Vec<Vec<f64>>);
+
 /// Torque space: each candidate's regressor columns (one per parameter, rows as the
 /// observation of `plant` on `records`), built through the same filter and decimation as
 /// the plant's own ([`crate::identify::idim::observation`] of the plant with the candidate
@@ -257,7 +260,7 @@ pub fn columns<'a>(
     config: &str,
     records: &[crate::measurement::Measurement],
     options: &crate::identify::idim::IdimOptions,
-) -> Result<(Vec<(&'a UserCandidate, Vec<Vec<f64>>)>, Vec<String>)> {
+) -> Result<(Vec<CandidateColumns<'a>>, Vec<String>)> {
     let (kept, mut left_out) = for_plant(candidates, plant)?;
     let mut out = Vec::new();
     for c in kept {

@@ -94,7 +94,7 @@ pub fn diagnosis(plant: &Plant, obs: &Observation) -> Result<TorqueDiagnosis> {
 pub fn diagnosis_with(
     plant: &Plant,
     obs: &Observation,
-    user: &[(&super::candidates::UserCandidate, Vec<Vec<f64>>)],
+    user: &[super::candidates::CandidateColumns],
 ) -> Result<TorqueDiagnosis> {
     let yhat = predict(plant, obs)?;
     let m = plant.model;
