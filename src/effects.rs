@@ -44,11 +44,15 @@ pub enum EffectKind {
     /// `τ'_to = τ_to + G·τ_from`. The thesis's τ'_4 = τ_4 − G54 τ_5, τ'_5 = τ_5 + G45 τ_4 are
     /// two of these: `G_5to4 = −G54`, `G_4to5 = G45`.
     InputCoupling,
+    /// Armature (rotor) inertia reflected through the gearing, `Ia·q̈` (kg·m² or kg; Ia =
+    /// J_rotor·N² for a gear ratio N): it adds Ia to the joint's diagonal entry of the
+    /// inertia matrix D(q) (Pinocchio's `armature`, FIGAROH's `Ia`).
+    Armature,
 }
 
 impl EffectKind {
     /// Every kind, in catalogue order.
-    pub const ALL: [EffectKind; 10] = [
+    pub const ALL: [EffectKind; 11] = [
         EffectKind::Viscous,
         EffectKind::Coulomb,
         EffectKind::AsymmetricFriction,
@@ -59,6 +63,7 @@ impl EffectKind {
         EffectKind::Spring,
         EffectKind::FrictionBias,
         EffectKind::InputCoupling,
+        EffectKind::Armature,
     ];
 
     /// Parameter symbols of the kind (without the joint suffix).
@@ -74,6 +79,7 @@ impl EffectKind {
             EffectKind::Spring => &["Ks", "qeq"],
             EffectKind::FrictionBias => &["FrictionBias", "qeq"],
             EffectKind::InputCoupling => &["G"],
+            EffectKind::Armature => &["Ia"],
         }
     }
 
@@ -100,6 +106,9 @@ impl EffectKind {
             EffectKind::InputCoupling => {
                 "tendon input coupling: part of another joint's command reaches this joint"
             }
+            EffectKind::Armature => {
+                "armature: the motor's rotor inertia reflected through the gearing adds to the joint's inertia"
+            }
         }
     }
 
@@ -111,6 +120,7 @@ impl EffectKind {
                 | EffectKind::Coulomb
                 | EffectKind::AsymmetricFriction
                 | EffectKind::Offset
+                | EffectKind::Armature
         )
     }
 
@@ -130,9 +140,10 @@ impl EffectKind {
         )
     }
 
-    /// The regressor entries `∂τ/∂θ` of a linear kind at velocity `qd` (one per symbol);
-    /// `None` for kinds that are not linear in their parameters ([`EffectKind::is_linear`]).
-    pub fn regressor(self, qd: f64) -> Option<Vec<f64>> {
+    /// The regressor entries `∂τ/∂θ` of a linear kind at velocity `qd` and acceleration
+    /// `qdd` (one per symbol); `None` for kinds that are not linear in their parameters
+    /// ([`EffectKind::is_linear`]).
+    pub fn regressor(self, qd: f64, qdd: f64) -> Option<Vec<f64>> {
         let sign = sign(qd);
         let pos = if qd > 0.0 { 1.0 } else { 0.0 };
         let neg = if qd < 0.0 { 1.0 } else { 0.0 };
@@ -141,6 +152,7 @@ impl EffectKind {
             EffectKind::Coulomb => Some(vec![sign]),
             EffectKind::AsymmetricFriction => Some(vec![pos * qd, pos, neg * qd, -neg]),
             EffectKind::Offset => Some(vec![1.0]),
+            EffectKind::Armature => Some(vec![qdd]),
             _ => None,
         }
     }
@@ -170,6 +182,7 @@ impl fmt::Display for EffectKind {
             EffectKind::Spring => "spring",
             EffectKind::FrictionBias => "friction_bias",
             EffectKind::InputCoupling => "input_coupling",
+            EffectKind::Armature => "armature",
         };
         f.write_str(s)
     }
@@ -232,15 +245,16 @@ mod tests {
 
     #[test]
     fn regressor_rows_match_the_friction_laws() {
-        assert_eq!(EffectKind::Coulomb.regressor(-0.2), Some(vec![-1.0]));
-        assert_eq!(EffectKind::Coulomb.regressor(0.0), Some(vec![0.0]));
-        assert_eq!(EffectKind::Viscous.regressor(0.5), Some(vec![0.5]));
-        assert_eq!(EffectKind::Lugre.regressor(0.5), None);
+        assert_eq!(EffectKind::Coulomb.regressor(-0.2, 0.0), Some(vec![-1.0]));
+        assert_eq!(EffectKind::Coulomb.regressor(0.0, 0.0), Some(vec![0.0]));
+        assert_eq!(EffectKind::Viscous.regressor(0.5, 0.0), Some(vec![0.5]));
+        assert_eq!(EffectKind::Lugre.regressor(0.5, 0.0), None);
+        assert_eq!(EffectKind::Armature.regressor(0.5, -2.0), Some(vec![-2.0]));
         // τ = Fv_pos q̇ + Fc_pos for q̇ > 0, Fv_neg q̇ − Fc_neg for q̇ < 0.
         let th = [2.0, 3.0, 5.0, 7.0];
         let tau = |qd: f64| -> f64 {
             EffectKind::AsymmetricFriction
-                .regressor(qd)
+                .regressor(qd, 0.0)
                 .unwrap()
                 .iter()
                 .zip(th)

@@ -919,6 +919,16 @@ impl Plant {
                 }
                 EffectKind::Spring => t.spring = Some((v("Ks")?, v("qeq")?)),
                 EffectKind::FrictionBias => t.bias = Some((v("FrictionBias")?, v("qeq")?)),
+                EffectKind::Armature => {
+                    let ia = v("Ia")?;
+                    if ia.is_nan() || ia < 0.0 {
+                        bail!(
+                            "{name}: armature 'Ia_{}' must be 0 or positive (an inertia, kg·m² or kg), found {ia}",
+                            e.joint
+                        );
+                    }
+                    t.armature = ia;
+                }
                 EffectKind::InputCoupling => {
                     let from = e.from.unwrap_or(e.joint);
                     if let Some(b) = free_index(from) {

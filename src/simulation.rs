@@ -123,6 +123,9 @@ pub struct JointTerms {
     /// User-defined torque terms ([`crate::expression`]), taken from the joint as the
     /// spring is.
     pub extra: Vec<TorqueTerm>,
+    /// Armature (rotor) inertia Ia (kg·m² or kg), added to the joint's diagonal entry of the
+    /// inertia matrix D_FF(q).
+    pub armature: f64,
 }
 
 impl Default for JointTerms {
@@ -137,6 +140,7 @@ impl Default for JointTerms {
             spring: None,
             bias: None,
             extra: Vec::new(),
+            armature: 0.0,
         }
     }
 }
@@ -283,8 +287,9 @@ pub struct Divergence {
     /// rigid-body parameters are not physical in this configuration and no step helps.
     /// `None`: D_FF was positive definite (or the divergence is a speed bound).
     pub inertia_min_eigenvalue: Option<f64>,
-    /// A user-defined effect that is not finite at the state before the divergent step. A
-    /// smaller step does not help: the expression is not defined there.
+    /// A user-defined effect that is not finite within the divergent step (at the positions
+    /// the velocities before it reach). A smaller step does not help: the expression is not
+    /// defined there.
     pub expression: Option<Box<UndefinedTerm>>,
 }
 
@@ -307,6 +312,8 @@ pub struct UndefinedTerm {
 #[derive(Debug, Clone)]
 struct Scratch {
     q_full: Vec<f64>,
+    /// D_FF(q) (NF × NF, column-major) for the armatures.
+    mass: Vec<f64>,
     tau_c: Vec<f64>,
     applied: Vec<f64>,
     k: [State; 4],
@@ -345,6 +352,7 @@ impl Scratch {
         let z = || State::at_rest(vec![0.0; nf]);
         Scratch {
             q_full: q_locked.to_vec(),
+            mass: vec![0.0; nf * nf],
             tau_c: vec![0.0; nf],
             applied: vec![0.0; nf],
             k: [z(), z(), z(), z()],
@@ -409,8 +417,11 @@ impl Divergence {
                     .join(", ")
             };
             return format!(
-                "simulation diverged at t = {:.6} s: the user-defined effect '{name}' is {value} at                  the state before that step (free joints' q = [{}], q̇ = [{}]): its expression is                  not defined there (a root or logarithm of a negative number, a division by 0);                  a smaller step will not help",
-                self.t - self.h,
+                "simulation diverged at t = {:.6} s: the user-defined effect '{name}' is {value} \
+                 within that step (free joints' q = [{}], q̇ = [{}]): its expression is not \
+                 defined there (a root or logarithm of a negative number, a division by 0); a \
+                 smaller step will not help",
+                self.t,
                 list(q),
                 list(qd)
             );
@@ -534,6 +545,37 @@ impl PlantModel {
         }
         out.q.copy_from_slice(&x.qd);
         (self.conf.forward_dynamics)(&w.q_full, &x.qd, &w.applied, &self.p, &mut out.qd);
+        if self.terms.iter().any(|t| t.armature != 0.0) {
+            self.with_armature(&mut w.mass, &w.q_full, &mut out.qd);
+        }
+    }
+
+    /// The accelerations with the armatures: the generated kernel gives q̈₀ = D⁻¹ (Q − C q̇ −
+    /// φ), so D q̈₀ is the right-hand side and q̈ = (D + diag(Ia))⁻¹ D q̈₀ (`qdd` holds q̈₀
+    /// on entry). Where D + diag(Ia) is not positive definite q̈₀ is left (the divergence
+    /// check then names the inertia matrix).
+    fn with_armature(&self, mass: &mut [f64], q_full: &[f64], qdd: &mut [f64]) {
+        let nf = self.nf();
+        (self.conf.mass_matrix)(q_full, &self.p, mass);
+        let d = nalgebra::DMatrix::from_column_slice(nf, nf, mass);
+        let rhs = &d * nalgebra::DVector::from_column_slice(qdd);
+        let mut with = d;
+        for (i, t) in self.terms.iter().enumerate() {
+            with[(i, i)] += t.armature;
+        }
+        if let Some(ch) = with.cholesky() {
+            qdd.copy_from_slice(ch.solve(&rhs).as_slice());
+        }
+    }
+
+    /// D_FF(q) + diag(Ia) into `mass` (NF × NF, column-major) at the all-joint positions
+    /// `q_full`: the inertia matrix the simulator integrates with.
+    pub(crate) fn mass_matrix_into(&self, q_full: &[f64], mass: &mut [f64]) {
+        let nf = self.nf();
+        (self.conf.mass_matrix)(q_full, &self.p, mass);
+        for (i, t) in self.terms.iter().enumerate() {
+            mass[i * nf + i] += t.armature;
+        }
     }
 
     /// dx/dt at state `x` under commanded torques `tau`.
@@ -697,13 +739,14 @@ impl PlantModel {
     }
 
     /// The inertia matrix D_FF(q) of the free joints at free-joint positions `q_f` (NF; the
-    /// locked joints at [`PlantModel::q_locked`]), NF × NF, column-major (kg·m² or kg).
+    /// locked joints at [`PlantModel::q_locked`]), with the armatures on its diagonal, NF ×
+    /// NF (kg·m² or kg).
     pub fn inertia_matrix(&self, q_f: &[f64]) -> nalgebra::DMatrix<f64> {
         let nf = self.nf();
         let mut q_full = self.q_locked.clone();
         self.put_free(q_f, &mut q_full);
         let mut d = vec![0.0; nf * nf];
-        (self.conf.mass_matrix)(&q_full, &self.p, &mut d);
+        self.mass_matrix_into(&q_full, &mut d);
         nalgebra::DMatrix::from_vec(nf, nf, d)
     }
 
@@ -718,19 +761,28 @@ impl PlantModel {
         max_speed: f64,
     ) -> Result<(), Divergence> {
         self.check(x, t, h, max_speed).map_err(|mut d| {
-            // A user-defined term not finite at the last state (with the step's first
-            // command) is the cause, whatever the step.
+            // A user-defined term not finite within the step (at the positions the last
+            // state's velocities reach over 0, h/2 and h, with the step's first command) is
+            // the cause, whatever the step.
             if last.q.iter().all(|v| v.is_finite()) && last.qd.iter().all(|v| v.is_finite()) {
-                d.expression = self.terms.iter().enumerate().find_map(|(i, t)| {
-                    t.extra.iter().find_map(|e| {
-                        let v = e.torque(&last.q, &last.qd, &last.z, tau);
-                        (!v.is_finite()).then(|| {
-                            Box::new(UndefinedTerm {
-                                name: e.name.clone(),
-                                joint: i,
-                                value: v,
-                                q: last.q.clone(),
-                                qd: last.qd.clone(),
+                d.expression = [0.0, 0.5, 1.0].iter().find_map(|&s| {
+                    let q: Vec<f64> = last
+                        .q
+                        .iter()
+                        .zip(&last.qd)
+                        .map(|(q, qd)| q + s * h * qd)
+                        .collect();
+                    self.terms.iter().enumerate().find_map(|(i, t)| {
+                        t.extra.iter().find_map(|e| {
+                            let v = e.torque(&q, &last.qd, &last.z, tau);
+                            (!v.is_finite()).then(|| {
+                                Box::new(UndefinedTerm {
+                                    name: e.name.clone(),
+                                    joint: i,
+                                    value: v,
+                                    q: q.clone(),
+                                    qd: last.qd.clone(),
+                                })
                             })
                         })
                     })

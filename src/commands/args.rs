@@ -9,7 +9,7 @@ pub enum EffectAction {
     /// and bounds.
     Add {
         /// Kind: viscous, coulomb, asymmetric_friction, offset, gain, stribeck, lugre,
-        /// spring, friction_bias, input_coupling (alias: coupling), or expression (a
+        /// spring, friction_bias, input_coupling (alias: coupling), armature, or expression (a
         /// user-defined effect: --name, --torque, --params).
         kind: String,
         /// Plant file.

@@ -197,6 +197,22 @@ pub fn diagnosis_with(
                 vec![vec![1.0; n]],
             ));
         }
+        // Armature: a q̈ column, where the plant's own columns leave 1 % of it (a joint
+        // whose inertia is one free constant, as EMPS's mass, spans it: Ia is not separate
+        // from that constant there).
+        if !has(EffectKind::Armature) {
+            let qdd: Vec<f64> = idx.iter().map(|&i| obs.rows[i].qdd).collect();
+            let norm = |x: &[f64]| x.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if norm(&project(&qdd)) > 1e-2 * norm(&qdd) {
+                cands.push((
+                    "armature".into(),
+                    Some(EffectKind::Armature),
+                    None,
+                    vec!["Ia".into()],
+                    vec![qdd],
+                ));
+            }
+        }
         if !has(EffectKind::Stribeck) && !has(EffectKind::Lugre) {
             let vmax = qd.iter().fold(0.0f64, |a, v| a.max(v.abs())).max(1e-12);
             let mut best: Option<(f64, Vec<f64>, f64)> = None;
@@ -319,9 +335,12 @@ pub fn diagnosis_with(
                 _ => None,
             };
             let values: Option<Vec<f64>> = match kind {
-                Some(EffectKind::Coulomb | EffectKind::Viscous | EffectKind::Offset) => {
-                    Some(vec![x[0]])
-                }
+                Some(
+                    EffectKind::Coulomb
+                    | EffectKind::Viscous
+                    | EffectKind::Offset
+                    | EffectKind::Armature,
+                ) => Some(vec![x[0]]),
                 Some(EffectKind::Spring) if x[0].abs() > 0.0 => Some(vec![x[0], -x[1] / x[0]]),
                 Some(EffectKind::InputCoupling) => Some(vec![-x[0]]),
                 _ => None,

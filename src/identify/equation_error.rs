@@ -158,6 +158,8 @@ struct Prepared {
     q: Vec<Vec<f64>>,
     /// Velocities per free joint (NF × n).
     qd: Vec<Vec<f64>>,
+    /// Accelerations per free joint (NF × n), for the armatures.
+    qdd: Vec<Vec<f64>>,
     /// Filtered held commands per free joint (NF × n).
     tau: Vec<Vec<f64>>,
     /// Regressor rows at the used samples: per used sample, NF × (present parameters).
@@ -265,6 +267,7 @@ impl EquationError {
                 dt: *dt,
                 q: qf,
                 qd,
+                qdd,
                 tau: tauf,
                 y,
             });
@@ -457,7 +460,8 @@ impl EquationError {
                 let spring = t.spring.map_or(0.0, |(ks, qeq)| ks * (q - qeq));
                 let extra: f64 = t.extra.iter().map(|e| e.torque(&qk, &qdk, &z, &tau)).sum();
                 let yk = &f.y[(row * nf + a) * np..(row * nf + a + 1) * np];
-                let rigid: f64 = yk.iter().zip(p).map(|(y, p)| y * p).sum();
+                let rigid: f64 =
+                    yk.iter().zip(p).map(|(y, p)| y * p).sum::<f64>() + t.armature * f.qdd[a][k];
                 let gain = if t.gain.abs() > f64::MIN_POSITIVE {
                     t.gain
                 } else {

@@ -206,7 +206,7 @@ pub fn observation(
                     c += 1;
                 }
                 for e in &effects {
-                    let vals = match e.kind.regressor(qd[a][k]) {
+                    let vals = match e.kind.regressor(qd[a][k], qdd[a][k]) {
                         Some(v) if e.joint == conf.free[a] => v,
                         _ => vec![0.0; e.kind.symbols().len()],
                     };
