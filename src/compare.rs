@@ -146,6 +146,18 @@ pub struct Whiteness {
     /// coloured part (a white residual has ρ_k ≈ 0; a component smooth or periodic at the
     /// sampling scale carrying a share s of the energy gives |ρ_k| ≈ s at some lag).
     pub largest: f64,
+    /// Samples N.
+    pub samples: usize,
+}
+
+impl Whiteness {
+    /// The coloured share of the residual's energy, estimated as the largest |ρ_k| less
+    /// what white noise reaches by chance over M lags (each ρ_k of N white samples has
+    /// standard deviation 1/√N; their largest |ρ_k| over 25 lags stays below 3/√N in 99 %
+    /// of records), at least 0.
+    pub fn coloured_share(&self) -> f64 {
+        (self.largest - 3.0 / (self.samples.max(1) as f64).sqrt()).max(0.0)
+    }
 }
 
 impl Whiteness {
@@ -210,6 +222,7 @@ pub fn whiteness(segments: &[&[f64]], max_lag: usize) -> Whiteness {
         critical,
         max_lag: m,
         largest: rho.iter().fold(0.0f64, |a, r| a.max(r.abs())),
+        samples: n,
     }
 }
 

@@ -1043,7 +1043,102 @@ fn structure_candidates(
         })
         .collect();
     simulations += found.iter().map(|c| c.1).sum::<usize>();
-    Ok((found.into_iter().flat_map(|c| c.0).collect(), simulations))
+    let mut findings: Vec<Finding> = found.into_iter().flat_map(|c| c.0).collect();
+    let (pairs, sims) =
+        coupled_motor_candidates(plant, conf, (out, yhat, r), &above, (oe, options));
+    simulations += sims;
+    findings.extend(pairs);
+    Ok((findings, simulations))
+}
+
+/// Smoothing speed ε (rad/s) of the coupled motor's friction tanh((q̇a + q̇b)/ε).
+pub const COUPLED_MOTOR_EPSILON: f64 = 0.01;
+
+/// The coupled-motor friction of each pair of searched free joints (issue 54 item 2): a
+/// motor that drives both through a differential turns at q̇a + q̇b, and its friction
+/// Fm tanh((q̇a + q̇b)/ε) ([`COUPLED_MOTOR_EPSILON`]) is taken from both joints (the
+/// transmission's transpose). Its output sensitivity is simulated (one probe of 1e-3 of
+/// joint a's command RMS); where the linearised fit is significant the effect is confirmed
+/// by an output-error fit of Fm, as a user-defined effect `coupled_motor_qa_qb` on both
+/// joints. Returns the findings and the simulations run.
+fn coupled_motor_candidates(
+    plant: &Plant,
+    conf: &'static generated::Configuration,
+    (out, yhat, r): (&Outputs, &[f64], &[f64]),
+    above: &dyn Fn(usize) -> bool,
+    (oe, options): (
+        &crate::identify::output_error::OutputErrorOptions,
+        &OutputOptions,
+    ),
+) -> (Vec<Finding>, usize) {
+    let m = plant.model;
+    let records = &out.problem.records;
+    let sst: f64 = r.iter().map(|x| x * x).sum();
+    let n = r.len();
+    let nf = conf.free.len();
+    let pairs: Vec<(usize, usize)> = (0..nf)
+        .flat_map(|a| (a + 1..nf).map(move |b| (a, b)))
+        .filter(|&(a, b)| above(a) && above(b))
+        .collect();
+    let found: Vec<(Option<Finding>, usize)> = pairs
+        .par_iter()
+        .map(|&(a, b)| {
+            let (ja, jb) = (conf.free[a], conf.free[b]);
+            let (qa, qb) = (m.joints[ja], m.joints[jb]);
+            let name = format!("coupled_motor_{qa}_{qb}");
+            let param = format!("Fm_{ja}{jb}");
+            if plant.expressions.iter().any(|x| x.name == name)
+                || plant.parameters.contains_key(&param)
+            {
+                return (None, 0);
+            }
+            let torque = format!(
+                "{param}*tanh((qd{ja} + qd{jb})/{COUPLED_MOTOR_EPSILON})"
+            );
+            let command = rms(&records
+                .iter()
+                .flat_map(|rec| rec.tau[a].iter().copied())
+                .collect::<Vec<_>>());
+            let size = 1e-3 * if command > 0.0 { command } else { 1.0 };
+            let mut probe = plant.clone();
+            if probe
+                .add_expression(&name, vec![ja, jb], &torque, std::slice::from_ref(&param))
+                .is_err()
+            {
+                return (None, 0);
+            }
+            probe.parameters.insert(param.clone(), size);
+            let Ok(y) = out.simulate(&probe) else {
+                return (None, 1);
+            };
+            let col: Vec<f64> = y.iter().zip(yhat).map(|(p, q)| (p - q) / size).collect();
+            let Some((x, sse)) = super::fit(std::slice::from_ref(&col), r) else {
+                return (None, 1);
+            };
+            let (delta_bic, explained) = super::bic(sse, sst, n as f64, 1);
+            if !super::significant(delta_bic, explained) {
+                return (None, 1);
+            }
+            let fm = x[0];
+            let u = super::candidates::UserCandidate {
+                spec: crate::plant::ExpressionSpec {
+                    name,
+                    joints: vec![qa.to_string(), qb.to_string()],
+                    torque,
+                    parameters: vec![param],
+                },
+                meaning: "a motor driving both joints through a differential: its friction, at the motor's speed qd_a + qd_b, is taken from both".into(),
+                start: vec![fm],
+                bounds: vec![(fm - 10.0 * fm.abs() - size, fm + 10.0 * fm.abs() + size)],
+            };
+            let (mut f, sims) =
+                fit_candidate(&u, plant, conf, &[], records, (oe, options), (sst, n));
+            f.name = format!("coupled-motor friction ({qa} + {qb})");
+            (Some(f), 1 + sims)
+        })
+        .collect();
+    let sims = found.iter().map(|c| c.1).sum();
+    (found.into_iter().filter_map(|c| c.0).collect(), sims)
 }
 
 /// ΔBIC differences below this are not worth more than a bare mention (Kass and Raftery
