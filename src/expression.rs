@@ -10,7 +10,8 @@
 //! ```
 //!
 //! Symbols, for the joint of index k of the model (the joint named `qk`): `qk` position
-//! (rad or m), `qdk` velocity, `qddk` acceleration (inverse model only), `tauk` commanded
+//! (rad or m), `qdk` velocity, `qddk` acceleration (the simulator takes an effect linear in
+//! them into the inertia matrix, [`Expression::acceleration_coefficients`]), `tauk` commanded
 //! torque (N·m or N), `zk` LuGre bristle deflection (simulator only; 0 without LuGre);
 //! the constant `pi`; any other name must be one of the expression's declared parameters.
 //! Operators `+ - * / ^` (`^` binds tighter than unary minus: `-x^2 = -(x^2)`), functions
@@ -573,6 +574,31 @@ impl Expression {
     /// sign`, `sign' = 0`, `min`/`max` by the side that is taken.
     pub fn derivative(&self, s: Symbol) -> Node {
         diff(&self.root, s)
+    }
+
+    /// The coefficients of the accelerations the expression reads, ∂u/∂q̈_k per joint k it
+    /// reads q̈ of, as trees. An expression linear in the accelerations is u = u₀(q, q̇, τ,
+    /// z) plus Σ_k a_k(q, q̇, τ, z) q̈_k, and the simulator takes the sum into the inertia
+    /// matrix: an inertia the effect adds, an armature `Ia*qdd3`, a coupled motor
+    /// `Jm*(qdd4 + qdd5)`.
+    ///
+    /// # Errors
+    /// A coefficient that reads an acceleration itself (not linear in them), named.
+    pub fn acceleration_coefficients(&self) -> Result<Vec<(usize, Node)>, String> {
+        let mut out = Vec::new();
+        for s in self.symbols() {
+            let Symbol::Qdd(k) = s else { continue };
+            let d = self.derivative(s);
+            let mut read = Vec::new();
+            symbols_of(&d, &mut read);
+            if let Some(Symbol::Qdd(m)) = read.iter().find(|x| matches!(x, Symbol::Qdd(_))) {
+                return Err(format!(
+                    "the torque is not linear in the accelerations (its coefficient of qdd{k} reads qdd{m}); the simulator takes an effect's accelerations into the inertia matrix, which needs u = u0 + sum of a_k qdd_k"
+                ));
+            }
+            out.push((k, d));
+        }
+        Ok(out)
     }
 
     /// True when the expression is linear in its parameters (each derivative with respect

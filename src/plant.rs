@@ -971,8 +971,8 @@ impl Plant {
     /// the locked joints' velocities, commands and deflections 0.
     ///
     /// # Errors
-    /// A parameter without value; the torque reads an acceleration (q̈ enters the inverse
-    /// model only) or nests too deeply.
+    /// A parameter without value; the torque is not linear in the accelerations it reads
+    /// (their coefficients go into the inertia matrix) or nests too deeply.
     fn torque_term(
         &self,
         x: &ExpressionEffect,
@@ -990,13 +990,14 @@ impl Plant {
             .map(|p| self.value(p))
             .collect::<Result<Vec<_>>>()?;
         let free_index = |k: usize| free.iter().position(|&f| f == k);
+        // The accelerations go into the inertia matrix: the torque is compiled at q̈ = 0
+        // and each coefficient ∂u/∂q̈_k of a free joint k apart.
         let fixed = |s: Symbol| -> Option<f64> {
             match s {
                 Symbol::Param(i) => Some(values[i]),
                 Symbol::Q(k) if free_index(k).is_none() => Some(q_locked[k]),
-                Symbol::Qd(k) | Symbol::Qdd(k) | Symbol::Tau(k) | Symbol::Z(k)
-                    if free_index(k).is_none() =>
-                {
+                Symbol::Qdd(_) => Some(0.0),
+                Symbol::Qd(k) | Symbol::Tau(k) | Symbol::Z(k) if free_index(k).is_none() => {
                     Some(0.0)
                 }
                 _ => None,
@@ -1016,7 +1017,7 @@ impl Plant {
                         Symbol::Z(k) => Ok(TermInput::Z(a(k))),
                         Symbol::Tau(k) => Ok(TermInput::Tau(a(k))),
                         Symbol::Qdd(k) => Err(anyhow::anyhow!(
-                            "{name}: expression '{}' reads the acceleration qdd{k}, which enters the inverse model (torque space) only; the simulator takes q, qd, z and tau",
+                            "{name}: expression '{}': the acceleration qdd{k} was not taken into the inertia matrix",
                             x.name
                         )),
                         Symbol::Param(i) => Err(anyhow::anyhow!(
@@ -1035,11 +1036,22 @@ impl Plant {
         } else {
             None
         };
+        let mut inertia = Vec::new();
+        for (k, coefficient) in e
+            .acceleration_coefficients()
+            .map_err(|m| anyhow::anyhow!("{name}: expression '{}': {m}", x.name))?
+        {
+            if let Some(a) = free_index(k) {
+                let (program, inputs) = build(&coefficient)?;
+                inertia.push((a, program, inputs));
+            }
+        }
         Ok(crate::simulation::TorqueTerm {
             name: x.name.clone(),
             torque,
             inputs,
             slope,
+            inertia,
         })
     }
 

@@ -47,6 +47,10 @@ pub struct TorqueTerm {
     /// ∂torque/∂q̇ of this joint, with its inputs (the damping [`Integrator::Etdrk4`] takes
     /// exactly); None when the torque does not read this joint's velocity.
     pub slope: Option<(Program, Vec<TermInput>)>,
+    /// The inertia the term adds: per free joint k whose acceleration it reads, ∂torque/∂q̈_k
+    /// with its inputs, taken into row `joint`, column k of the inertia matrix (`torque` is
+    /// then the rest, at q̈ = 0).
+    pub inertia: Vec<(usize, Program, Vec<TermInput>)>,
 }
 
 /// An input of a [`TorqueTerm`]: a state or command of a free joint (free index).
@@ -68,6 +72,17 @@ impl TorqueTerm {
     #[inline]
     pub fn torque(&self, q: &[f64], qd: &[f64], z: &[f64], tau: &[f64]) -> f64 {
         eval_term(&self.torque, &self.inputs, q, qd, z, tau)
+    }
+
+    /// A coefficient program of [`TorqueTerm::inertia`] (or any program on the term's kind
+    /// of inputs) at positions, velocities, deflections and commands of the free joints.
+    #[inline]
+    pub fn coefficient(
+        program: &Program,
+        inputs: &[TermInput],
+        (q, qd, z, tau): (&[f64], &[f64], &[f64], &[f64]),
+    ) -> f64 {
+        eval_term(program, inputs, q, qd, z, tau)
     }
 
     /// ∂torque/∂q̇ of its joint at the same arguments (0 when it does not read it).
@@ -545,37 +560,60 @@ impl PlantModel {
         }
         out.q.copy_from_slice(&x.qd);
         (self.conf.forward_dynamics)(&w.q_full, &x.qd, &w.applied, &self.p, &mut out.qd);
-        if self.terms.iter().any(|t| t.armature != 0.0) {
-            self.with_armature(&mut w.mass, &w.q_full, &mut out.qd);
+        if self.adds_inertia() {
+            self.with_added_inertia(w, x, tau, &mut out.qd);
         }
     }
 
-    /// The accelerations with the armatures: the generated kernel gives q̈₀ = D⁻¹ (Q − C q̇ −
-    /// φ), so D q̈₀ is the right-hand side and q̈ = (D + diag(Ia))⁻¹ D q̈₀ (`qdd` holds q̈₀
-    /// on entry). Where D + diag(Ia) is not positive definite q̈₀ is left (the divergence
-    /// check then names the inertia matrix).
-    fn with_armature(&self, mass: &mut [f64], q_full: &[f64], qdd: &mut [f64]) {
-        let nf = self.nf();
-        (self.conf.mass_matrix)(q_full, &self.p, mass);
-        let d = nalgebra::DMatrix::from_column_slice(nf, nf, mass);
-        let rhs = &d * nalgebra::DVector::from_column_slice(qdd);
-        let mut with = d;
-        for (i, t) in self.terms.iter().enumerate() {
-            with[(i, i)] += t.armature;
-        }
-        if let Some(ch) = with.cholesky() {
-            qdd.copy_from_slice(ch.solve(&rhs).as_slice());
-        }
+    /// Whether an armature or a user-defined term adds to the inertia matrix.
+    fn adds_inertia(&self) -> bool {
+        self.terms
+            .iter()
+            .any(|t| t.armature != 0.0 || t.extra.iter().any(|e| !e.inertia.is_empty()))
     }
 
-    /// D_FF(q) + diag(Ia) into `mass` (NF × NF, column-major) at the all-joint positions
-    /// `q_full`: the inertia matrix the simulator integrates with.
-    pub(crate) fn mass_matrix_into(&self, q_full: &[f64], mass: &mut [f64]) {
+    /// The inertia the effects add at state `x` under commands `tau`, A (NF × NF,
+    /// column-major), added into `mass`: each joint's armature on the diagonal, and each
+    /// user-defined term's ∂u/∂q̈_k in its joint's row, column k.
+    fn add_inertia(&self, x: &State, tau: &[f64], mass: &mut [f64]) {
         let nf = self.nf();
-        (self.conf.mass_matrix)(q_full, &self.p, mass);
         for (i, t) in self.terms.iter().enumerate() {
             mass[i * nf + i] += t.armature;
+            for e in &t.extra {
+                for (k, program, inputs) in &e.inertia {
+                    mass[k * nf + i] += eval_term(program, inputs, &x.q, &x.qd, &x.z, tau);
+                }
+            }
         }
+    }
+
+    /// The accelerations with the inertia the effects add: the generated kernel gives q̈₀ =
+    /// D⁻¹ (Q − C q̇ − φ), so D q̈₀ is the right-hand side and q̈ = (D + A)⁻¹ D q̈₀ (`qdd`
+    /// holds q̈₀ on entry; A of [`PlantModel::add_inertia`]). Where D + A is singular q̈₀ is
+    /// left (the divergence check then names the inertia matrix).
+    fn with_added_inertia(&self, w: &mut Scratch, x: &State, tau: &[f64], qdd: &mut [f64]) {
+        let nf = self.nf();
+        (self.conf.mass_matrix)(&w.q_full, &self.p, &mut w.mass);
+        let d = nalgebra::DMatrix::from_column_slice(nf, nf, &w.mass);
+        let rhs = &d * nalgebra::DVector::from_column_slice(qdd);
+        self.add_inertia(x, tau, &mut w.mass);
+        let with = nalgebra::DMatrix::from_column_slice(nf, nf, &w.mass);
+        if let Some(v) = with.lu().solve(&rhs) {
+            qdd.copy_from_slice(v.as_slice());
+        }
+    }
+
+    /// D_FF(q) + A into `mass` (NF × NF, column-major) at the all-joint positions `q_full`
+    /// and the state `x` under commands `tau` (A of [`PlantModel::add_inertia`]): the inertia
+    /// matrix the simulator integrates with.
+    pub(crate) fn mass_matrix_into(
+        &self,
+        q_full: &[f64],
+        (x, tau): (&State, &[f64]),
+        mass: &mut [f64],
+    ) {
+        (self.conf.mass_matrix)(q_full, &self.p, mass);
+        self.add_inertia(x, tau, mass);
     }
 
     /// dx/dt at state `x` under commanded torques `tau`.
@@ -739,14 +777,15 @@ impl PlantModel {
     }
 
     /// The inertia matrix D_FF(q) of the free joints at free-joint positions `q_f` (NF; the
-    /// locked joints at [`PlantModel::q_locked`]), with the armatures on its diagonal, NF ×
-    /// NF (kg·m² or kg).
+    /// locked joints at [`PlantModel::q_locked`]), with the inertia the effects add (the
+    /// armatures; user-defined terms at rest, without command), NF × NF (kg·m² or kg).
     pub fn inertia_matrix(&self, q_f: &[f64]) -> nalgebra::DMatrix<f64> {
         let nf = self.nf();
         let mut q_full = self.q_locked.clone();
         self.put_free(q_f, &mut q_full);
         let mut d = vec![0.0; nf * nf];
-        self.mass_matrix_into(&q_full, &mut d);
+        let at_rest = State::at_rest(q_f.to_vec());
+        self.mass_matrix_into(&q_full, (&at_rest, &vec![0.0; nf]), &mut d);
         nalgebra::DMatrix::from_vec(nf, nf, d)
     }
 

@@ -510,3 +510,111 @@ fn hidden_coupled_motor_friction_is_named_and_applied_to_the_noise_k1() {
     );
     assert_eq!(name, "coupled-motor friction (q4 + q5)");
 }
+
+/// Accelerations in a user-defined effect go into the inertia matrix. On EMPS,
+/// `Ia*qdd0` with Ia = 5 on M = 95 moves as M = 100 (the generated kernel alone) to 1e-12
+/// of the motion. On the wrist (k1, Appendix D's rigid body without friction), a coupled
+/// motor's inertia `Jm*(qdd4 + qdd5)` taken from both joints: at random states and commands
+/// the simulator's accelerations satisfy the generated inverse dynamics (another kernel of
+/// the same model) plus Jm (q̈4 + q̈5) on each joint to 1e-10 of the torque, and without
+/// the term's inertia they would not (the check can fail).
+#[test]
+fn accelerations_in_an_expression_enter_the_inertia_matrix_emps_k1() {
+    // EMPS: the expression against the mass.
+    let mut emps = Plant::load(&manifest("model/plants/emps_symmetric.toml")).unwrap();
+    for (n, v) in [
+        ("M", 95.0),
+        ("Fv_0", 200.0),
+        ("Fc_0", 20.0),
+        ("offset_0", -3.0),
+    ] {
+        emps.parameters.insert(n.into(), v);
+    }
+    let motion = |p: &Plant| {
+        let model = p
+            .simulator("full", &[0.0], ConsistencyPolicy::Warn)
+            .unwrap()
+            .model;
+        let mut q = Vec::new();
+        model
+            .simulate(
+                State::at_rest(vec![0.0]),
+                1e-3,
+                3000,
+                10.0,
+                |t, tau| tau[0] = 60.0 * (2.0 * t).sin() + 25.0 * (9.0 * t).sin(),
+                |_, x| q.push(x.q[0]),
+            )
+            .unwrap();
+        q
+    };
+    let mass = emps.parameters["M"];
+    let mut heavier = emps.clone();
+    heavier.parameters.insert("M".into(), mass + 5.0);
+    let mut with = emps.clone();
+    with.add_expression("rotor", vec![0], "Ia*qdd0", &["Ia".into()])
+        .unwrap();
+    with.parameters.insert("Ia".into(), 5.0);
+    let (a, b, c) = (motion(&with), motion(&heavier), motion(&emps));
+    let worst = |u: &[f64], v: &[f64]| {
+        u.iter()
+            .zip(v)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    };
+    let span = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    eprintln!(
+        "EMPS: |q| up to {span:.4} m; Ia*qdd0 against M + 5: {:.2e} m; without it: {:.2e} m",
+        worst(&a, &b),
+        worst(&a, &c)
+    );
+    assert!(worst(&a, &b) < 1e-12 * span.max(1e-3));
+    assert!(worst(&a, &c) > 1e-4 * span);
+    // The wrist: a coupled motor's inertia against the inverse dynamics.
+    let mut wrist = common::appendix_d_coupled();
+    wrist.effects.clear();
+    let jm = 2e-4;
+    wrist
+        .add_expression("motor", vec![4, 5], "Jm*(qdd4 + qdd5)", &["Jm".into()])
+        .unwrap();
+    wrist.parameters.insert("Jm".into(), jm);
+    let q_locked = [0.1, -0.2, 0.3, 0.4, 0.0, 0.0];
+    let model = wrist
+        .simulator("k1", &q_locked, ConsistencyPolicy::Warn)
+        .unwrap()
+        .model;
+    let mut state = 17u64;
+    let mut uniform = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    };
+    let mut without_worst: f64 = 0.0;
+    for _ in 0..10 {
+        let x = State {
+            q: vec![uniform(), uniform()],
+            qd: vec![2.0 * uniform(), 2.0 * uniform()],
+            z: vec![0.0, 0.0],
+        };
+        let tau = [0.01 * uniform(), 0.01 * uniform()];
+        let qdd = model.derivative(&x, &tau).qd;
+        let mut q_full = q_locked.to_vec();
+        q_full[4] = x.q[0];
+        q_full[5] = x.q[1];
+        let mut rigid = [0.0; 2];
+        (model.conf.inverse_dynamics)(&q_full, &x.qd, &qdd, &model.p, &mut rigid);
+        let motor = jm * (qdd[0] + qdd[1]);
+        for a in 0..2 {
+            let residual = tau[a] - rigid[a] - motor;
+            assert!(
+                residual.abs() < 1e-10 * tau[a].abs().max(1e-6),
+                "joint {a}: {residual:e} of {:e}",
+                tau[a]
+            );
+            without_worst = without_worst.max((tau[a] - rigid[a]).abs() / tau[a].abs());
+        }
+    }
+    eprintln!("wrist: without the motor's inertia the torque would be off by up to {without_worst:.2e} of it");
+    assert!(without_worst > 1e-3);
+}

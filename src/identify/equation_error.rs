@@ -30,7 +30,7 @@
 use super::output_error::Record;
 use crate::plant::{ConsistencyPolicy, Plant};
 use crate::signal::{butter_lowpass, central_difference};
-use crate::simulation::PlantModel;
+use crate::simulation::{PlantModel, TorqueTerm};
 use anyhow::{bail, Result};
 use generated::Configuration;
 
@@ -458,7 +458,20 @@ impl EquationError {
                     friction *= 1.0 + (factor - 1.0) * below;
                 }
                 let spring = t.spring.map_or(0.0, |(ks, qeq)| ks * (q - qeq));
-                let extra: f64 = t.extra.iter().map(|e| e.torque(&qk, &qdk, &z, &tau)).sum();
+                let extra: f64 = t
+                    .extra
+                    .iter()
+                    .map(|e| {
+                        e.torque(&qk, &qdk, &z, &tau)
+                            + e.inertia
+                                .iter()
+                                .map(|(b, program, inputs)| {
+                                    TorqueTerm::coefficient(program, inputs, (&qk, &qdk, &z, &tau))
+                                        * f.qdd[*b][k]
+                                })
+                                .sum::<f64>()
+                    })
+                    .sum();
                 let yk = &f.y[(row * nf + a) * np..(row * nf + a + 1) * np];
                 let rigid: f64 =
                     yk.iter().zip(p).map(|(y, p)| y * p).sum::<f64>() + t.armature * f.qdd[a][k];

@@ -311,7 +311,7 @@ impl PlantModel {
         let nf = self.nf();
         self.put_free(&x.q, &mut w.q_full);
         let e = &mut w.etd;
-        self.mass_matrix_into(&w.q_full, &mut e.mass);
+        self.mass_matrix_into(&w.q_full, (x, &w.tau[0]), &mut e.mass);
         for i in 0..nf {
             let (df, dzv, dzz) = self.friction_slopes(i, x, w.sides[i], &w.tau[0]);
             e.c[i] = df;
