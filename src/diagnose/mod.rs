@@ -452,7 +452,7 @@ pub fn verdict(findings: &[Finding], left: &[String]) -> String {
         ),
         Some(f) if f.significant => format!("most likely missing: {} on {}", f.name, f.joint),
         _ if !left.is_empty() => format!(
-            "unexplained: what is left is not noise ({}) but no candidate of the catalogue and no term of the library explains a significant share of it: the missing effect is outside both (an effect with a state of its own: a resonance, hysteresis, backlash, a delay), the noise is coloured (a filtered sensor: compare's residual spectrum shows it), or the plant's values are far off: where the plant gives bounds the output-space diagnosis refitted them within those (wider bounds, or lockstep identify, may reach further); without bounds, refit them (lockstep refit, lockstep identify)",
+            "unexplained: what is left is not noise ({}) but no candidate, built-in or library term explains a significant share of it. Likely: an effect with a state of its own (a resonance, hysteresis, backlash, a delay), coloured measurement noise (a filtered sensor: compare's residual spectrum shows it), or values far off (refit them: lockstep refit or identify; output space refits the values the plant bounds first, within those bounds)",
             left.join("; ")
         ),
         _ => "nothing significant is missing (no candidate has ΔBIC < -10 and explains >= 5 % of the residual, and the residual is white or its coloured part is under 10 % of it)".to_string(),
