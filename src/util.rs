@@ -84,7 +84,8 @@ pub fn singular_values(a: &nalgebra::DMatrix<f64>) -> Option<nalgebra::DVector<f
     guarded_svd(a.clone(), false).map(|s| s.singular_values)
 }
 
-/// [`svd`]'s guards: finite entries, a bounded number of iterations.
+/// [`svd`]'s guards: finite entries, a bounded number of iterations, finite singular values
+/// and vectors.
 fn guarded_svd(
     a: nalgebra::DMatrix<f64>,
     vectors: bool,
@@ -93,7 +94,13 @@ fn guarded_svd(
         return None;
     }
     let limit = 1000 + 100 * a.nrows().min(a.ncols());
-    a.try_svd(vectors, vectors, f64::EPSILON, limit)
+    let svd = a.try_svd(vectors, vectors, f64::EPSILON, limit)?;
+    // A decomposition with a non-finite singular vector or value is no decomposition.
+    let finite = |m: &Option<nalgebra::DMatrix<f64>>| {
+        m.as_ref().is_none_or(|m| m.iter().all(|x| x.is_finite()))
+    };
+    (svd.singular_values.iter().all(|x| x.is_finite()) && finite(&svd.u) && finite(&svd.v_t))
+        .then_some(svd)
 }
 
 /// A TOML parse error as one line: `origin: line N: message`.

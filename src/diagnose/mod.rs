@@ -266,8 +266,16 @@ pub(crate) fn prefer_the_catalogue(findings: &mut Vec<Finding>) {
 /// (ΔBIC, explained) of a fit of `p` numbers leaving `sse` of `sst` over `n` samples
 /// (`n` may be an effective number of independent samples, [`effective_samples`]).
 pub fn bic(sse: f64, sst: f64, n: f64, p: usize) -> (f64, f64) {
+    // A residual without finite energy explains nothing (and is no evidence).
+    if !(sst.is_finite() && sst > 0.0) {
+        return (0.0, 0.0);
+    }
     let n = n.max(1.0);
-    let sse = sse.clamp(1e-300 * sst.max(1e-300), sst);
+    let sse = if sse.is_finite() {
+        sse.clamp(1e-300 * sst.max(1e-300), sst)
+    } else {
+        sst
+    };
     (n * (sse / sst).ln() + p as f64 * n.ln(), 1.0 - sse / sst)
 }
 

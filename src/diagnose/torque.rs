@@ -112,8 +112,14 @@ pub fn diagnosis_with(
         let idx = rows_of(j);
         let n = idx.len();
         let e0: Vec<f64> = idx.iter().map(|&i| obs.y[i] - yhat[i]).collect();
-        let pw = obs.w.ncols();
-        let wj = DMatrix::from_fn(n, pw, |r, c| obs.w[(idx[r], c)]);
+        // The columns that act on this joint's rows (on a six-joint arm most parameters
+        // and effects of the other joints do not: 73 columns, many zero, for the wrist's
+        // rows; nalgebra's SVD of the whole block returned NaN vectors, measured).
+        let active: Vec<usize> = (0..obs.w.ncols())
+            .filter(|&c| idx.iter().any(|&i| obs.w[(i, c)] != 0.0))
+            .collect();
+        let pw = active.len();
+        let wj = DMatrix::from_fn(n, pw, |r, c| obs.w[(idx[r], active[c])]);
         let w_svd = crate::util::svd(wj.clone()).with_context(|| {
             format!(
                 "joint {}: the regressor of the plant's parameters is not finite or its decomposition did not converge",
@@ -132,6 +138,12 @@ pub fn diagnosis_with(
         let e = project(&e0);
         let sst0: f64 = e0.iter().map(|x| x * x).sum();
         let sst: f64 = e.iter().map(|x| x * x).sum();
+        if !(sst.is_finite() && sst0.is_finite()) {
+            bail!(
+                "joint {}: the torque residual is not finite (a parameter without a finite value, or a regressor column that is not finite at the data)",
+                m.joints[j]
+            );
+        }
         if n < 10 || sst <= 0.0 || sst0 <= 0.0 {
             continue;
         }
