@@ -744,11 +744,15 @@ fn not_white_joints(
 /// error).
 pub const STRUCTURE_TERMS: usize = 24;
 
-/// The findings of structure outside the catalogue ([`super::structure`]), and the
-/// simulations run. Per free joint whose position error is above its noise
-/// ([`FLOOR_FACTOR`] σ̂): the library's terms (at most [`STRUCTURE_TERMS`], those most
-/// aligned with the joint's equation error, cut-offs by residual analysis) are each added as a small torque u = β φ on the joint
-/// and their output sensitivities ∂ŷ/∂β simulated; the position residual's sparse model
+/// The findings of structure outside the catalogue ([`super::structure`]) and of the
+/// built-ins beyond it, and the simulations run. Per free joint `searched` marks (its
+/// position error above [`FLOOR_FACTOR`] σ̂, or its residual not white): the library's
+/// terms (at most [`STRUCTURE_TERMS`], those most aligned with the joint's equation error,
+/// cut-offs by residual analysis) are each added as a small torque u = β φ on the joint
+/// and their output sensitivities ∂ŷ/∂β simulated. The best significant built-in the
+/// terms span ([`super::structure::Named`]) is confirmed by an output-error fit of its own
+/// parameters, named by its physics; each pair of searched joints gets a coupled motor's
+/// friction ([`coupled_motor_candidates`]). The position residual's sparse model
 /// on them ([`super::structure::sparse_model`]: stepwise on the BIC, polynomial
 /// hierarchy) is written as a user-defined effect `structure_qj` (coefficients `sj_1`, …,
 /// bounds ±10 times each coefficient's size) and confirmed by an output-error fit of its

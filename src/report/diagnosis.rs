@@ -886,7 +886,7 @@ fn inline_svg(path: &Path) -> Result<String> {
     ))
 }
 
-fn findings_html(title: &str, findings: &[Finding], above_noise: &[String], top: usize) -> String {
+fn findings_html(title: &str, findings: &[Finding], left: &[String], top: usize) -> String {
     let mut s = format!(
         "<h3>{}</h3>\n<table><tr><th>rank</th><th>joint</th><th>candidate</th><th>explained</th><th>ΔBIC</th><th>estimate</th><th>meaning</th></tr>\n",
         esc(title)
@@ -911,7 +911,7 @@ fn findings_html(title: &str, findings: &[Finding], above_noise: &[String], top:
     let _ = writeln!(
         s,
         "<p class=\"verdict\">{}</p>",
-        esc(&crate::diagnose::verdict(findings, above_noise))
+        esc(&crate::diagnose::verdict(findings, left))
     );
     s
 }
@@ -1078,9 +1078,9 @@ pub fn report_command(
         let _ = writeln!(h, "<h3>{} — {}</h3>", esc(&stem(&c.file)), esc(&c.joint));
         h += &inline_svg(svg)?;
     }
-    h += "<h2>Diagnose</h2>\n<p>Candidate effects ranked by ΔBIC = n ln(SSE/SST) + p ln n; significant when ΔBIC &lt; −10 and at least 5 % of the residual is explained.</p>\n";
-    for (title, f, above) in &diag {
-        h += &findings_html(title, f, above, top);
+    h += "<h2>Diagnose</h2>\n<p>Candidate effects ranked by ΔBIC = n ln(SSE/SST) + p ln n; significant when ΔBIC &lt; −10 and at least 5 % of the residual is explained; nothing is called missing only where the residual is white.</p>\n";
+    for (title, f, left) in &diag {
+        h += &findings_html(title, f, left, top);
     }
     h += "<h2>History</h2>\n";
     h += &history_html(&plant.history, out)?;
