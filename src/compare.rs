@@ -158,9 +158,7 @@ impl Whiteness {
     pub fn coloured_share(&self) -> f64 {
         (self.largest - 3.0 / (self.samples.max(1) as f64).sqrt()).max(0.0)
     }
-}
 
-impl Whiteness {
     /// Q ≤ the critical value (also true of a residual too short or without energy).
     pub fn white(&self) -> bool {
         self.statistic <= self.critical
@@ -175,6 +173,38 @@ impl Whiteness {
             self.critical,
             self.max_lag
         )
+    }
+}
+
+/// The standard normal quantile at 1 − [`WHITENESS_LEVEL`], for the Wilson–Hilferty
+/// critical value of [`Whiteness`].
+const WHITENESS_Z: f64 = 2.326_347_874;
+
+/// The Ljung–Box test ([`Whiteness`]) of the autocorrelations `rho` (ρ_1 … ρ_M) of `n`
+/// samples.
+fn ljung_box(rho: &[f64], n: usize) -> Whiteness {
+    let nf = n as f64;
+    let statistic = nf
+        * (nf + 2.0)
+        * rho
+            .iter()
+            .enumerate()
+            .map(|(i, r)| r * r / (nf - (i + 1) as f64))
+            .sum::<f64>();
+    let m = rho.len();
+    let critical = if m > 0 {
+        let mf = m as f64;
+        let a = 2.0 / (9.0 * mf);
+        mf * (1.0 - a + WHITENESS_Z * a.sqrt()).powi(3)
+    } else {
+        f64::INFINITY
+    };
+    Whiteness {
+        statistic,
+        critical,
+        max_lag: m,
+        largest: rho.iter().fold(0.0f64, |a, r| a.max(r.abs())),
+        samples: n,
     }
 }
 
@@ -197,33 +227,10 @@ pub fn whiteness(segments: &[&[f64]], max_lag: usize) -> Whiteness {
             .sum()
     };
     let r0 = lagged(0);
-    let nf = n as f64;
-    let rho: Vec<f64> = if r0 > 0.0 {
-        (1..=m).map(|k| lagged(k) / r0).collect()
-    } else {
-        Vec::new()
-    };
-    let statistic = nf
-        * (nf + 2.0)
-        * rho
-            .iter()
-            .enumerate()
-            .map(|(i, r)| r * r / (nf - (i + 1) as f64))
-            .sum::<f64>();
-    let critical = if m > 0 {
-        let mf = m as f64;
-        let a = 2.0 / (9.0 * mf);
-        mf * (1.0 - a + 2.326_347_874 * a.sqrt()).powi(3)
-    } else {
-        f64::INFINITY
-    };
-    Whiteness {
-        statistic,
-        critical,
-        max_lag: m,
-        largest: rho.iter().fold(0.0f64, |a, r| a.max(r.abs())),
-        samples: n,
-    }
+    let rho: Vec<f64> = (1..=m)
+        .map(|k| if r0 > 0.0 { lagged(k) / r0 } else { 0.0 })
+        .collect();
+    ljung_box(&rho, n)
 }
 
 fn correlation(a: &[f64], b: &[f64], lag: isize) -> f64 {
@@ -342,6 +349,7 @@ pub fn residual_tests(
             }
         })
         .collect();
+    let whiteness = ljung_box(&acf[1..], n);
     let bound = 2.58 / (n.max(1) as f64).sqrt();
     let lags_outside = acf.iter().skip(1).filter(|x| x.abs() > bound).count();
     let mut ccf = Vec::new();
@@ -390,7 +398,7 @@ pub fn residual_tests(
         input_frequencies,
         lags_outside,
         correlated_inputs: correlated,
-        whiteness: whiteness(&[e], m),
+        whiteness,
     }
 }
 

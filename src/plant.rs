@@ -242,13 +242,7 @@ impl Plant {
             }
         }
         for (i, x) in spec.expressions.iter().enumerate() {
-            let item = format!("expression {} ('{}')", i + 1, x.name);
-            let joints = x
-                .joints
-                .iter()
-                .map(|j| plant.joint_index(j, &item))
-                .collect::<Result<Vec<_>>>()?;
-            plant.add_expression(&x.name, joints, &x.torque, &x.parameters)?;
+            plant.add_expression_spec(x, &format!("expression {} ('{}')", i + 1, x.name))?;
         }
         let known = plant.known_names();
         let check_name = |k: &str, what: &str| -> Result<()> {
@@ -328,6 +322,20 @@ impl Plant {
         plant.link_forms()?;
         plant.check_divisors()?;
         Ok(plant)
+    }
+
+    /// Add the user-defined effect `x` as written, its joints by name (`item` names it in
+    /// an error: a plant file's entry, a candidate, a finding).
+    ///
+    /// # Errors
+    /// An unknown joint (named with `item`); as [`Plant::add_expression`].
+    pub fn add_expression_spec(&mut self, x: &ExpressionSpec, item: &str) -> Result<()> {
+        let joints = x
+            .joints
+            .iter()
+            .map(|j| self.joint_index(j, item))
+            .collect::<Result<Vec<_>>>()?;
+        self.add_expression(&x.name, joints, &x.torque, &x.parameters)
     }
 
     /// Add a user-defined effect: `torque` parsed for this model with the declared

@@ -152,24 +152,6 @@ impl UserCandidate {
     /// parameter name the plant already uses.
     pub fn plant(&self, plant: &Plant) -> Result<Plant> {
         let s = &self.spec;
-        let joints = s
-            .joints
-            .iter()
-            .map(|j| {
-                plant
-                    .model
-                    .joints
-                    .iter()
-                    .position(|k| k == j)
-                    .ok_or_else(|| {
-                        anyhow!(
-                            "candidate '{}': unknown joint '{j}' (the model's joints: {})",
-                            s.name,
-                            plant.model.joints.join(", ")
-                        )
-                    })
-            })
-            .collect::<Result<Vec<_>>>()?;
         if let Some(p) = s
             .parameters
             .iter()
@@ -186,7 +168,7 @@ impl UserCandidate {
             p.parameters.insert(name.clone(), *v);
             p.bounds.insert(name.clone(), *b);
         }
-        p.add_expression(&s.name, joints, &s.torque, &s.parameters)
+        p.add_expression_spec(s, &format!("expression '{}'", s.name))
             .with_context(|| format!("candidate '{}'", s.name))?;
         Ok(p)
     }

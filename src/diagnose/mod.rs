@@ -156,18 +156,7 @@ impl Finding {
             p.add_effect(e)?;
         }
         if let Some(x) = &self.expression {
-            let joints = x
-                .joints
-                .iter()
-                .map(|j| {
-                    p.model
-                        .joints
-                        .iter()
-                        .position(|k| k == j)
-                        .ok_or_else(|| anyhow::anyhow!("unknown joint '{j}'"))
-                })
-                .collect::<Result<Vec<_>>>()?;
-            p.add_expression(&x.name, joints, &x.torque, &x.parameters)?;
+            p.add_expression_spec(x, &format!("expression '{}'", x.name))?;
         }
         for ((n, v), b) in self.values.iter().zip(&self.bounds) {
             p.parameters.insert(n.clone(), *v);
@@ -210,10 +199,7 @@ impl Finding {
             torque,
             parameters: params.clone(),
         });
-        f.bounds = values
-            .iter()
-            .map(|v| (v - 10.0 * v.abs() - pad, v + 10.0 * v.abs() + pad))
-            .collect();
+        f.bounds = values.iter().map(|&v| bounds_about(v, pad)).collect();
         f.values = params.into_iter().zip(values).collect();
         f
     }
@@ -261,6 +247,12 @@ pub(crate) fn prefer_the_catalogue(findings: &mut Vec<Finding>) {
         let f = findings.remove(c);
         findings.insert(i, f);
     }
+}
+
+/// The bounds a finding's refit gets about a value v: v ± (10 |v| + `pad`), a tenfold
+/// growth and a change of sign within reach, `pad` keeping a value near 0 free.
+pub(crate) fn bounds_about(v: f64, pad: f64) -> (f64, f64) {
+    (v - 10.0 * v.abs() - pad, v + 10.0 * v.abs() + pad)
 }
 
 /// (ΔBIC, explained) of a fit of `p` numbers leaving `sse` of `sst` over `n` samples

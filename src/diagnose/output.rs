@@ -363,12 +363,15 @@ pub fn diagnose_output(
     let sst: f64 = r.iter().map(|x| x * x).sum();
     let joints = out.problem.joint_fits(&base);
     let segments = out.segments();
-    let above_noise: Vec<String> = joints
+    // Per free joint: above its noise, not white (each with its reason).
+    let above: Vec<Option<String>> = joints
         .iter()
-        .filter(|j| j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
-        .map(|j| format!("{} {:.1} σ̂", j.joint, j.rms / j.noise))
+        .map(|j| {
+            (j.noise > 0.0 && j.rms > FLOOR_FACTOR * j.noise)
+                .then(|| format!("{} {:.1} σ̂", j.joint, j.rms / j.noise))
+        })
         .collect();
-    let not_white = not_white_joints(m, conf, &r, &segments);
+    let coloured = not_white_joints(m, conf, &r, &segments);
     let cands = catalogue(plant, conf, records, &base)?;
     // Sensitivity columns, all candidates in parallel.
     let columns: Vec<Option<Vec<f64>>> = cands
@@ -467,7 +470,7 @@ pub fn diagnose_output(
                 (*lo, *hi)
             } else {
                 let v = values.iter().find(|x| x.0 == name).map_or(0.0, |x| x.1);
-                (v - 10.0 * v.abs() - 1.0, v + 10.0 * v.abs() + 1.0)
+                super::bounds_about(v, 1.0)
             }
         };
         f.bounds = values.iter().map(|(k, _)| range(k)).collect();
@@ -591,15 +594,10 @@ pub fn diagnose_output(
     // (the equation error's own sparse model was significant on the truth's data too: its
     // filtering and estimated velocities leave structure of their own, so it does not
     // decide where to search).
-    let searched: Vec<bool> = conf
-        .free
-        .iter()
-        .map(|&j| {
-            let joint = m.joints[j];
-            above_noise
-                .iter()
-                .any(|x| x.split(' ').next() == Some(joint))
-                || not_white.iter().any(|x| x.split(' ').next() == Some(joint))
+    let searched: Vec<bool> = (0..conf.free.len())
+        .map(|a| {
+            above.get(a).is_some_and(Option::is_some)
+                || coloured.get(a).is_some_and(Option::is_some)
         })
         .collect();
     if !catalogue_suffices {
@@ -627,8 +625,8 @@ pub fn diagnose_output(
         joints,
         samples: n,
         effective_samples: effective,
-        above_noise,
-        not_white,
+        above_noise: above.into_iter().flatten().collect(),
+        not_white: coloured.into_iter().flatten().collect(),
         simulations,
         floor_share: if sst > 0.0 {
             step.floor_energy / sst
@@ -717,14 +715,15 @@ fn fit_candidate(
     (f, fit.evaluations)
 }
 
-/// The free joints of `conf` whose stacked residual `r` (segments of lengths `segments`,
-/// file by file, each file's free joints in order) is not white ([`super::not_white`]).
+/// Per free joint of `conf` (in order), whether its stacked residual `r` (segments of
+/// lengths `segments`, file by file, each file's free joints in order) is not white, with
+/// the reason ([`super::not_white`]).
 fn not_white_joints(
     m: &generated::Model,
     conf: &generated::Configuration,
     r: &[f64],
     segments: &[usize],
-) -> Vec<String> {
+) -> Vec<Option<String>> {
     let nfree = conf.free.len().max(1);
     let mut start = 0;
     let mut by_joint: Vec<Vec<&[f64]>> = vec![Vec::new(); nfree];
@@ -735,7 +734,7 @@ fn not_white_joints(
     conf.free
         .iter()
         .zip(&by_joint)
-        .filter_map(|(&j, segs)| super::not_white(m.joints[j], segs))
+        .map(|(&j, segs)| super::not_white(m.joints[j], segs))
         .collect()
 }
 
@@ -1133,7 +1132,7 @@ fn coupled_motor_candidates(
                 },
                 meaning: "a motor driving both joints through a differential: its friction, at the motor's speed qd_a + qd_b, is taken from both".into(),
                 start: vec![fm],
-                bounds: vec![(fm - 10.0 * fm.abs() - size, fm + 10.0 * fm.abs() + size)],
+                bounds: vec![super::bounds_about(fm, size)],
             };
             let (mut f, sims) =
                 fit_candidate(&u, plant, conf, &[], records, (oe, options), (sst, n));

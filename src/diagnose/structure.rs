@@ -195,7 +195,6 @@ impl Named {
         c: &[f64],
         fixed_centre: bool,
     ) -> Option<NamedEffect> {
-        let around = |v: f64| (v - 10.0 * v.abs() - 1e-12, v + 10.0 * v.abs() + 1e-12);
         let (key, torque, parameters, values) = match self {
             Named::CubicStiffness => {
                 let (a3, a2) = (*c.first()?, *c.get(1)?);
@@ -253,7 +252,7 @@ impl Named {
                 } else if matches!(self, Named::Cogging(_)) {
                     (-10.0 * amplitude, 10.0 * amplitude)
                 } else {
-                    around(v)
+                    super::bounds_about(v, 1e-12)
                 }
             })
             .collect();

@@ -135,6 +135,13 @@ pub fn diagnosis_with(
                 Err(_) => v.to_vec(),
             }
         };
+        // A column projected, where the plant's own columns leave at least 1 % of its norm
+        // (None: they span it).
+        let unspanned = |v: &[f64]| -> Option<Vec<f64>> {
+            let norm = |x: &[f64]| x.iter().map(|a| a * a).sum::<f64>().sqrt();
+            let p = project(v);
+            (norm(&p) > 1e-2 * norm(v)).then_some(p)
+        };
         let e = project(&e0);
         let sst0: f64 = e0.iter().map(|x| x * x).sum();
         let sst: f64 = e.iter().map(|x| x * x).sum();
@@ -214,8 +221,7 @@ pub fn diagnosis_with(
         // from that constant there).
         if !has(EffectKind::Armature) {
             let qdd: Vec<f64> = idx.iter().map(|&i| obs.rows[i].qdd).collect();
-            let norm = |x: &[f64]| x.iter().map(|a| a * a).sum::<f64>().sqrt();
-            if norm(&project(&qdd)) > 1e-2 * norm(&qdd) {
+            if unspanned(&qdd).is_some() {
                 cands.push((
                     "armature".into(),
                     Some(EffectKind::Armature),
@@ -362,7 +368,7 @@ pub fn diagnosis_with(
                 f.bounds = f
                     .values
                     .iter()
-                    .map(|(_, v)| (v - 10.0 * v.abs() - 1.0, v + 10.0 * v.abs() + 1.0))
+                    .map(|&(_, v)| super::bounds_about(v, 1.0))
                     .collect();
                 f.effect = Some(e);
             }
@@ -389,13 +395,7 @@ pub fn diagnosis_with(
                 // decimated through the filter — which normalised fits the filter's own
                 // residual (a q̇ "explaining" 17 % of EMPS's truth data): left out when
                 // 99 % of it is spanned.
-                let p = project(&v);
-                let norm = |x: &[f64]| x.iter().map(|a| a * a).sum::<f64>().sqrt();
-                if norm(&p) > 1e-2 * norm(&v) {
-                    p
-                } else {
-                    vec![0.0; p.len()]
-                }
+                unspanned(&v).unwrap_or_else(|| vec![0.0; v.len()])
             })
             .collect();
         // Only where no significant catalogued effect explains STRUCTURE_SEARCH_BELOW of
@@ -459,7 +459,7 @@ pub fn diagnosis_with(
                 f.bounds = f
                     .values
                     .iter()
-                    .map(|(_, v)| (v - 10.0 * v.abs() - 1.0, v + 10.0 * v.abs() + 1.0))
+                    .map(|&(_, v)| super::bounds_about(v, 1.0))
                     .collect();
                 f.expression = Some(crate::plant::ExpressionSpec {
                     name: effect.name,
