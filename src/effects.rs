@@ -48,11 +48,19 @@ pub enum EffectKind {
     /// J_rotor·N² for a gear ratio N): it adds Ia to the joint's diagonal entry of the
     /// inertia matrix D(q) (Pinocchio's `armature`, FIGAROH's `Ia`).
     Armature,
+    /// Backlash (play) in the transmission between the drive and the position sensor: the
+    /// sensed position y follows the drive's q through a gap of width 2·backlash (rad or m),
+    /// y ← clamp(y, q − backlash, q + backlash) (the play operator; Tao & Kokotović,
+    /// *Adaptive Control of Systems with Actuator and Sensor Nonlinearities*, 1996, §2.1),
+    /// y = q at t = 0 (the gap centred). It models a sensor on the load side of a gear whose
+    /// load inertia is small beside the drive's reflected inertia (N²·J_rotor), so that the
+    /// load rides on the drive's side of the gap; it changes the output, not the dynamics.
+    Backlash,
 }
 
 impl EffectKind {
     /// Every kind, in catalogue order.
-    pub const ALL: [EffectKind; 11] = [
+    pub const ALL: [EffectKind; 12] = [
         EffectKind::Viscous,
         EffectKind::Coulomb,
         EffectKind::AsymmetricFriction,
@@ -64,6 +72,7 @@ impl EffectKind {
         EffectKind::FrictionBias,
         EffectKind::InputCoupling,
         EffectKind::Armature,
+        EffectKind::Backlash,
     ];
 
     /// Parameter symbols of the kind (without the joint suffix).
@@ -80,6 +89,7 @@ impl EffectKind {
             EffectKind::FrictionBias => &["FrictionBias", "qeq"],
             EffectKind::InputCoupling => &["G"],
             EffectKind::Armature => &["Ia"],
+            EffectKind::Backlash => &["backlash"],
         }
     }
 
@@ -108,6 +118,9 @@ impl EffectKind {
             }
             EffectKind::Armature => {
                 "armature: the motor's rotor inertia reflected through the gearing adds to the joint's inertia"
+            }
+            EffectKind::Backlash => {
+                "backlash: play in the transmission; the sensed position lags the drive by up to half the gap and stops while the gap is crossed"
             }
         }
     }
@@ -183,6 +196,7 @@ impl fmt::Display for EffectKind {
             EffectKind::FrictionBias => "friction_bias",
             EffectKind::InputCoupling => "input_coupling",
             EffectKind::Armature => "armature",
+            EffectKind::Backlash => "backlash",
         };
         f.write_str(s)
     }

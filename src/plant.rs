@@ -937,6 +937,16 @@ impl Plant {
                     }
                     t.armature = ia;
                 }
+                EffectKind::Backlash => {
+                    let b = v("backlash")?;
+                    if b.is_nan() || b < 0.0 {
+                        bail!(
+                            "{name}: backlash 'backlash_{}' must be 0 or positive (half the play, rad or m), found {b}",
+                            e.joint
+                        );
+                    }
+                    t.backlash = b;
+                }
                 EffectKind::InputCoupling => {
                     let from = e.from.unwrap_or(e.joint);
                     if let Some(b) = free_index(from) {

@@ -141,6 +141,11 @@ pub struct JointTerms {
     /// Armature (rotor) inertia Ia (kg·m² or kg), added to the joint's diagonal entry of the
     /// inertia matrix D_FF(q).
     pub armature: f64,
+    /// Backlash: half the play of the transmission between the drive and the position
+    /// sensor (rad or m; 0 = none): the sensed position is the play operator of q
+    /// ([`crate::effects::EffectKind::Backlash`]), applied to the outputs of
+    /// [`PlantModel::predict_at`].
+    pub backlash: f64,
 }
 
 impl Default for JointTerms {
@@ -156,6 +161,7 @@ impl Default for JointTerms {
             bias: None,
             extra: Vec::new(),
             armature: 0.0,
+            backlash: 0.0,
         }
     }
 }
@@ -874,7 +880,10 @@ impl PlantModel {
     /// under the sampled `input`, and return the state at every time of `times` (strictly
     /// increasing). Between steps, q is interpolated by cubic Hermite (from q and q̇ at both
     /// ends, error O(h⁴)), q̇ and z linearly; a step that lands on an output time (within
-    /// 1e-9 h) gives it exactly.
+    /// 1e-9 h) gives it exactly. A joint with backlash ([`JointTerms::backlash`]) returns
+    /// the sensed position, the play operator run over every step's end and output time
+    /// (y(t₀) = q(t₀)), and the sensed velocity (q̇ while the drive pushes the sensor, 0
+    /// while the gap is crossed).
     ///
     /// # Errors
     /// [`Divergence`] as in [`PlantModel::simulate`].
@@ -938,10 +947,18 @@ impl PlantModel {
                     hold: Hold::Linear,
                 }
             });
+        // The sensed positions behind each joint's backlash (the play operator's state),
+        // centred on the drive at the start.
+        let gaps: Vec<f64> = self.terms.iter().map(|t| t.backlash).collect();
+        let mut sensed = x0.q.clone();
         let mut x = x0;
         let mut prev = x.clone();
         let mut next_out = 0;
-        let push = |out: &mut Trajectory, a: &State, b: &State, ta: f64, tb: f64, t: f64| {
+        let push = |out: &mut Trajectory,
+                    sensed: &mut [f64],
+                    a: &State,
+                    b: &State,
+                    (ta, tb, t): (f64, f64, f64)| {
             let hh = tb - ta;
             let s = if hh > 0.0 {
                 ((t - ta) / hh).clamp(0.0, 1.0)
@@ -955,15 +972,25 @@ impl PlantModel {
                 s * s * s - s * s,
             );
             for i in 0..nf {
-                out.q[i]
-                    .push(h00 * a.q[i] + h10 * hh * a.qd[i] + h01 * b.q[i] + h11 * hh * b.qd[i]);
-                out.qd[i].push(a.qd[i] + s * (b.qd[i] - a.qd[i]));
+                let q = h00 * a.q[i] + h10 * hh * a.qd[i] + h01 * b.q[i] + h11 * hh * b.qd[i];
+                let qd = a.qd[i] + s * (b.qd[i] - a.qd[i]);
+                if gaps[i] > 0.0 {
+                    // The play operator: the sensor moves only when the drive pushes it.
+                    let y = sensed[i].max(q - gaps[i]).min(q + gaps[i]);
+                    let engaged = y != sensed[i];
+                    sensed[i] = y;
+                    out.q[i].push(y);
+                    out.qd[i].push(if engaged { qd } else { 0.0 });
+                } else {
+                    out.q[i].push(q);
+                    out.qd[i].push(qd);
+                }
                 out.z[i].push(a.z[i] + s * (b.z[i] - a.z[i]));
             }
         };
         // Output times at the start.
         while next_out < times.len() && times[next_out] <= t_start + 1e-9 * h {
-            push(&mut out, &x, &x, t_start, t_start, t_start);
+            push(&mut out, &mut sensed, &x, &x, (t_start, t_start, t_start));
             next_out += 1;
         }
         for n in 0..steps {
@@ -974,8 +1001,13 @@ impl PlantModel {
             self.rk4_with_events(&mut x, t, hs, input, measured.as_ref(), &mut w);
             self.check_step((&prev, &w.tau[0]), &x, t1, h, max_speed)?;
             while next_out < times.len() && times[next_out] <= t1 + 1e-9 * h {
-                push(&mut out, &prev, &x, t, t1, times[next_out]);
+                push(&mut out, &mut sensed, &prev, &x, (t, t1, times[next_out]));
                 next_out += 1;
+            }
+            for i in 0..nf {
+                if gaps[i] > 0.0 {
+                    sensed[i] = sensed[i].max(x.q[i] - gaps[i]).min(x.q[i] + gaps[i]);
+                }
             }
         }
         Ok(out)

@@ -506,7 +506,9 @@ fn no_effect_value(kind: EffectKind, symbol: &str) -> Option<f64> {
         | (K::InputCoupling, "G")
         | (K::Coulomb, "Fc")
         | (K::Viscous, "Fv")
-        | (K::Offset, "offset") => Some(0.0),
+        | (K::Offset, "offset")
+        | (K::Armature, "Ia")
+        | (K::Backlash, "backlash") => Some(0.0),
         _ => None,
     }
 }

@@ -1375,6 +1375,17 @@ fn catalogue(
                 None,
             ));
         }
+        // Backlash: the sensed position behind a play in the transmission; its sensitivity
+        // at 0 is one-sided (the play is not negative), −1 or +1 by the last direction of
+        // motion.
+        if !has(K::Backlash) {
+            out.push(add(
+                K::Backlash,
+                size(name("backlash"), 0.0, 1e-3 * span, 0.0, 0.25 * span),
+                vec![],
+                None,
+            ));
+        }
         // Stribeck / stiction: friction above the Coulomb level near zero velocity.
         let vs_grid: Vec<f64> = [0.01, 0.03, 0.1, 0.3].iter().map(|f| f * vmax).collect();
         let vs_range = (1e-3 * vmax, vmax);

@@ -103,6 +103,15 @@ pub fn observation(
         .filter(|e| conf.free.contains(&e.joint))
         .collect();
     for e in &effects {
+        if e.kind == crate::effects::EffectKind::Backlash {
+            bail!(
+                "{}: backlash on joint '{}' changes the sensed position, not the torque, so the \
+                 inverse-model least squares (IDIM), which reads the sensed positions as the \
+                 drive's, cannot take it; use output-error identification or remove the effect",
+                plant.name(),
+                model.joints[e.joint]
+            );
+        }
         if !e.kind.is_linear() {
             bail!(
                 "{}: effect '{}' on joint '{}' is not linear in its parameters, so the \

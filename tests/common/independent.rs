@@ -80,6 +80,9 @@ impl System<f64, DVector<f64>> for Driven<'_> {
 /// The fixed step of the Dop853 run (s): 240 steps per 100 Hz sample.
 pub const STEP: f64 = 1.0 / 24000.0;
 
+/// Dense-output points per file sample on which a backlash is played (4 kHz).
+pub const BACKLASH_OVERSAMPLING: usize = 40;
+
 /// Gaussian deviates from SplitMix64 by Box–Muller.
 struct Noise(u64);
 
@@ -120,6 +123,21 @@ pub fn write(plant: &Plant, spec: &Spec, path: &Path) {
 
 /// [`write`] with a hidden torque taken from the free joints ([`Hidden`]).
 pub fn write_with(plant: &Plant, spec: &Spec, path: &Path, hidden: Option<Hidden>) {
+    write_sensed(plant, spec, path, hidden, &[])
+}
+
+/// [`write_with`] with backlash between each free joint's drive and its sensor: `backlash`
+/// (NF, or empty for none) half-plays (rad or m), the play operator written here by hand,
+/// y ← min(max(y, q − b), q + b) from y = q at t = 0, run on the dense output at
+/// [`BACKLASH_OVERSAMPLING`] times the file's rate so that the reversals between samples
+/// are not missed.
+pub fn write_sensed(
+    plant: &Plant,
+    spec: &Spec,
+    path: &Path,
+    hidden: Option<Hidden>,
+    backlash: &[f64],
+) {
     const RATE: f64 = 100.0;
     let m = plant.model;
     let nj = m.joints.len();
@@ -144,13 +162,15 @@ pub fn write_with(plant: &Plant, spec: &Spec, path: &Path, hidden: Option<Hidden
         hidden,
     };
     let y0 = DVector::zeros(3 * nf);
+    let played = backlash.iter().any(|&b| b > 0.0);
+    let fine = if played { BACKLASH_OVERSAMPLING } else { 1 };
     let mut solver = Dop853::from_param(
         system,
         0.0,
         // Past the end: ode_solvers' dense output at x_end itself is not trustworthy (a
         // 15 s k1 run gave −8e7 rad there, the sample before it 4.7 rad).
         spec.duration + 2.0 / RATE,
-        1.0 / RATE,
+        1.0 / (RATE * fine as f64),
         y0,
         1e3,
         1e3,
@@ -171,10 +191,28 @@ pub fn write_with(plant: &Plant, spec: &Spec, path: &Path, hidden: Option<Hidden
     let (ts, ys) = (solver.x_out(), solver.y_out());
     let n = (spec.duration * RATE).round() as usize + 1;
     assert!(
-        ts.len() >= n,
+        ts.len() >= (n - 1) * fine + 1,
         "dense output has {} of {n} samples",
         ts.len()
     );
+    // The positions the sensors read: the drive's, or behind the play.
+    let sensed: Vec<Vec<f64>> = (0..nf)
+        .map(|a| {
+            let b = backlash.get(a).copied().unwrap_or(0.0);
+            let mut y = ys[0][a];
+            (0..(n - 1) * fine + 1)
+                .filter_map(|k| {
+                    let q = ys[k][a];
+                    if b > 0.0 {
+                        y = y.max(q - b).min(q + b);
+                    } else {
+                        y = q;
+                    }
+                    (k % fine == 0).then_some(y)
+                })
+                .collect()
+        })
+        .collect();
     let mut noise = Noise(spec.seed);
     let mut measure = |x: f64| {
         let y = x + spec.noise * noise.gaussian();
@@ -201,9 +239,9 @@ pub fn write_with(plant: &Plant, spec: &Spec, path: &Path, hidden: Option<Hidden
     for k in 0..n {
         let t = k as f64 / RATE;
         assert!(
-            (ts[k] - t).abs() < 1e-9,
+            (ts[k * fine] - t).abs() < 1e-9,
             "output time {} for sample {k}",
-            ts[k]
+            ts[k * fine]
         );
         let tau = driven.tau(t);
         let mut row = format!("{t:e}");
@@ -212,7 +250,10 @@ pub fn write_with(plant: &Plant, spec: &Spec, path: &Path, hidden: Option<Hidden
             write!(row, ",{v:e}").unwrap();
         }
         for j in 0..nj {
-            let v = free.iter().position(|&f| f == j).map_or(0.0, |a| ys[k][a]);
+            let v = free
+                .iter()
+                .position(|&f| f == j)
+                .map_or(0.0, |a| sensed[a][k]);
             write!(row, ",{:e}", measure(v)).unwrap();
         }
         csv.push_str(&row);
