@@ -297,6 +297,17 @@ fn peaks(f: &[f64], a: &[f64], k: usize) -> Vec<f64> {
     p.into_iter().map(|x| x.0).collect()
 }
 
+/// The part of a comparison's residual that a diagnosis finding describes, drawn over the
+/// residual figures ([`plot`]): the model's output with the finding applied less the
+/// model's, at the comparison's samples (same unit as the residual).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Described {
+    /// The legend, e.g. "finding 1: cubic stiffness on q3".
+    pub name: String,
+    /// ŷ(plant with the finding) − ŷ(plant), one per sample of the comparison.
+    pub e: Vec<f64>,
+}
+
 /// Bins of the trend line drawn over the residual against position and velocity.
 pub const TREND_BINS: usize = 40;
 
@@ -672,15 +683,34 @@ fn sign_fit(e: &[f64], qd: &[f64]) -> (f64, f64) {
     }
 }
 
-/// Write the residual time series: `t, q, qd, y, yhat, residual`.
+/// Write the residual time series: `t, q, qd, y, yhat, residual`, and `described` (what a
+/// diagnosis finding describes of the residual, [`Described`]) when given.
 ///
 /// # Errors
-/// I/O failure (path named); nothing is left half-written.
-pub fn write_residual_csv(path: &Path, c: &Comparison) -> Result<()> {
+/// A `described` of another length; I/O failure (path named); nothing is left half-written.
+pub fn write_residual_csv(
+    path: &Path,
+    c: &Comparison,
+    described: Option<&Described>,
+) -> Result<()> {
+    if let Some(d) = described.filter(|d| d.e.len() != c.t.len()) {
+        bail!(
+            "the residual described by '{}' has {} samples, the comparison of {} {} has {}",
+            d.name,
+            d.e.len(),
+            c.file.display(),
+            c.joint,
+            c.t.len()
+        );
+    }
     write_atomic_with(path, |w| {
-        writeln!(w, "t,q,qd,y,yhat,residual")?;
+        write!(w, "t,q,qd,y,yhat,residual")?;
+        if described.is_some() {
+            write!(w, ",described")?;
+        }
+        writeln!(w)?;
         for i in 0..c.t.len() {
-            writeln!(
+            write!(
                 w,
                 "{},{},{},{},{},{}",
                 c.t[i],
@@ -690,6 +720,10 @@ pub fn write_residual_csv(path: &Path, c: &Comparison) -> Result<()> {
                 c.yhat[i],
                 c.y[i] - c.yhat[i]
             )?;
+            if let Some(d) = described {
+                write!(w, ",{}", d.e[i])?;
+            }
+            writeln!(w)?;
         }
         Ok(())
     })
@@ -699,17 +733,31 @@ pub fn write_residual_csv(path: &Path, c: &Comparison) -> Result<()> {
 /// record and joint compared with a starting plant, when given: where the loop of
 /// diagnosis began), the residual against time, position, velocity (by its sign) and the
 /// other joints' torques, the residual spectrum with the input frequencies marked, the
-/// autocorrelation and the cross-correlations with their 99 % bounds.
+/// autocorrelation and the cross-correlations with their 99 % bounds. `described`, when
+/// given, is drawn over the residual against time, and its binned mean over the residual
+/// against position and velocity: what the diagnosis's finding would take out, where.
 ///
 /// # Errors
-/// As [`figure`]; a `start` of another record, joint or length.
+/// As [`figure`]; a `start` of another record, joint or length; a `described` of another
+/// length.
 pub fn plot(
     stem: &Path,
     c: &Comparison,
     title: &str,
     start: Option<&Comparison>,
+    described: Option<&Described>,
 ) -> Result<[PathBuf; 2]> {
     let e = c.residual();
+    if let Some(d) = described.filter(|d| d.e.len() != e.len()) {
+        bail!(
+            "the residual described by '{}' has {} samples, the comparison of {} {} has {}",
+            d.name,
+            d.e.len(),
+            c.file.display(),
+            c.joint,
+            e.len()
+        );
+    }
     let unit = c.unit;
     let line = |name: &str, x: Vec<f64>, y: Vec<f64>| Series {
         name: name.into(),
@@ -730,6 +778,10 @@ pub fn plot(
         series,
     };
     let ylab = format!("residual ({unit})");
+    let with_described = |mut series: Vec<Series>, draw: &dyn Fn(&Described) -> Series| {
+        series.extend(described.map(draw));
+        series
+    };
     let by_sign = |positive: bool| -> (Vec<f64>, Vec<f64>) {
         (0..e.len())
             .filter(|&i| (c.qd[i] > 0.0) == positive && c.qd[i] != 0.0)
@@ -770,25 +822,40 @@ pub fn plot(
             ),
             "t (s)",
             &ylab,
-            vec![line("y − ŷ", c.t.clone(), e.clone())],
+            with_described(
+                vec![line("y − ŷ", c.t.clone(), e.clone())],
+                &|d: &Described| line(&d.name, c.t.clone(), d.e.clone()),
+            ),
         ),
         panel(
             "residual vs position (trend: a cubic or a ripple shows as a curve)".into(),
             "position (rad or m)",
             &ylab,
-            vec![points("y − ŷ", c.q.clone(), e.clone()), {
-                let (x, y) = trend(&c.q, &e, TREND_BINS);
-                line("trend (binned mean)", x, y)
-            }],
+            with_described(
+                vec![points("y − ŷ", c.q.clone(), e.clone()), {
+                    let (x, y) = trend(&c.q, &e, TREND_BINS);
+                    line("trend (binned mean)", x, y)
+                }],
+                &|d: &Described| {
+                    let (x, y) = trend(&c.q, &d.e, TREND_BINS);
+                    line(&format!("{} (binned mean)", d.name), x, y)
+                },
+            ),
         ),
         panel(
             "residual vs velocity (a step at 0: Coulomb friction; a hump: Stribeck)".into(),
             "velocity (rad/s or m/s)",
             &ylab,
-            vec![points("q̇ > 0", vp, ep), points("q̇ < 0", vn, en), {
-                let (x, y) = trend(&c.qd, &e, TREND_BINS);
-                line("trend (binned mean)", x, y)
-            }],
+            with_described(
+                vec![points("q̇ > 0", vp, ep), points("q̇ < 0", vn, en), {
+                    let (x, y) = trend(&c.qd, &e, TREND_BINS);
+                    line("trend (binned mean)", x, y)
+                }],
+                &|d: &Described| {
+                    let (x, y) = trend(&c.qd, &d.e, TREND_BINS);
+                    line(&format!("{} (binned mean)", d.name), x, y)
+                },
+            ),
         ),
     ];
     for (name, u) in c.inputs.iter().filter(|(n, _)| n.starts_with("tau")) {

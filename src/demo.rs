@@ -74,18 +74,20 @@ fn fit_and_compare(
     plant.save(&out.join(format!("{tag}.toml")))?;
     let t = compare_observation(plant, &obs, &train.file)?.remove(0);
     let v = compare_torque(plant, "full", std::slice::from_ref(pulses), &opts)?.remove(0);
-    write_residual_csv(&out.join(format!("{tag}_train_residual.csv")), &t)?;
-    write_residual_csv(&out.join(format!("{tag}_pulses_residual.csv")), &v)?;
+    write_residual_csv(&out.join(format!("{tag}_train_residual.csv")), &t, None)?;
+    write_residual_csv(&out.join(format!("{tag}_pulses_residual.csv")), &v, None)?;
     plot(
         &out.join(format!("{tag}_train")),
         &t,
         &format!("{label}, training record"),
+        None,
         None,
     )?;
     plot(
         &out.join(format!("{tag}_pulses")),
         &v,
         &format!("{label}, pulses record"),
+        None,
         None,
     )?;
     Ok(Step {

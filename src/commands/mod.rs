@@ -296,7 +296,14 @@ fn run_command(cli: Cli) -> Result<()> {
             let (plant, inputs) = common.inputs(&space)?;
             let start_plant = start.as_deref().map(Plant::load).transpose()?;
             let start = start_comparison(&start_plant, start.as_deref());
-            compare_command(&plant, &inputs, &inputs.load(&plant)?, &out, start.as_ref())?;
+            compare_command(
+                &plant,
+                &inputs,
+                &inputs.load(&plant)?,
+                &out,
+                start.as_ref(),
+                None,
+            )?;
         }
         Command::Diagnose {
             common,

@@ -263,8 +263,13 @@ pub fn compare_command(
     data: &Data,
     out: &Path,
     start: Option<&StartComparison>,
+    described: Option<&Finding>,
 ) -> Result<Vec<Compared>> {
     let cmps = comparisons(plant, inputs, data, true)?;
+    let described = match described {
+        Some(f) => described_by(f, plant, inputs, data, &cmps)?,
+        None => vec![None; cmps.len()],
+    };
     let starts: Vec<Option<Comparison>> = match start {
         None => vec![None; cmps.len()],
         Some(s) => {
@@ -295,11 +300,11 @@ pub fn compare_command(
         "at qd"
     );
     let mut outv = Vec::new();
-    for (c, start) in cmps.into_iter().zip(starts) {
+    for ((c, start), described) in cmps.into_iter().zip(starts).zip(described) {
         let s = stem(&c.file);
         let base = out.join(format!("{s}_{}", c.joint));
-        write_residual_csv(&base.with_extension("csv"), &c)?;
-        let [svg, _] = plot(&base, &c, &s, start.as_ref())?;
+        write_residual_csv(&base.with_extension("csv"), &c, described.as_ref())?;
+        let [svg, _] = plot(&base, &c, &s, start.as_ref(), described.as_ref())?;
         crate::outln!(
             "{:<24} {:<5} {:>8.2} {:>9.3} {:>11.4e} {:>11.4e} {:>9.3} {:>10.4} {:>10.4}",
             s,
@@ -332,6 +337,65 @@ pub fn compare_command(
     }
     crate::outln!("residual CSVs and plots (PNG, SVG) in {}", out.display());
     Ok(outv)
+}
+
+/// What `finding` describes of each comparison's residual (`cmps`, in the order
+/// [`comparisons`] gives them): the outputs of the plant with the finding applied less the
+/// plant's ([`crate::compare::Described`]). None for every comparison where the finding is
+/// not a plant edit (it is about the input or the values) or the plant with it cannot be
+/// compared (the reason printed).
+///
+/// # Errors
+/// Comparisons of the plant with the finding in another order or length than `cmps`.
+fn described_by(
+    finding: &Finding,
+    plant: &Plant,
+    inputs: &Inputs,
+    data: &Data,
+    cmps: &[Comparison],
+) -> Result<Vec<Option<crate::compare::Described>>> {
+    let none = vec![None; cmps.len()];
+    let Ok(with) = finding.apply(plant) else {
+        return Ok(none);
+    };
+    let after = match comparisons(&with, inputs, data, false) {
+        Ok(v) => v,
+        Err(e) => {
+            crate::outln!(
+                "(the figures do not show '{}': the plant with it cannot be compared: {e:#})",
+                finding.name
+            );
+            return Ok(none);
+        }
+    };
+    if after.len() != cmps.len() {
+        bail!(
+            "the plant with '{}' gave {} comparisons, the plant {}",
+            finding.name,
+            after.len(),
+            cmps.len()
+        );
+    }
+    let name = format!("finding 1: {} on {}", finding.name, finding.joint);
+    cmps.iter()
+        .zip(after)
+        .map(|(c, a)| {
+            if (&a.file, &a.joint, a.yhat.len()) != (&c.file, &c.joint, c.yhat.len()) {
+                bail!(
+                    "the plant with '{}' compared {} {} where the plant compared {} {}",
+                    finding.name,
+                    a.file.display(),
+                    a.joint,
+                    c.file.display(),
+                    c.joint
+                );
+            }
+            Ok(Some(crate::compare::Described {
+                name: name.clone(),
+                e: a.yhat.iter().zip(&c.yhat).map(|(w, b)| w - b).collect(),
+            }))
+        })
+        .collect()
 }
 
 /// One record and joint of [`compare_command`].
@@ -1010,8 +1074,12 @@ pub fn report_command(
 ) -> Result<PathBuf> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let data = inputs.load(plant)?;
-    let cmps = compare_command(plant, inputs, &data, out, start)?;
+    // The diagnosis first: its leading significant finding is drawn over the residuals.
     let diag = diagnose(plant, inputs, &data)?;
+    let leading = diag
+        .first()
+        .and_then(|(_, findings, _)| findings.iter().find(|f| f.significant));
+    let cmps = compare_command(plant, inputs, &data, out, start, leading)?;
     let mut h = String::new();
     h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
     let _ = writeln!(h, "<title>lockstep report: {}</title>", esc(&plant.name()));
