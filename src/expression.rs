@@ -13,7 +13,7 @@
 //! (rad or m), `qdk` velocity, `qddk` acceleration (the simulator takes an effect linear in
 //! them into the inertia matrix, [`Expression::acceleration_coefficients`]), `tauk` commanded
 //! torque (N·m or N), `zk` LuGre bristle deflection (simulator only; 0 without LuGre);
-//! the constant `pi`; any other name must be one of the expression's declared parameters.
+//! `t` the time (s; the records' time column); the constant `pi`; any other name must be one of the expression's declared parameters.
 //! Operators `+ - * / ^` (`^` binds tighter than unary minus: `-x^2 = -(x^2)`), functions
 //! `sin cos tan exp ln sqrt abs sign tanh atan sinh cosh` of one argument and `min max` of
 //! two. `sign(0) = 0`, the Coulomb convention of [`crate::effects::sign`].
@@ -46,6 +46,9 @@ pub enum Symbol {
     Z(usize),
     /// Declared parameter number i of the expression.
     Param(usize),
+    /// Time (s): the records' time column (the simulation's time, the time of an IDIM or
+    /// equation-error row): a drift, a warm-up.
+    T,
 }
 
 /// One-argument functions.
@@ -417,6 +420,9 @@ impl Parser<'_> {
                 if name == "pi" {
                     return Ok(Node::Num(std::f64::consts::PI));
                 }
+                if name == "t" {
+                    return Ok(Node::Var(Symbol::T));
+                }
                 if let Some(i) = self.parameters.iter().position(|p| *p == name) {
                     self.used[i] = true;
                     return Ok(Node::Var(Symbol::Param(i)));
@@ -437,7 +443,7 @@ impl Parser<'_> {
                 Err(ExpressionError {
                     column: col,
                     message: format!(
-                        "unknown symbol '{name}': not a state variable (qk, qdk, qddk, tauk, zk for joint k = 0..{}) nor a declared parameter ({})",
+                        "unknown symbol '{name}': not a state variable (qk, qdk, qddk, tauk, zk for joint k = 0..{}; t, the time) nor a declared parameter ({})",
                         self.joints.saturating_sub(1),
                         if self.parameters.is_empty() {
                             "none declared".to_string()
@@ -458,7 +464,7 @@ impl Parser<'_> {
 fn joint_of(s: Symbol) -> Option<usize> {
     match s {
         Symbol::Q(k) | Symbol::Qd(k) | Symbol::Qdd(k) | Symbol::Tau(k) | Symbol::Z(k) => Some(k),
-        Symbol::Param(_) => None,
+        Symbol::Param(_) | Symbol::T => None,
     }
 }
 
@@ -491,6 +497,7 @@ fn symbols_of(n: &Node, out: &mut Vec<Symbol>) {
 pub fn is_reserved(name: &str) -> bool {
     state_symbol(name).is_some()
         || name == "pi"
+        || name == "t"
         || name == "min"
         || name == "max"
         || Func::ALL.iter().any(|x| x.0 == name)
@@ -927,6 +934,7 @@ impl fmt::Display for Node {
                 Symbol::Tau(k) => write!(f, "tau{k}"),
                 Symbol::Z(k) => write!(f, "z{k}"),
                 Symbol::Param(i) => write!(f, "p{i}"),
+                Symbol::T => write!(f, "t"),
             },
             Node::Neg(a) => write!(f, "(-{a})"),
             Node::Call(g, a) => write!(f, "{}({a})", g.name()),

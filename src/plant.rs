@@ -1034,6 +1034,7 @@ impl Plant {
                         Symbol::Qd(k) => Ok(TermInput::Qd(a(k))),
                         Symbol::Z(k) => Ok(TermInput::Z(a(k))),
                         Symbol::Tau(k) => Ok(TermInput::Tau(a(k))),
+                        Symbol::T => Ok(TermInput::T),
                         Symbol::Qdd(k) => Err(anyhow::anyhow!(
                             "{name}: expression '{}': the acceleration qdd{k} was not taken into the inertia matrix",
                             x.name

@@ -64,33 +64,37 @@ pub enum TermInput {
     Z(usize),
     /// Commanded torque τ (before gain and input couplings).
     Tau(usize),
+    /// Time t (s).
+    T,
 }
 
 impl TorqueTerm {
-    /// The torque at positions `q`, velocities `qd`, deflections `z` and commands `tau`
-    /// (free joints, NF each).
+    /// The torque at time `t` (s), positions `q`, velocities `qd`, deflections `z` and
+    /// commands `tau` (free joints, NF each).
     #[inline]
-    pub fn torque(&self, q: &[f64], qd: &[f64], z: &[f64], tau: &[f64]) -> f64 {
-        eval_term(&self.torque, &self.inputs, q, qd, z, tau)
+    pub fn torque(&self, t: f64, q: &[f64], qd: &[f64], z: &[f64], tau: &[f64]) -> f64 {
+        eval_term(&self.torque, &self.inputs, t, (q, qd, z, tau))
     }
 
     /// A coefficient program of [`TorqueTerm::inertia`] (or any program on the term's kind
-    /// of inputs) at positions, velocities, deflections and commands of the free joints.
+    /// of inputs) at time `t` and positions, velocities, deflections and commands of the
+    /// free joints.
     #[inline]
     pub fn coefficient(
         program: &Program,
         inputs: &[TermInput],
-        (q, qd, z, tau): (&[f64], &[f64], &[f64], &[f64]),
+        t: f64,
+        state: (&[f64], &[f64], &[f64], &[f64]),
     ) -> f64 {
-        eval_term(program, inputs, q, qd, z, tau)
+        eval_term(program, inputs, t, state)
     }
 
     /// ∂torque/∂q̇ of its joint at the same arguments (0 when it does not read it).
     #[inline]
-    pub fn slope(&self, q: &[f64], qd: &[f64], z: &[f64], tau: &[f64]) -> f64 {
+    pub fn slope(&self, t: f64, q: &[f64], qd: &[f64], z: &[f64], tau: &[f64]) -> f64 {
         self.slope
             .as_ref()
-            .map_or(0.0, |(p, i)| eval_term(p, i, q, qd, z, tau))
+            .map_or(0.0, |(p, i)| eval_term(p, i, t, (q, qd, z, tau)))
     }
 }
 
@@ -98,10 +102,8 @@ impl TorqueTerm {
 fn eval_term(
     program: &Program,
     inputs: &[TermInput],
-    q: &[f64],
-    qd: &[f64],
-    z: &[f64],
-    tau: &[f64],
+    t: f64,
+    (q, qd, z, tau): (&[f64], &[f64], &[f64], &[f64]),
 ) -> f64 {
     let mut v = [0.0; crate::expression::INPUTS];
     for (slot, input) in v.iter_mut().zip(inputs) {
@@ -110,6 +112,7 @@ fn eval_term(
             TermInput::Qd(a) => qd[a],
             TermInput::Z(a) => z[a],
             TermInput::Tau(a) => tau[a],
+            TermInput::T => t,
         };
     }
     program.eval(&v[..inputs.len()])
@@ -345,6 +348,8 @@ struct Scratch {
     /// ([`PlantModel::etdrk4_with_switches`]).
     redo: (State, [Vec<f64>; 3], [Vec<f64>; 3]),
     tau: [Vec<f64>; 3],
+    /// The times of the stage inputs `tau` (s): t, t + h/2, t + h of the step.
+    time: [f64; 3],
     /// Output injection gains (L1, L2) and the measured positions at the stage times.
     injection: Option<(f64, f64)>,
     y: [Vec<f64>; 3],
@@ -402,6 +407,7 @@ impl Scratch {
                 work: vec![0.0; nf * nf],
             },
             tau: [vec![0.0; nf], vec![0.0; nf], vec![0.0; nf]],
+            time: [0.0; 3],
             injection: None,
             y: [vec![0.0; nf], vec![0.0; nf], vec![0.0; nf]],
             sides: vec![None; nf],
@@ -509,21 +515,21 @@ impl PlantModel {
         }
     }
 
-    /// Generalised forces on the rigid body, Q = Kp τ' − b F − Ks (q − qeq) − offset, and
-    /// the LuGre bristle rates, for commanded torques `tau` (NF each).
-    pub fn applied(&self, x: &State, tau: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    /// Generalised forces on the rigid body, Q = Kp τ' − b F − Ks (q − qeq) − offset − the
+    /// user-defined terms, and the LuGre bristle rates, at time `t` (s) for commanded torques
+    /// `tau` (NF each).
+    pub fn applied(&self, t: f64, x: &State, tau: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let nf = self.nf();
         let mut tc = vec![0.0; nf];
         let mut q_applied = vec![0.0; nf];
         let mut zd = vec![0.0; nf];
-        self.applied_into(x, tau, &[], &mut tc, &mut q_applied, &mut zd);
+        self.applied_into((t, x, tau), &[], &mut tc, &mut q_applied, &mut zd);
         (q_applied, zd)
     }
 
     fn applied_into(
         &self,
-        x: &State,
-        tau: &[f64],
+        (time, x, tau): (f64, &State, &[f64]),
         sides: &[Option<bool>],
         tc: &mut [f64],
         out: &mut [f64],
@@ -538,7 +544,7 @@ impl PlantModel {
             let extra: f64 = t
                 .extra
                 .iter()
-                .map(|e| e.torque(&x.q, &x.qd, &x.z, tau))
+                .map(|e| e.torque(time, &x.q, &x.qd, &x.z, tau))
                 .sum();
             out[i] = t.gain * tc[i] - f - spring - t.offset - extra;
         }
@@ -553,21 +559,26 @@ impl PlantModel {
 
     fn derivative_into(
         &self,
-        x: &State,
-        tau: &[f64],
+        (t, x, tau): (f64, &State, &[f64]),
         q_ext: &[f64],
         w: &mut Scratch,
         out: &mut State,
     ) {
         self.put_free(&x.q, &mut w.q_full);
-        self.applied_into(x, tau, &w.sides, &mut w.tau_c, &mut w.applied, &mut out.z);
+        self.applied_into(
+            (t, x, tau),
+            &w.sides,
+            &mut w.tau_c,
+            &mut w.applied,
+            &mut out.z,
+        );
         for (q, e) in w.applied.iter_mut().zip(q_ext) {
             *q += e;
         }
         out.q.copy_from_slice(&x.qd);
         (self.conf.forward_dynamics)(&w.q_full, &x.qd, &w.applied, &self.p, &mut out.qd);
         if self.adds_inertia() {
-            self.with_added_inertia(w, x, tau, &mut out.qd);
+            self.with_added_inertia(w, (t, x, tau), &mut out.qd);
         }
     }
 
@@ -578,16 +589,16 @@ impl PlantModel {
             .any(|t| t.armature != 0.0 || t.extra.iter().any(|e| !e.inertia.is_empty()))
     }
 
-    /// The inertia the effects add at state `x` under commands `tau`, A (NF × NF,
+    /// The inertia the effects add at time `t`, state `x` under commands `tau`, A (NF × NF,
     /// column-major), added into `mass`: each joint's armature on the diagonal, and each
     /// user-defined term's ∂u/∂q̈_k in its joint's row, column k.
-    fn add_inertia(&self, x: &State, tau: &[f64], mass: &mut [f64]) {
+    fn add_inertia(&self, (t, x, tau): (f64, &State, &[f64]), mass: &mut [f64]) {
         let nf = self.nf();
-        for (i, t) in self.terms.iter().enumerate() {
-            mass[i * nf + i] += t.armature;
-            for e in &t.extra {
+        for (i, terms) in self.terms.iter().enumerate() {
+            mass[i * nf + i] += terms.armature;
+            for e in &terms.extra {
                 for (k, program, inputs) in &e.inertia {
-                    mass[k * nf + i] += eval_term(program, inputs, &x.q, &x.qd, &x.z, tau);
+                    mass[k * nf + i] += eval_term(program, inputs, t, (&x.q, &x.qd, &x.z, tau));
                 }
             }
         }
@@ -597,12 +608,12 @@ impl PlantModel {
     /// D⁻¹ (Q − C q̇ − φ), so D q̈₀ is the right-hand side and q̈ = (D + A)⁻¹ D q̈₀ (`qdd`
     /// holds q̈₀ on entry; A of [`PlantModel::add_inertia`]). Where D + A is singular q̈₀ is
     /// left (the divergence check then names the inertia matrix).
-    fn with_added_inertia(&self, w: &mut Scratch, x: &State, tau: &[f64], qdd: &mut [f64]) {
+    fn with_added_inertia(&self, w: &mut Scratch, at: (f64, &State, &[f64]), qdd: &mut [f64]) {
         let nf = self.nf();
         (self.conf.mass_matrix)(&w.q_full, &self.p, &mut w.mass);
         let d = nalgebra::DMatrix::from_column_slice(nf, nf, &w.mass);
         let rhs = &d * nalgebra::DVector::from_column_slice(qdd);
-        self.add_inertia(x, tau, &mut w.mass);
+        self.add_inertia(at, &mut w.mass);
         let with = nalgebra::DMatrix::from_column_slice(nf, nf, &w.mass);
         if let Some(v) = with.lu().solve(&rhs) {
             qdd.copy_from_slice(v.as_slice());
@@ -610,35 +621,36 @@ impl PlantModel {
     }
 
     /// D_FF(q) + A into `mass` (NF × NF, column-major) at the all-joint positions `q_full`
-    /// and the state `x` under commands `tau` (A of [`PlantModel::add_inertia`]): the inertia
-    /// matrix the simulator integrates with.
+    /// and, at time `t`, the state `x` under commands `tau` (A of
+    /// [`PlantModel::add_inertia`]): the inertia matrix the simulator integrates with.
     pub(crate) fn mass_matrix_into(
         &self,
         q_full: &[f64],
-        (x, tau): (&State, &[f64]),
+        at: (f64, &State, &[f64]),
         mass: &mut [f64],
     ) {
         (self.conf.mass_matrix)(q_full, &self.p, mass);
-        self.add_inertia(x, tau, mass);
+        self.add_inertia(at, mass);
     }
 
-    /// dx/dt at state `x` under commanded torques `tau`.
-    pub fn derivative(&self, x: &State, tau: &[f64]) -> State {
-        self.derivative_with_external(x, tau, &[])
+    /// dx/dt at time `t` (s; read only by user-defined effects that name `t`), state `x`
+    /// under commanded torques `tau` (NF).
+    pub fn derivative(&self, t: f64, x: &State, tau: &[f64]) -> State {
+        self.derivative_with_external(t, x, tau, &[])
     }
 
-    /// dx/dt at state `x` under commanded torques `tau` (NF) and an external generalised
-    /// force `q_ext` (NF, N·m or N; empty for none) added to the applied torques Q: a hand holding the end
-    /// point, a contact. The plant gain does not act on `q_ext`.
-    pub fn derivative_with_external(&self, x: &State, tau: &[f64], q_ext: &[f64]) -> State {
+    /// dx/dt at time `t`, state `x` under commanded torques `tau` (NF) and an external
+    /// generalised force `q_ext` (NF, N·m or N; empty for none) added to the applied torques
+    /// Q: a hand holding the end point, a contact. The plant gain does not act on `q_ext`.
+    pub fn derivative_with_external(&self, t: f64, x: &State, tau: &[f64], q_ext: &[f64]) -> State {
         let mut w = Scratch::new(self.nf(), &self.q_locked);
         let mut out = State::at_rest(vec![0.0; self.nf()]);
-        self.derivative_into(x, tau, q_ext, &mut w, &mut out);
+        self.derivative_into((t, x, tau), q_ext, &mut w, &mut out);
         out
     }
 
     /// One step of the model's [`Integrator`] on `x` with the stage torques in `w.tau` (at
-    /// t, t + h/2, t + h).
+    /// the times `w.time`: t, t + h/2, t + h).
     fn step_in_place(&self, x: &mut State, h: f64, w: &mut Scratch) {
         match self.integrator {
             Integrator::Rk4 => self.rk4_in_place(x, h, w),
@@ -651,16 +663,17 @@ impl PlantModel {
         let mut k = std::mem::take(&mut w.k);
         let mut stage = std::mem::take(&mut w.stage);
         let tau = std::mem::take(&mut w.tau);
-        self.derivative_into(x, &tau[0], &[], w, &mut k[0]);
+        let time = w.time;
+        self.derivative_into((time[0], x, &tau[0]), &[], w, &mut k[0]);
         w.inject(x, 0, &mut k[0]);
         x.axpy_into(h / 2.0, &k[0], &mut stage);
-        self.derivative_into(&stage, &tau[1], &[], w, &mut k[1]);
+        self.derivative_into((time[1], &stage, &tau[1]), &[], w, &mut k[1]);
         w.inject(&stage, 1, &mut k[1]);
         x.axpy_into(h / 2.0, &k[1], &mut stage);
-        self.derivative_into(&stage, &tau[1], &[], w, &mut k[2]);
+        self.derivative_into((time[1], &stage, &tau[1]), &[], w, &mut k[2]);
         w.inject(&stage, 1, &mut k[2]);
         x.axpy_into(h, &k[2], &mut stage);
-        self.derivative_into(&stage, &tau[2], &[], w, &mut k[3]);
+        self.derivative_into((time[2], &stage, &tau[2]), &[], w, &mut k[3]);
         w.inject(&stage, 2, &mut k[3]);
         let c = h / 6.0;
         let comb = |y: &mut [f64], a: &[f64], b: &[f64], cc: &[f64], d: &[f64]| {
@@ -700,6 +713,7 @@ impl PlantModel {
         w: &mut Scratch,
     ) {
         let load = |t0: f64, hs: f64, w: &mut Scratch| {
+            w.time = [t0, t0 + hs / 2.0, t0 + hs];
             input.at(t0, &mut w.tau[0]);
             input.at(t0 + hs / 2.0, &mut w.tau[1]);
             input.before(t0 + hs, &mut w.tau[2]);
@@ -791,7 +805,7 @@ impl PlantModel {
         self.put_free(q_f, &mut q_full);
         let mut d = vec![0.0; nf * nf];
         let at_rest = State::at_rest(q_f.to_vec());
-        self.mass_matrix_into(&q_full, (&at_rest, &vec![0.0; nf]), &mut d);
+        self.mass_matrix_into(&q_full, (0.0, &at_rest, &vec![0.0; nf]), &mut d);
         nalgebra::DMatrix::from_vec(nf, nf, d)
     }
 
@@ -817,9 +831,9 @@ impl PlantModel {
                         .zip(&last.qd)
                         .map(|(q, qd)| q + s * h * qd)
                         .collect();
-                    self.terms.iter().enumerate().find_map(|(i, t)| {
-                        t.extra.iter().find_map(|e| {
-                            let v = e.torque(&q, &last.qd, &last.z, tau);
+                    self.terms.iter().enumerate().find_map(|(i, terms)| {
+                        terms.extra.iter().find_map(|e| {
+                            let v = e.torque(t - h + s * h, &q, &last.qd, &last.z, tau);
                             (!v.is_finite()).then(|| {
                                 Box::new(UndefinedTerm {
                                     name: e.name.clone(),
@@ -864,6 +878,7 @@ impl PlantModel {
         let mut prev = x.clone();
         for n in 0..steps {
             let t = n as f64 * h;
+            w.time = [t, t + h / 2.0, t + h];
             input(t, &mut w.tau[0]);
             input(t + h / 2.0, &mut w.tau[1]);
             input(t + h, &mut w.tau[2]);

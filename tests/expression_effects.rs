@@ -79,6 +79,99 @@ fn a_spring_written_by_hand_simulates_as_the_built_in_c3() {
     }
 }
 
+/// Time in an expression is the simulation's time at every stage: a torque `d*sin(5*t)`
+/// taken from q3 by a user-defined effect moves the joint exactly as the same torque taken
+/// off the command (over the plant gain Kp_3, evaluated by the input at the stage times t,
+/// t + h/2, t + h), with RK4
+/// and with ETDRK4, 3 s of c3; without the term the motion differs (the check can fail).
+#[test]
+fn time_in_an_expression_is_the_simulations_time_c3() {
+    let truth = common::appendix_d_coupled();
+    let mut timed = truth.clone();
+    timed
+        .add_expression("ripple_in_time", vec![3], "d*sin(5*t)", &["d".into()])
+        .unwrap();
+    timed.parameters.insert("d".into(), 0.004);
+    for integrator in [Integrator::Rk4, Integrator::Etdrk4] {
+        let run = |p: &Plant, taken: f64| {
+            let mut model = p
+                .simulator("c3", &[0.0; 6], ConsistencyPolicy::Warn)
+                .unwrap()
+                .model;
+            model.integrator = integrator;
+            let mut q = Vec::new();
+            model
+                .simulate(
+                    State::at_rest(vec![0.0]),
+                    1.0 / 6000.0,
+                    18_000,
+                    100.0,
+                    |t, tau| {
+                        tau[0] = 0.02 * (3.0 * t).sin() + 0.01 * (11.0 * t).sin()
+                            - taken * (5.0 * t).sin()
+                    },
+                    |_, x| q.push(x.q[0]),
+                )
+                .unwrap();
+            q
+        };
+        let kp = truth.parameters["Kp_3"];
+        let (a, b, without) = (run(&timed, 0.0), run(&truth, 0.004 / kp), run(&truth, 0.0));
+        let largest = |u: &[f64], v: &[f64]| {
+            u.iter()
+                .zip(v)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max)
+        };
+        let (worst, effect) = (largest(&a, &b), largest(&a, &without));
+        eprintln!("{integrator:?}: expression vs command {worst:.2e} rad, the term's effect {effect:.2e} rad");
+        assert!(effect > 1e-3, "the term moves q3 ({effect})");
+        assert!(worst < 1e-12, "{integrator:?}: {worst}");
+    }
+}
+
+/// Time in an IDIM column is the record's time: with the user-defined effect `c*t` beside
+/// the built-ins, a drift 0.5·t N added to the EMPS training record's force moves c by 0.5
+/// and leaves the other estimates (least squares: adding a column's multiple to y moves
+/// only its coefficient), to 1e-8; c of the record as it is stays small.
+#[test]
+fn time_in_an_expression_is_the_records_time_in_idim_emps() {
+    let train = Measurement::read(&manifest("data/emps/emps_train.csv"), 1).unwrap();
+    let mut drifting = train.clone();
+    for (k, t) in train.t.iter().enumerate() {
+        drifting.tau[0][k] += 0.5 * t;
+    }
+    let mut with_drift = Plant::load(&manifest("model/plants/emps_symmetric.toml")).unwrap();
+    with_drift
+        .add_expression("drift", vec![0], "c*t", &["c".into()])
+        .unwrap();
+    let fit = |m: &Measurement| {
+        least_squares(
+            &observation(
+                &with_drift,
+                "full",
+                std::slice::from_ref(m),
+                &IdimOptions::default(),
+            )
+            .unwrap(),
+        )
+        .unwrap()
+    };
+    let (a, b) = (fit(&train), fit(&drifting));
+    let (ca, cb) = (a.get("c").unwrap(), b.get("c").unwrap());
+    eprintln!("c = {ca:.12} as recorded, {cb:.12} with the drift");
+    assert!(ca.abs() < 0.1, "c {ca}");
+    assert!((cb - ca - 0.5).abs() < 1e-8, "c {ca} → {cb}");
+    for x in ["M", "Fv_0", "Fc_0", "offset_0"] {
+        let (va, vb) = (a.get(x).unwrap(), b.get(x).unwrap());
+        eprintln!("{x} {va:.9} / {vb:.9}");
+        assert!(
+            (va - vb).abs() <= 1e-8 * va.abs().max(1.0),
+            "{x} {va} vs {vb}"
+        );
+    }
+}
+
 /// An expression that is not defined where the joint goes (a logarithm of q3 + 0.05,
 /// negative once q3 < −0.05 rad): the simulation stops with the effect named, the time, the
 /// state and "a smaller step will not help", not a bare "non-finite state".
@@ -639,7 +732,7 @@ fn accelerations_in_an_expression_enter_the_inertia_matrix_emps_k1() {
             z: vec![0.0, 0.0],
         };
         let tau = [0.01 * uniform(), 0.01 * uniform()];
-        let qdd = model.derivative(&x, &tau).qd;
+        let qdd = model.derivative(0.0, &x, &tau).qd;
         let mut q_full = q_locked.to_vec();
         q_full[4] = x.q[0];
         q_full[5] = x.q[1];

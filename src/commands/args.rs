@@ -9,8 +9,8 @@ pub enum EffectAction {
     /// and bounds.
     Add {
         /// Kind: viscous, coulomb, asymmetric_friction, offset, gain, stribeck, lugre,
-        /// spring, friction_bias, input_coupling (alias: coupling), armature, or expression (a
-        /// user-defined effect: --name, --torque, --params).
+        /// spring, friction_bias, input_coupling (alias: coupling), armature, backlash, or
+        /// expression (a user-defined effect: --name, --torque, --params).
         kind: String,
         /// Plant file.
         #[arg(long)]
@@ -22,7 +22,7 @@ pub enum EffectAction {
         #[arg(long)]
         name: Option<String>,
         /// expression: the torque it takes from each joint, e.g. "K3*(q3 - qeq3)^3" (symbols
-        /// qk, qdk, qddk, tauk, zk of joint k; functions sin cos tan exp ln sqrt abs sign
+        /// qk, qdk, qddk, tauk, zk of joint k, t the time; functions sin cos tan exp ln sqrt abs sign
         /// tanh atan sinh cosh min max; ^ power).
         #[arg(long)]
         torque: Option<String>,

@@ -230,7 +230,7 @@ pub fn simulate(
         let f_arm = hand.arm_stiffness * (r * qi - xh) + hand.arm_damping * (r * qdi - vh);
         let mut ext = vec![0.0; nf];
         ext[joint] = r * f_grip;
-        let dx = plant.derivative_with_external(x, tau, &ext);
+        let dx = plant.derivative_with_external(t, x, tau, &ext);
         (dx, vh, (f_arm - f_grip) / hand.mass)
     };
     let axpy = |x: &State, k: f64, d: &State| State {

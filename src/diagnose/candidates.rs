@@ -9,7 +9,7 @@
 //! [[candidate]]
 //! name = "cogging_q3"              # unique in the file; the effect's name once added
 //! joints = ["q3"]                  # the joints it takes torque from
-//! torque = "A*sin(6*q3 + phi)"     # an expression of qk, qdk, tauk, zk, its parameters
+//! torque = "A*sin(6*q3 + phi)"     # an expression of qk, qdk, tauk, zk, t, its parameters
 //! meaning = "detent torque of the motor's magnets, 6 per turn"   # optional
 //! parameters = { A = { start = 0.01, bounds = [-1.0, 1.0] }, phi = { start = 0.0, bounds = [-3.2, 3.2] } }
 //! ```

@@ -154,6 +154,8 @@ struct Prepared {
     q_all: Vec<f64>,
     /// Sampling period (s).
     dt: f64,
+    /// Sample times (s).
+    t: Vec<f64>,
     /// Filtered positions per free joint (NF × n).
     q: Vec<Vec<f64>>,
     /// Velocities per free joint (NF × n).
@@ -215,6 +217,7 @@ impl EquationError {
             file,
             q_all,
             dt,
+            t,
             q,
             tau,
             ..
@@ -265,6 +268,7 @@ impl EquationError {
             prepared.push(Prepared {
                 q_all: q_all.clone(),
                 dt: *dt,
+                t: t.clone(),
                 q: qf,
                 qd,
                 qdd,
@@ -462,12 +466,16 @@ impl EquationError {
                     .extra
                     .iter()
                     .map(|e| {
-                        e.torque(&qk, &qdk, &z, &tau)
+                        e.torque(f.t[k], &qk, &qdk, &z, &tau)
                             + e.inertia
                                 .iter()
                                 .map(|(b, program, inputs)| {
-                                    TorqueTerm::coefficient(program, inputs, (&qk, &qdk, &z, &tau))
-                                        * f.qdd[*b][k]
+                                    TorqueTerm::coefficient(
+                                        program,
+                                        inputs,
+                                        f.t[k],
+                                        (&qk, &qdk, &z, &tau),
+                                    ) * f.qdd[*b][k]
                                 })
                                 .sum::<f64>()
                     })

@@ -226,7 +226,7 @@ pub fn observation(
                 }
                 for col in &columns {
                     if col.joints.contains(&conf.free[a]) {
-                        wr[a][c][r] = col.value(&qk, (&qd, &qdd), conf.free, &m.tau, k);
+                        wr[a][c][r] = col.value(&qk, (&qd, &qdd), conf.free, (&m.t, &m.tau), k);
                     }
                     c += 1;
                 }
@@ -304,14 +304,15 @@ struct ExpressionColumn {
 
 impl ExpressionColumn {
     /// The column at sample `k`: positions `q` (NJ, filtered), velocities and accelerations
-    /// `(qd, qdd)` of the free joints (NF × samples), the measured torques `tau` (NJ ×
-    /// samples); a locked joint's velocity, acceleration and command are 0.
+    /// `(qd, qdd)` of the free joints (NF × samples), the sample times `t` (s) and the
+    /// measured torques `tau` (NJ × samples); a locked joint's velocity, acceleration and
+    /// command are 0.
     fn value(
         &self,
         q: &[f64],
         (qd, qdd): (&[Vec<f64>], &[Vec<f64>]),
         free: &[usize],
-        tau: &[Vec<f64>],
+        (t, tau): (&[f64], &[Vec<f64>]),
         k: usize,
     ) -> f64 {
         use crate::expression::Symbol;
@@ -328,6 +329,7 @@ impl ExpressionColumn {
                     0.0
                 }
             }
+            Symbol::T => t[k],
             Symbol::Z(_) | Symbol::Param(_) => 0.0,
         })
     }

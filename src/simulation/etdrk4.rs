@@ -208,7 +208,7 @@ impl PlantModel {
         self.etdrk4_in_place(x, h, w);
         let r = (0..self.nf())
             .map(|i| {
-                let (c_end, ..) = self.friction_slopes(i, x, w.sides[i], &w.tau[0]);
+                let (c_end, ..) = self.friction_slopes(i, x, w.sides[i], (w.time[0], &w.tau[0]));
                 let mut jump = (c_end - w.etd.frozen_c[i]).abs();
                 let (v0, v1) = (x0.qd[i], x.qd[i]);
                 if let Some(l) = &self.terms[i].lugre {
@@ -225,6 +225,7 @@ impl PlantModel {
         if r.is_finite() && r > 0.5 {
             let n = (2.0 * r).ceil().min(64.0) as usize;
             x.copy_from(&x0);
+            let time0 = w.time;
             for j in 0..3 {
                 tau0[j].copy_from_slice(&w.tau[j]);
                 y0[j].copy_from_slice(&w.y[j]);
@@ -238,6 +239,7 @@ impl PlantModel {
             for sub in 0..n {
                 for (j, ds) in [0.0, 0.5, 1.0].into_iter().enumerate() {
                     let s = (sub as f64 + ds) / n as f64;
+                    w.time[j] = time0[0] + s * h;
                     for i in 0..self.nf() {
                         w.tau[j][i] = quad(&tau0, i, s);
                         w.y[j][i] = quad(&y0, i, s);
@@ -245,6 +247,7 @@ impl PlantModel {
                 }
                 self.etdrk4_in_place(x, h / n as f64, w);
             }
+            w.time = time0;
             for j in 0..3 {
                 w.tau[j].copy_from_slice(&tau0[j]);
                 w.y[j].copy_from_slice(&y0[j]);
@@ -254,14 +257,14 @@ impl PlantModel {
     }
 
     /// Slope ∂F_i/∂q̇_i of all friction of free joint `i` (bias factor included, Coulomb's
-    /// jump left out) and of its user-defined terms (at the commands `tau`), and ∂ż_i/∂q̇_i,
-    /// ∂ż_i/∂z_i of its LuGre term (0 without one), at `x`.
+    /// jump left out) and of its user-defined terms (at time `t` and the commands `tau`),
+    /// and ∂ż_i/∂q̇_i, ∂ż_i/∂z_i of its LuGre term (0 without one), at `x`.
     pub(super) fn friction_slopes(
         &self,
         i: usize,
         x: &State,
         below: Option<bool>,
-        tau: &[f64],
+        (time, tau): (f64, &[f64]),
     ) -> (f64, f64, f64) {
         let t = &self.terms[i];
         let (v, z) = (x.qd[i], x.z[i]);
@@ -278,7 +281,7 @@ impl PlantModel {
         let extra: f64 = t
             .extra
             .iter()
-            .map(|e| e.slope(&x.q, &x.qd, &x.z, tau))
+            .map(|e| e.slope(time, &x.q, &x.qd, &x.z, tau))
             .sum();
         (df * self.bias_factor(i, x.q[i], below) + extra, dzv, dzz)
     }
@@ -311,9 +314,9 @@ impl PlantModel {
         let nf = self.nf();
         self.put_free(&x.q, &mut w.q_full);
         let e = &mut w.etd;
-        self.mass_matrix_into(&w.q_full, (x, &w.tau[0]), &mut e.mass);
+        self.mass_matrix_into(&w.q_full, (w.time[0], x, &w.tau[0]), &mut e.mass);
         for i in 0..nf {
-            let (df, dzv, dzz) = self.friction_slopes(i, x, w.sides[i], &w.tau[0]);
+            let (df, dzv, dzz) = self.friction_slopes(i, x, w.sides[i], (w.time[0], &w.tau[0]));
             e.c[i] = df;
             e.g[i] = dzv;
             e.lambda[2 * nf + i] = dzz.min(0.0);
@@ -353,6 +356,7 @@ impl PlantModel {
         let mut k = std::mem::take(&mut w.k);
         let mut y = std::mem::take(&mut w.stage);
         let tau = std::mem::take(&mut w.tau);
+        let time = w.time;
         // out = M v for an NF × NF column-major M.
         let mat_vec = |m: &[f64], v: &[f64], out: &mut [f64]| {
             for (i, o) in out.iter_mut().enumerate() {
@@ -382,7 +386,7 @@ impl PlantModel {
             for i in 0..nf {
                 y.z[i] = u[j][2 * nf + i] + g[i] * y.q[i];
             }
-            self.derivative_into(&y, &tau[s], &[], w, &mut k[0]);
+            self.derivative_into((time[s], &y, &tau[s]), &[], w, &mut k[0]);
             w.inject(&y, s, &mut k[0]);
             for i in 0..nf {
                 n[j][2 * nf + i] = k[0].z[i] - g[i] * k[0].q[i];

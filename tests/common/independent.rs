@@ -65,9 +65,9 @@ impl System<f64, DVector<f64>> for Driven<'_> {
             Some(h) => {
                 let taken: Vec<f64> = h(&x).iter().map(|u| -u).collect();
                 self.model
-                    .derivative_with_external(&x, &self.tau(t), &taken)
+                    .derivative_with_external(t, &x, &self.tau(t), &taken)
             }
-            None => self.model.derivative(&x, &self.tau(t)),
+            None => self.model.derivative(t, &x, &self.tau(t)),
         };
         for a in 0..nf {
             dy[a] = d.q[a];
@@ -191,7 +191,7 @@ pub fn write_sensed(
     let (ts, ys) = (solver.x_out(), solver.y_out());
     let n = (spec.duration * RATE).round() as usize + 1;
     assert!(
-        ts.len() >= (n - 1) * fine + 1,
+        ts.len() > (n - 1) * fine,
         "dense output has {} of {n} samples",
         ts.len()
     );
