@@ -495,7 +495,19 @@ fn effect_add_expression_on_the_command_line_and_its_mistakes() {
 /// printed.
 fn loop_on_independent(
     tag: &str,
+    spec: (&'static str, &'static str, Option<&'static str>, u64),
+    hidden: Option<common::independent::Hidden>,
+    backlash: &[f64],
+) -> lockstep::diagnose::apply::AppliedLoop {
+    loop_on_data_of(tag, spec, None, hidden, backlash)
+}
+
+/// [`loop_on_independent`] with the data made by `maker` (the truth with an effect the
+/// truth lacks, integrated by Dop853 through the plant's equations) where one is given.
+fn loop_on_data_of(
+    tag: &str,
     (config, table, test, seed): (&'static str, &'static str, Option<&'static str>, u64),
+    maker: Option<&Plant>,
     hidden: Option<common::independent::Hidden>,
     backlash: &[f64],
 ) -> lockstep::diagnose::apply::AppliedLoop {
@@ -512,7 +524,7 @@ fn loop_on_independent(
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(format!("{config}_{tag}.csv"));
-    independent::write_sensed(&truth, &spec, &path, hidden, backlash);
+    independent::write_sensed(maker.unwrap_or(&truth), &spec, &path, hidden, backlash);
     let m = truth.model;
     let rec = read_record(&path, m, m.configuration(config).unwrap(), 0.01).unwrap();
     let done = apply_all_significant(
@@ -616,6 +628,91 @@ fn hidden_backlash_is_named_and_applied_to_the_noise_c3() {
     );
     let b = done.plant.value("backlash_3").unwrap();
     assert!((b - 2e-3).abs() <= 0.05 * 2e-3, "backlash {b}");
+    for last in &done.last.joints {
+        assert!(
+            last.rms <= 1.1 * common::sensor_sigma(),
+            "{} {}",
+            last.joint,
+            last.rms
+        );
+    }
+}
+
+/// Armature (rotor inertia) hidden on c3: Ia_3 = 0.3 D_33 (at q3 = 0) in the plant that
+/// makes the data. The truth's diagnosis without it names the armature first, and the
+/// loop's `--apply` takes q3 to the noise (≤ 1.1 σ) with Ia within 2 % of the truth.
+#[test]
+fn hidden_armature_is_named_and_applied_to_the_noise_c3() {
+    let truth = common::appendix_d_coupled();
+    let d33 = truth
+        .simulator("c3", &[0.0; 6], ConsistencyPolicy::Warn)
+        .unwrap()
+        .model
+        .inertia_matrix(&[0.0])[(0, 0)];
+    let ia = 0.3 * d33;
+    let mut maker = truth.clone();
+    maker
+        .add_effect(lockstep::effects::Effect::on(EffectKind::Armature, 3))
+        .unwrap();
+    maker.parameters.insert("Ia_3".into(), ia);
+    let done = loop_on_data_of(
+        "armature",
+        ("c3", "4.3", Some("J3"), 47),
+        Some(&maker),
+        None,
+        &[],
+    );
+    let first = &done.first.findings[0];
+    assert!(first.significant, "{}", done.first.verdict());
+    assert_eq!(
+        first.kind,
+        Some(EffectKind::Armature),
+        "{}",
+        done.first.table(4)
+    );
+    let fitted = done.plant.value("Ia_3").unwrap();
+    eprintln!("Ia_3 {fitted:.6e} (truth {ia:.6e}, D_33 {d33:.6e})");
+    assert!((fitted / ia - 1.0).abs() <= 0.02, "Ia {fitted} vs {ia}");
+    for last in &done.last.joints {
+        assert!(
+            last.rms <= 1.1 * common::sensor_sigma(),
+            "{} {}",
+            last.joint,
+            last.rms
+        );
+    }
+}
+
+/// The rotor inertia of a motor that drives the wrist's two joints through a differential,
+/// Jm (q̈4 + q̈5) taken from both (k1; Jm = 0.3 of D_44 at rest), in the plant that makes
+/// the data: named as the built-in coupled-motor inertia, and `--apply` takes both joints
+/// to the noise with Jm within 2 %.
+#[test]
+fn hidden_coupled_motor_inertia_is_named_and_applied_to_the_noise_k1() {
+    let truth = common::appendix_d_coupled();
+    let d = truth
+        .simulator("k1", &[0.0; 6], ConsistencyPolicy::Warn)
+        .unwrap()
+        .model
+        .inertia_matrix(&[0.0, 0.0]);
+    let jm = 0.3 * d[(0, 0)];
+    let mut maker = truth.clone();
+    maker
+        .add_expression("rotor", vec![4, 5], "J*(qdd4 + qdd5)", &["J".into()])
+        .unwrap();
+    maker.parameters.insert("J".into(), jm);
+    let done = loop_on_data_of("rotor", ("k1", "4.7", None, 53), Some(&maker), None, &[]);
+    let first = &done.first.findings[0];
+    assert!(first.significant, "{}", done.first.verdict());
+    assert_eq!(
+        first.name,
+        "coupled-motor inertia (q4 + q5)",
+        "{}",
+        done.first.table(4)
+    );
+    let fitted = done.plant.value("Jm_45").unwrap();
+    eprintln!("Jm {fitted:.6e} (truth {jm:.6e})");
+    assert!((fitted / jm - 1.0).abs() <= 0.02, "Jm {fitted} vs {jm}");
     for last in &done.last.joints {
         assert!(
             last.rms <= 1.1 * common::sensor_sigma(),

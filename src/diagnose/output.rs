@@ -1054,16 +1054,36 @@ fn structure_candidates(
     Ok((findings, simulations))
 }
 
+/// The inertia matrix the simulator integrates with (D_FF(q) and the effects' inertia,
+/// NF × NF) at the first record's start: the scale of an inertia candidate's probe.
+fn start_inertia(
+    plant: &Plant,
+    conf: &'static generated::Configuration,
+    records: &[Record],
+) -> Option<nalgebra::DMatrix<f64>> {
+    let rec = records.first()?;
+    let model = plant
+        .simulator(conf.name, &rec.q_all, crate::plant::ConsistencyPolicy::Warn)
+        .ok()?
+        .model;
+    let q0: Vec<f64> = conf.free.iter().map(|&j| rec.q_all[j]).collect();
+    Some(model.inertia_matrix(&q0))
+}
+
 /// Smoothing speed ε (rad/s) of the coupled motor's friction tanh((q̇a + q̇b)/ε).
 pub const COUPLED_MOTOR_EPSILON: f64 = 0.01;
 
-/// The coupled-motor friction of each pair of searched free joints (issue 54 item 2): a
-/// motor that drives both through a differential turns at q̇a + q̇b, and its friction
-/// Fm tanh((q̇a + q̇b)/ε) ([`COUPLED_MOTOR_EPSILON`]) is taken from both joints (the
-/// transmission's transpose). Its output sensitivity is simulated (one probe of 1e-3 of
-/// joint a's command RMS); where the linearised fit is significant the effect is confirmed
-/// by an output-error fit of Fm, as a user-defined effect `coupled_motor_qa_qb` on both
-/// joints. Returns the findings and the simulations run.
+/// The coupled motor of each pair of searched free joints (issue 54 item 2): a motor that
+/// drives both through a differential turns at q̇a + q̇b, and its friction
+/// Fm tanh((q̇a + q̇b)/ε) ([`COUPLED_MOTOR_EPSILON`]) and its rotor's inertia
+/// Jm (q̈a + q̈b) are taken from both joints (the transmission's transpose; the inertia
+/// enters the inertia matrix, [`crate::simulation::TorqueTerm::inertia`]). Each one's output
+/// sensitivity is simulated (one probe: the friction at 1e-3 of joint a's command RMS, the
+/// inertia at 1e-3 of the larger of the pair's diagonal entries of D(q) at the start);
+/// where the linearised fit is significant the effect is confirmed by an output-error fit of
+/// its parameter, as a user-defined effect `coupled_motor_qa_qb` (friction) or
+/// `coupled_rotor_qa_qb` (inertia) on both joints. Returns the findings and the
+/// simulations run.
 fn coupled_motor_candidates(
     plant: &Plant,
     conf: &'static generated::Configuration,
@@ -1079,42 +1099,77 @@ fn coupled_motor_candidates(
     let sst: f64 = r.iter().map(|x| x * x).sum();
     let n = r.len();
     let nf = conf.free.len();
-    let pairs: Vec<(usize, usize)> = (0..nf)
+    // D(q) at the first record's start, for the inertia probe's size.
+    let inertia = start_inertia(plant, conf, records);
+    struct Variant {
+        name: String,
+        joints: [String; 2],
+        param: String,
+        torque: String,
+        meaning: &'static str,
+        label: String,
+        size: f64,
+    }
+    let variants: Vec<Variant> = (0..nf)
         .flat_map(|a| (a + 1..nf).map(move |b| (a, b)))
         .filter(|&(a, b)| above(a) && above(b))
-        .collect();
-    let found: Vec<(Option<Finding>, usize)> = pairs
-        .par_iter()
-        .map(|&(a, b)| {
+        .flat_map(|(a, b)| {
             let (ja, jb) = (conf.free[a], conf.free[b]);
             let (qa, qb) = (m.joints[ja], m.joints[jb]);
-            let name = format!("coupled_motor_{qa}_{qb}");
-            let param = format!("Fm_{ja}{jb}");
-            if plant.expressions.iter().any(|x| x.name == name)
-                || plant.parameters.contains_key(&param)
-            {
-                return (None, 0);
-            }
-            let torque = format!(
-                "{param}*tanh((qd{ja} + qd{jb})/{COUPLED_MOTOR_EPSILON})"
-            );
             let command = rms(&records
                 .iter()
                 .flat_map(|rec| rec.tau[a].iter().copied())
                 .collect::<Vec<_>>());
-            let size = 1e-3 * if command > 0.0 { command } else { 1.0 };
-            let mut probe = plant.clone();
-            if probe
-                .add_expression(&name, vec![ja, jb], &torque, std::slice::from_ref(&param))
-                .is_err()
+            let d = inertia
+                .as_ref()
+                .map_or(0.0, |d| d[(a, a)].abs().max(d[(b, b)].abs()));
+            [
+                Variant {
+                    name: format!("coupled_motor_{qa}_{qb}"),
+                    joints: [qa.to_string(), qb.to_string()],
+                    param: format!("Fm_{ja}{jb}"),
+                    torque: format!(
+                        "Fm_{ja}{jb}*tanh((qd{ja} + qd{jb})/{COUPLED_MOTOR_EPSILON})"
+                    ),
+                    meaning: "a motor driving both joints through a differential: its friction, at the motor's speed qd_a + qd_b, is taken from both",
+                    label: format!("coupled-motor friction ({qa} + {qb})"),
+                    size: 1e-3 * if command > 0.0 { command } else { 1.0 },
+                },
+                Variant {
+                    name: format!("coupled_rotor_{qa}_{qb}"),
+                    joints: [qa.to_string(), qb.to_string()],
+                    param: format!("Jm_{ja}{jb}"),
+                    torque: format!("Jm_{ja}{jb}*(qdd{ja} + qdd{jb})"),
+                    meaning: "a motor driving both joints through a differential: its rotor's inertia, at the motor's acceleration qdd_a + qdd_b, is taken from both",
+                    label: format!("coupled-motor inertia ({qa} + {qb})"),
+                    size: 1e-3 * if d > 0.0 && d.is_finite() { d } else { 1.0 },
+                },
+            ]
+        })
+        .collect();
+    let found: Vec<(Option<Finding>, usize)> = variants
+        .par_iter()
+        .map(|v| {
+            if plant.expressions.iter().any(|x| x.name == v.name)
+                || plant.parameters.contains_key(&v.param)
             {
                 return (None, 0);
             }
-            probe.parameters.insert(param.clone(), size);
+            let mut probe = plant.clone();
+            let spec = crate::plant::ExpressionSpec {
+                name: v.name.clone(),
+                joints: v.joints.to_vec(),
+                torque: v.torque.clone(),
+                parameters: vec![v.param.clone()],
+            };
+            if probe.add_expression_spec(&spec, "coupled motor").is_err() {
+                return (None, 0);
+            }
+            probe.parameters.insert(v.param.clone(), v.size);
             let Ok(y) = out.simulate(&probe) else {
                 return (None, 1);
             };
-            let col: Vec<f64> = y.iter().zip(yhat).map(|(p, q)| (p - q) / size).collect();
+            let col: Vec<f64> = y.iter().zip(yhat).map(|(p, q)| (p - q) / v.size).collect();
             let Some((x, sse)) = super::fit(std::slice::from_ref(&col), r) else {
                 return (None, 1);
             };
@@ -1122,21 +1177,15 @@ fn coupled_motor_candidates(
             if !super::significant(delta_bic, explained) {
                 return (None, 1);
             }
-            let fm = x[0];
             let u = super::candidates::UserCandidate {
-                spec: crate::plant::ExpressionSpec {
-                    name,
-                    joints: vec![qa.to_string(), qb.to_string()],
-                    torque,
-                    parameters: vec![param],
-                },
-                meaning: "a motor driving both joints through a differential: its friction, at the motor's speed qd_a + qd_b, is taken from both".into(),
-                start: vec![fm],
-                bounds: vec![super::bounds_about(fm, size)],
+                spec,
+                meaning: v.meaning.into(),
+                start: vec![x[0]],
+                bounds: vec![super::bounds_about(x[0], v.size)],
             };
             let (mut f, sims) =
                 fit_candidate(&u, plant, conf, &[], records, (oe, options), (sst, n));
-            f.name = format!("coupled-motor friction ({qa} + {qb})");
+            f.name = v.label.clone();
             (Some(f), 1 + sims)
         })
         .collect();
@@ -1294,7 +1343,7 @@ fn hold_meaning(hold: Hold) -> &'static str {
 /// the same name).
 fn catalogue(
     plant: &Plant,
-    conf: &generated::Configuration,
+    conf: &'static generated::Configuration,
     records: &[Record],
     base: &[Trajectory],
 ) -> Result<Vec<Candidate>> {
@@ -1309,6 +1358,7 @@ fn catalogue(
                 .collect::<Vec<_>>())
         })
         .collect();
+    let inertia = start_inertia(plant, conf, records);
     for (a, &j) in conf.free.iter().enumerate() {
         let has = |k: K| plant.has_effect(j, k);
         let law = plant.friction_law(j);
@@ -1371,6 +1421,18 @@ fn catalogue(
             out.push(add(
                 K::Offset,
                 size(name("offset"), 0.0, dtau, -big, big),
+                vec![],
+                None,
+            ));
+        }
+        // Armature: the rotor's inertia through the gearing, on D(q)'s diagonal (a probe of
+        // 1e-3 of the joint's entry at the start; up to 1000 times it: a rotor through a
+        // gear of ratio N weighs N² times its own inertia).
+        let d_jj = inertia.as_ref().map_or(0.0, |d| d[(a, a)]);
+        if !has(K::Armature) && d_jj > 0.0 && d_jj.is_finite() {
+            out.push(add(
+                K::Armature,
+                size(name("Ia"), 0.0, 1e-3 * d_jj, 0.0, 1e3 * d_jj),
                 vec![],
                 None,
             ));
