@@ -308,6 +308,21 @@ pub struct Described {
     pub e: Vec<f64>,
 }
 
+/// A `described` residual of the comparison's length, or the error that names both.
+fn check_described(c: &Comparison, described: Option<&Described>) -> Result<()> {
+    match described.filter(|d| d.e.len() != c.t.len()) {
+        Some(d) => bail!(
+            "the residual described by '{}' has {} samples, the comparison of {} {} has {}",
+            d.name,
+            d.e.len(),
+            c.file.display(),
+            c.joint,
+            c.t.len()
+        ),
+        None => Ok(()),
+    }
+}
+
 /// Bins of the trend line drawn over the residual against position and velocity.
 pub const TREND_BINS: usize = 40;
 
@@ -693,16 +708,7 @@ pub fn write_residual_csv(
     c: &Comparison,
     described: Option<&Described>,
 ) -> Result<()> {
-    if let Some(d) = described.filter(|d| d.e.len() != c.t.len()) {
-        bail!(
-            "the residual described by '{}' has {} samples, the comparison of {} {} has {}",
-            d.name,
-            d.e.len(),
-            c.file.display(),
-            c.joint,
-            c.t.len()
-        );
-    }
+    check_described(c, described)?;
     write_atomic_with(path, |w| {
         write!(w, "t,q,qd,y,yhat,residual")?;
         if described.is_some() {
@@ -748,16 +754,7 @@ pub fn plot(
     described: Option<&Described>,
 ) -> Result<[PathBuf; 2]> {
     let e = c.residual();
-    if let Some(d) = described.filter(|d| d.e.len() != e.len()) {
-        bail!(
-            "the residual described by '{}' has {} samples, the comparison of {} {} has {}",
-            d.name,
-            d.e.len(),
-            c.file.display(),
-            c.joint,
-            e.len()
-        );
-    }
+    check_described(c, described)?;
     let unit = c.unit;
     let line = |name: &str, x: Vec<f64>, y: Vec<f64>| Series {
         name: name.into(),

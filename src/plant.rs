@@ -890,6 +890,17 @@ impl Plant {
                     )
                 }
             };
+            let not_negative = |s: &str, what: &str| -> Result<f64> {
+                let x = v(s)?;
+                if x.is_nan() || x < 0.0 {
+                    bail!(
+                        "{name}: {} '{s}_{}' must be 0 or positive ({what}), found {x}",
+                        e.kind,
+                        e.joint
+                    );
+                }
+                Ok(x)
+            };
             match e.kind {
                 EffectKind::Viscous => t.viscous = v("Fv")?,
                 EffectKind::Coulomb => t.coulomb = v("Fc")?,
@@ -928,24 +939,10 @@ impl Plant {
                 EffectKind::Spring => t.spring = Some((v("Ks")?, v("qeq")?)),
                 EffectKind::FrictionBias => t.bias = Some((v("FrictionBias")?, v("qeq")?)),
                 EffectKind::Armature => {
-                    let ia = v("Ia")?;
-                    if ia.is_nan() || ia < 0.0 {
-                        bail!(
-                            "{name}: armature 'Ia_{}' must be 0 or positive (an inertia, kg·m² or kg), found {ia}",
-                            e.joint
-                        );
-                    }
-                    t.armature = ia;
+                    t.armature = not_negative("Ia", "an inertia, kg·m² or kg")?;
                 }
                 EffectKind::Backlash => {
-                    let b = v("backlash")?;
-                    if b.is_nan() || b < 0.0 {
-                        bail!(
-                            "{name}: backlash 'backlash_{}' must be 0 or positive (half the play, rad or m), found {b}",
-                            e.joint
-                        );
-                    }
-                    t.backlash = b;
+                    t.backlash = not_negative("backlash", "half the play, rad or m")?;
                 }
                 EffectKind::InputCoupling => {
                     let from = e.from.unwrap_or(e.joint);
