@@ -501,17 +501,19 @@ pub fn compare_observation(
 }
 
 /// The signals of one joint of one record.
-struct Signals {
-    t: Vec<f64>,
-    q: Vec<f64>,
-    qd: Vec<f64>,
-    y: Vec<f64>,
-    yhat: Vec<f64>,
-    dt: f64,
-    inputs: Vec<(String, Vec<f64>)>,
+pub(crate) struct Signals {
+    pub t: Vec<f64>,
+    pub q: Vec<f64>,
+    pub qd: Vec<f64>,
+    pub y: Vec<f64>,
+    pub yhat: Vec<f64>,
+    pub dt: f64,
+    pub inputs: Vec<(String, Vec<f64>)>,
 }
 
-fn comparison(file: &Path, joint: &str, s: Signals, unit: &'static str) -> Comparison {
+/// The [`Comparison`] of measured `s.y` with modelled `s.yhat` of joint `joint` in `file`,
+/// in `unit`: errors, where the largest is, the residual tests.
+pub(crate) fn comparison(file: &Path, joint: &str, s: Signals, unit: &'static str) -> Comparison {
     let e: Vec<f64> = s.y.iter().zip(&s.yhat).map(|(a, b)| a - b).collect();
     let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     let imax = (0..e.len())

@@ -870,6 +870,25 @@ impl PlantModel {
         h: f64,
         steps: usize,
         max_speed: f64,
+        input: impl FnMut(f64, &mut [f64]),
+        observe: impl FnMut(f64, &State),
+    ) -> Result<State, Divergence> {
+        self.simulate_from(0.0, x0, h, steps, max_speed, input, observe)
+    }
+
+    /// [`PlantModel::simulate`] from `x0` at time `t0` (s): the times given to `input`,
+    /// `observe` and the user-defined effects run from `t0`.
+    ///
+    /// # Errors
+    /// As [`PlantModel::simulate`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn simulate_from(
+        &self,
+        t0: f64,
+        x0: State,
+        h: f64,
+        steps: usize,
+        max_speed: f64,
         mut input: impl FnMut(f64, &mut [f64]),
         mut observe: impl FnMut(f64, &State),
     ) -> Result<State, Divergence> {
@@ -877,14 +896,14 @@ impl PlantModel {
         let mut x = x0;
         let mut prev = x.clone();
         for n in 0..steps {
-            let t = n as f64 * h;
+            let t = t0 + n as f64 * h;
             w.time = [t, t + h / 2.0, t + h];
             input(t, &mut w.tau[0]);
             input(t + h / 2.0, &mut w.tau[1]);
             input(t + h, &mut w.tau[2]);
             prev.copy_from(&x);
             self.step_in_place(&mut x, h, &mut w);
-            let t1 = (n + 1) as f64 * h;
+            let t1 = t0 + (n + 1) as f64 * h;
             self.check_step((&prev, &w.tau[0]), &x, t1, h, max_speed)?;
             observe(t1, &x);
         }

@@ -67,6 +67,11 @@ pub enum Command {
         /// data and drawn beside the model in each figure.
         #[arg(long)]
         start: Option<PathBuf>,
+        /// A controller file (e.g. model/control/emps_controller.toml): compare in
+        /// closed-loop space, the plant simulated under that controller on each file's
+        /// reference, force or torque and velocity compared (DIDIM's simulation).
+        #[arg(long, conflicts_with = "start")]
+        controller: Option<PathBuf>,
     },
     /// Name the missing physical effect: rank a catalogue of candidate effects by how much
     /// of the residual each explains (ΔBIC), in torque space (inverse model) or output space
@@ -288,9 +293,26 @@ fn run_command(cli: Cli) -> Result<()> {
         },
         Command::Compare {
             common,
+            space: _,
+            out,
+            start: _,
+            controller: Some(controller),
+        } => {
+            lockstep::files::check_output_dir(&out)?;
+            let (plant, _) = common.load_plant()?;
+            lockstep::report::control::closed_loop_compare_command(
+                &plant,
+                &controller,
+                &common.files.data,
+                &out,
+            )?;
+        }
+        Command::Compare {
+            common,
             space,
             out,
             start,
+            controller: None,
         } => {
             lockstep::files::check_output_dir(&out)?;
             let (plant, inputs) = common.inputs(&space)?;

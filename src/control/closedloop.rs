@@ -315,7 +315,15 @@ pub fn simulate_pd(
         }
         let t0 = k as f64 * period;
         x = sim
-            .simulate(x, h, sub, 1e3, |_, out| out.copy_from_slice(&u), |_, _| {})
+            .simulate_from(
+                t0,
+                x,
+                h,
+                sub,
+                1e3,
+                |_, out| out.copy_from_slice(&u),
+                |_, _| {},
+            )
             .map_err(|d| {
                 let name = names.get(d.joint).map_or("?", String::as_str);
                 anyhow::anyhow!(

@@ -9,6 +9,7 @@
 //! (4.7) and the command table (4.9).
 
 pub mod closedloop;
+pub mod controller;
 pub mod fuzzy;
 pub mod tune;
 pub mod wall;

@@ -531,3 +531,96 @@ pub fn closedloop_command(
     );
     Ok(())
 }
+
+/// `lockstep compare --controller C`: the plant simulated in closed loop under the
+/// controller of C on each record's reference ([`crate::control::controller`]); per record
+/// and free joint, the force or torque and the velocity compared with the measured ones
+/// (the table, one residual CSV and one figure each under `out`). Returns the
+/// comparisons, `[force, velocity]` per record and joint.
+///
+/// # Errors
+/// The controller file (its field named); a data file (a missing reference or disturbance
+/// column named with the columns present; a period that is not the controller's); a
+/// divergence; I/O (path named).
+pub fn closed_loop_compare_command(
+    plant: &crate::plant::Plant,
+    controller: &Path,
+    data: &[std::path::PathBuf],
+    out: &Path,
+) -> Result<Vec<[crate::compare::Comparison; 2]>> {
+    use crate::control::controller::{compare_closed_loop, ClosedLoopRecord, Controller};
+    let c = Controller::load(controller, plant)?;
+    let files = crate::measurement::expand_data_paths(data)?;
+    // Every file read and checked before anything is written.
+    let records = files
+        .iter()
+        .map(|f| {
+            let table = crate::measurement::Table::read(f)?;
+            for n in &table.notes {
+                crate::errln!("note: {n}");
+            }
+            ClosedLoopRecord::from_table(&table, plant, &c)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let compared = records
+        .iter()
+        .map(|r| compare_closed_loop(plant, &c, r).map(|(v, _)| v))
+        .collect::<Result<Vec<_>>>()?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    crate::outln!(
+        "closed-loop space: {} under {} ({}), configuration {}; measured velocity: central difference of the position filtered at {} Hz (4th-order, zero-phase); the first {} samples left out",
+        plant.name(),
+        controller.display(),
+        if c.description.is_empty() { "no description" } else { &c.description },
+        c.configuration,
+        c.compare.velocity_cutoff_hz,
+        c.compare.skip
+    );
+    crate::outln!(
+        "{:<24} {:<5} {:<9} {:>8} {:>9} {:>11} {:>11} {:>9}",
+        "record",
+        "joint",
+        "signal",
+        "fit %",
+        "error %",
+        "RMSE",
+        "max |e|",
+        "at t (s)"
+    );
+    let mut all = Vec::new();
+    for per_record in compared {
+        for pair in per_record {
+            for (signal, cmp) in ["force", "velocity"].iter().zip(&pair) {
+                let stem = cmp
+                    .file
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                let base = out.join(format!("{stem}_{}_{signal}", cmp.joint));
+                crate::compare::write_residual_csv(&base.with_extension("csv"), cmp, None)?;
+                crate::compare::plot(
+                    &base,
+                    cmp,
+                    &format!("{stem}, closed loop, {signal}"),
+                    None,
+                    None,
+                )?;
+                crate::outln!(
+                    "{:<24} {:<5} {:<9} {:>8.2} {:>9.3} {:>11.4e} {:>11.4e} {:>9.3}",
+                    stem,
+                    cmp.joint,
+                    signal,
+                    cmp.nrmse_fit,
+                    cmp.relative_error,
+                    cmp.rmse,
+                    cmp.max_error.0.abs(),
+                    cmp.max_error.1
+                );
+                crate::outln!("    {}", cmp.tests.verdict());
+            }
+            all.push(pair);
+        }
+    }
+    crate::outln!("residual CSVs and plots (PNG, SVG) in {}", out.display());
+    Ok(all)
+}
