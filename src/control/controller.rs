@@ -372,6 +372,8 @@ pub struct ClosedLoopRecord {
     pub tau: PerJoint,
     /// Disturbances added to the command (command units; zeros where none).
     pub disturbance: PerJoint,
+    /// The whole record (every joint), for the inverse model on simulated positions.
+    pub measurement: crate::measurement::Measurement,
 }
 
 impl ClosedLoopRecord {
@@ -433,6 +435,7 @@ impl ClosedLoopRecord {
             q,
             tau,
             disturbance,
+            measurement: crate::measurement::Measurement::from_table(table, m.joints.len())?,
         })
     }
 }

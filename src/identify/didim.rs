@@ -1,0 +1,223 @@
+//! DIDIM, the direct and inverse dynamic identification models (Gautier, Janot, Vandanjon,
+//! *A New Closed-Loop Output Error Method for Parameter Identification of Robot Dynamics*,
+//! IEEE TCST 21(2), 2013): the closed-loop output-error identification of a device measured
+//! under its own controller, as IDIM-LS on simulated states.
+//!
+//! Iteration i: the plant with the values θ_{i−1} is simulated in closed loop under the
+//! device's controller on each record's reference ([`crate::control::controller`]); the
+//! inverse model's regressor W is built on the *simulated* positions (noise-free; filtered,
+//! differentiated and decimated as IDIM-LS does, [`crate::identify::idim::observation`])
+//! and the measured forces or torques y; θ_i = argmin ‖y − W θ‖² (on the base parameters
+//! where W is rank-deficient). It is a Gauss–Newton iteration on the closed-loop force
+//! error with W as the Jacobian's approximation; it stops when the relative force error of
+//! the closed-loop simulation changes by less than [`DidimOptions::tolerance`] of itself.
+//! The start θ_0 is the plant's values (IDIM-LS estimates or a CAD model).
+
+use crate::control::controller::{compare_closed_loop, ClosedLoopRecord, Controller};
+use crate::identify::idim::{least_squares_base, observation, Fit, IdimOptions};
+use crate::plant::Plant;
+use anyhow::{bail, Result};
+
+/// DIDIM's options; the defaults are the method's preset.
+#[derive(Debug, Clone)]
+pub struct DidimOptions {
+    /// Largest number of iterations.
+    pub max_iter: usize,
+    /// Relative change of the force error (of itself) under which the iteration stops.
+    pub tolerance: f64,
+    /// How the regressor is prepared from the simulated positions.
+    pub idim: IdimOptions,
+}
+
+impl Default for DidimOptions {
+    /// Ten iterations (Gautier et al. report convergence in 2 to 5), a change of 1e-4, and
+    /// IDIM-LS's preparation.
+    fn default() -> Self {
+        DidimOptions {
+            max_iter: 10,
+            tolerance: 1e-4,
+            idim: IdimOptions::default(),
+        }
+    }
+}
+
+/// One iteration's figures: the closed-loop errors (%) of the values it ends with.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DidimIteration {
+    /// The values (the regressor's columns).
+    pub values: Vec<(String, f64)>,
+    /// Relative force or torque error of the closed loop, all records and joints (%).
+    pub force_error: f64,
+    /// Relative velocity error likewise (%).
+    pub velocity_error: f64,
+}
+
+/// What DIDIM returns.
+#[derive(Debug, Clone)]
+pub struct DidimResult {
+    /// The plant with the last values.
+    pub plant: Plant,
+    /// The last least-squares fit (values, standard deviations, base parameters).
+    pub fit: Fit,
+    /// The start (index 0) and each iteration.
+    pub iterations: Vec<DidimIteration>,
+    /// Whether the force error's change fell under the tolerance.
+    pub converged: bool,
+}
+
+/// The relative force and velocity errors (%) of `plant` in closed loop on every record:
+/// 100 ‖y − ŷ‖ / ‖y‖ over all of them.
+///
+/// # Errors
+/// As [`compare_closed_loop`].
+pub fn closed_loop_errors(
+    plant: &Plant,
+    c: &Controller,
+    records: &[ClosedLoopRecord],
+) -> Result<(f64, f64)> {
+    let mut sums = [(0.0, 0.0); 2];
+    for r in records {
+        let (cmp, _) = compare_closed_loop(plant, c, r)?;
+        for pair in &cmp {
+            for (k, x) in pair.iter().enumerate() {
+                sums[k].0 +=
+                    x.y.iter()
+                        .zip(&x.yhat)
+                        .map(|(a, b)| (a - b).powi(2))
+                        .sum::<f64>();
+                sums[k].1 += x.y.iter().map(|a| a * a).sum::<f64>();
+            }
+        }
+    }
+    let rel = |(e, n): (f64, f64)| 100.0 * (e / n).sqrt();
+    Ok((rel(sums[0]), rel(sums[1])))
+}
+
+/// The inverse model's observation on the closed loop of `plant` under `c`: each record
+/// with the simulated positions of the free joints in place of the measured ones, the
+/// measured forces or torques kept ([`observation`]); and those records.
+///
+/// # Errors
+/// As [`crate::control::controller::simulate_closed_loop`] and [`observation`].
+pub fn closed_loop_observation(
+    plant: &Plant,
+    c: &Controller,
+    records: &[ClosedLoopRecord],
+    idim: &IdimOptions,
+) -> Result<(
+    crate::identify::idim::Observation,
+    Vec<crate::measurement::Measurement>,
+)> {
+    let conf = crate::util::configuration(plant.model, &c.configuration)?;
+    let simulated = records
+        .iter()
+        .map(|r| {
+            let run = crate::control::controller::simulate_closed_loop(plant, c, r)?;
+            let mut m = r.measurement.clone();
+            for (a, &j) in conf.free.iter().enumerate() {
+                m.q[j] = run.q[a].clone();
+            }
+            Ok(m)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let obs = observation(plant, &c.configuration, &simulated, idim)?;
+    Ok((obs, simulated))
+}
+
+/// The diagnosis in closed-loop space: the torque-space catalogue, built-ins and structure
+/// search ([`crate::diagnose::torque::diagnosis`]) on the regressor of the simulated closed
+/// loop and the measured forces or torques ([`closed_loop_observation`]): what the plant,
+/// run as the device ran, leaves of the measured command.
+///
+/// # Errors
+/// As [`closed_loop_observation`] and the torque-space diagnosis.
+pub fn diagnose_closed_loop(
+    plant: &Plant,
+    c: &Controller,
+    records: &[ClosedLoopRecord],
+    idim: &IdimOptions,
+) -> Result<crate::diagnose::torque::TorqueDiagnosis> {
+    let (obs, _) = closed_loop_observation(plant, c, records, idim)?;
+    crate::diagnose::torque::diagnosis(plant, &obs)
+}
+
+/// DIDIM on `records` under controller `c` from the values of `plant` (module
+/// documentation); `progress` gets each iteration as it ends.
+///
+/// # Errors
+/// A plant whose effects are not linear in their parameters (the inverse model's), a
+/// parameter without a starting value, a divergence of the closed loop, a least-squares
+/// failure (named).
+pub fn didim(
+    plant: &Plant,
+    c: &Controller,
+    records: &[ClosedLoopRecord],
+    options: &DidimOptions,
+    progress: &dyn Fn(usize, &DidimIteration),
+) -> Result<DidimResult> {
+    if records.is_empty() {
+        bail!("DIDIM: no records");
+    }
+    let m = plant.model;
+    let conf = crate::util::configuration(m, &c.configuration)?;
+    let mut current = plant.clone();
+    let columns = |p: &Plant| -> Result<Vec<String>> {
+        let first = observation(
+            p,
+            &c.configuration,
+            std::slice::from_ref(&records[0].measurement),
+            &options.idim,
+        )?;
+        Ok(first.names)
+    };
+    let names = columns(&current)?;
+    let values = |p: &Plant| -> Vec<(String, f64)> {
+        names
+            .iter()
+            .map(|n| (n.clone(), p.value(n).unwrap_or(f64::NAN)))
+            .collect()
+    };
+    let (f0, v0) = closed_loop_errors(&current, c, records)?;
+    let start = DidimIteration {
+        values: values(&current),
+        force_error: f0,
+        velocity_error: v0,
+    };
+    progress(0, &start);
+    let mut iterations = vec![start];
+    let mut fit = None;
+    let mut converged = false;
+    for i in 1..=options.max_iter {
+        let (obs, simulated) = closed_loop_observation(&current, c, records, &options.idim)?;
+        let prior = current.values_with_barycentric()?;
+        let locked_at: Vec<Vec<f64>> = simulated
+            .iter()
+            .map(|r| r.q.iter().map(|q| q[0]).collect())
+            .collect();
+        let f = least_squares_base(&obs, m, conf, &locked_at, &|n| prior.get(n).copied())?;
+        f.apply(&mut current)?;
+        let (force, velocity) = closed_loop_errors(&current, c, records)?;
+        let it = DidimIteration {
+            values: values(&current),
+            force_error: force,
+            velocity_error: velocity,
+        };
+        progress(i, &it);
+        let before = iterations.last().map_or(f64::INFINITY, |x| x.force_error);
+        iterations.push(it);
+        fit = Some(f);
+        if (before - force).abs() <= options.tolerance * force {
+            converged = true;
+            break;
+        }
+    }
+    let Some(fit) = fit else {
+        bail!("DIDIM: no iteration ran (max_iter = 0)");
+    };
+    Ok(DidimResult {
+        plant: current,
+        fit,
+        iterations,
+        converged,
+    })
+}
