@@ -268,3 +268,91 @@ fn didim_and_the_closed_loop_diagnosis_find_coulomb_then_the_offset_emps() {
     eprintln!("pulses: force {force:.4} %, velocity {velocity:.4} %");
     assert!((force / 8.941 - 1.0).abs() < 0.10, "pulses force {force}");
 }
+
+/// `identify didim` and `diagnose --controller` on the command line: DIDIM from the mass +
+/// viscous IDIM-LS values writes its plant, the closed-loop diagnosis of it names Coulomb
+/// friction, and `--apply 1` adds it and refits by DIDIM (Fc within 1 % of the benchmark's
+/// 20.39 N); a plant whose effect the inverse model cannot fit is refused with the reason
+/// and nothing written.
+#[test]
+fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let data = s(&manifest("data/emps/emps_train.csv"));
+    let controller = s(&manifest("model/control/emps_controller.toml"));
+    let (p1, p2, p3) = (d.join("p1.toml"), d.join("p2.toml"), d.join("p3.toml"));
+    common::ok(&common::lockstep(&[
+        "identify",
+        "idim",
+        "--plant",
+        &s(&manifest("model/plants/emps_viscous.toml")),
+        "--data",
+        &data,
+        "--out",
+        &s(&p1),
+    ]));
+    let text = common::ok(&common::lockstep(&[
+        "identify",
+        "didim",
+        "--plant",
+        &s(&p1),
+        "--data",
+        &data,
+        "--controller",
+        &controller,
+        "--out",
+        &s(&p2),
+    ]));
+    assert!(text.contains("DIDIM") && text.contains("wrote"), "{text}");
+    let text = common::ok(&common::lockstep(&[
+        "diagnose",
+        "--plant",
+        &s(&p2),
+        "--data",
+        &data,
+        "--controller",
+        &controller,
+        "--apply",
+        "1",
+        "--out",
+        &s(&p3),
+    ]));
+    eprintln!("{text}");
+    assert!(
+        text.contains("most likely missing: coulomb on q0"),
+        "{text}"
+    );
+    let fitted = Plant::load(&p3).unwrap();
+    let fc = fitted.parameters["Fc_0"];
+    assert!((fc / 20.3935 - 1.0).abs() < 0.01, "Fc {fc}");
+    // The inverse model cannot fit a spring's rest angle: refused, nothing written.
+    let mut spring = Plant::load(&p2).unwrap();
+    spring
+        .add_effect(lockstep::effects::Effect::on(
+            lockstep::effects::EffectKind::Spring,
+            0,
+        ))
+        .unwrap();
+    spring.parameters.insert("Ks_0".into(), 1.0);
+    spring.parameters.insert("qeq_0".into(), 0.1);
+    let p4 = d.join("p4.toml");
+    spring.save(&p4).unwrap();
+    let p5 = d.join("p5.toml");
+    common::fails(
+        &common::lockstep(&[
+            "identify",
+            "didim",
+            "--plant",
+            &s(&p4),
+            "--data",
+            &data,
+            "--controller",
+            &controller,
+            "--out",
+            &s(&p5),
+        ]),
+        &["'spring' on joint 'q0'", "not linear in its parameters"],
+    );
+    assert!(!p5.exists());
+}

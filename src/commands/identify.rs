@@ -23,6 +23,21 @@ pub enum IdentifyMethod {
         #[arg(long)]
         allow_inconsistent: bool,
     },
+    /// DIDIM (Gautier, Janot, Vandanjon 2013): closed-loop output error for a device
+    /// measured under its own controller. The plant, from its values, is simulated under
+    /// the controller of `--controller` on each file's reference; IDIM-LS on the simulated
+    /// positions and the measured forces or torques gives the next values, until the
+    /// closed-loop force error stops changing.
+    Didim {
+        #[command(flatten)]
+        files: PlantAndData,
+        /// The controller file (e.g. model/control/emps_controller.toml).
+        #[arg(long)]
+        controller: PathBuf,
+        /// Write the plant with the fitted values to this file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Output error along the model's locking sequence (thesis 4.3) on the position
     /// measurements in `--data` (files or directories), writing `plant.toml`, `report.md`
     /// and `report.json` to `--out` after every step.

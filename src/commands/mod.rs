@@ -107,6 +107,11 @@ pub enum Command {
         /// catalogue; --apply adds one as a user-defined effect.
         #[arg(long)]
         candidates: Option<PathBuf>,
+        /// A controller file: diagnose in closed-loop space (the catalogue on the inverse
+        /// model of the plant simulated under that controller, against the measured forces
+        /// or torques); --apply adds the finding and refits by DIDIM.
+        #[arg(long, conflicts_with_all = ["candidates", "keep_values"])]
+        controller: Option<PathBuf>,
     },
     /// Refit chosen parameters (output error on position data; the inverse model's least
     /// squares, the other parameters held, on torque-measured data); print the error per
@@ -290,6 +295,22 @@ fn run_command(cli: Cli) -> Result<()> {
                 allow_inconsistent,
             } => identify_idim(&common, out, allow_inconsistent)?,
             IdentifyMethod::Sequence(args) => identify_sequence(&args)?,
+            IdentifyMethod::Didim {
+                files,
+                controller,
+                out,
+            } => {
+                if let Some(out) = &out {
+                    lockstep::files::check_writable(&[out])?;
+                }
+                let plant = Plant::load(&files.plant)?;
+                lockstep::report::control::didim_command(
+                    &plant,
+                    &controller,
+                    &files.data,
+                    out.as_deref(),
+                )?;
+            }
         },
         Command::Compare {
             common,
@@ -335,9 +356,26 @@ fn run_command(cli: Cli) -> Result<()> {
             out,
             keep_values,
             candidates,
+            controller,
         } => {
             if let Some(out) = &out {
                 lockstep::files::check_writable(&[out])?;
+            }
+            if let Some(controller) = controller {
+                let (plant, _) = common.load_plant()?;
+                let apply = apply.map(|a| match a {
+                    Apply::Finding(k) => (k, false),
+                    Apply::AllSignificant => (1, true),
+                });
+                lockstep::report::control::closed_loop_diagnose_command(
+                    &plant,
+                    &controller,
+                    &common.files.data,
+                    top,
+                    apply,
+                    out.as_deref(),
+                )?;
+                return Ok(());
             }
             let (plant, mut inputs) = common.inputs(&space)?;
             inputs.refit_values = !keep_values;

@@ -624,3 +624,186 @@ pub fn closed_loop_compare_command(
     crate::outln!("residual CSVs and plots (PNG, SVG) in {}", out.display());
     Ok(all)
 }
+
+/// The controller of `controller` checked against `plant`, and the closed-loop signals of
+/// every file of `data` (files or directories), all read before anything runs.
+///
+/// # Errors
+/// As [`crate::control::controller::Controller::load`] and
+/// [`crate::control::controller::ClosedLoopRecord::from_table`].
+pub fn closed_loop_records(
+    plant: &crate::plant::Plant,
+    controller: &Path,
+    data: &[PathBuf],
+) -> Result<(
+    crate::control::controller::Controller,
+    Vec<crate::control::controller::ClosedLoopRecord>,
+)> {
+    use crate::control::controller::{ClosedLoopRecord, Controller};
+    let c = Controller::load(controller, plant)?;
+    let records = crate::measurement::expand_data_paths(data)?
+        .iter()
+        .map(|f| {
+            let table = crate::measurement::Table::read(f)?;
+            for n in &table.notes {
+                crate::errln!("note: {n}");
+            }
+            ClosedLoopRecord::from_table(&table, plant, &c)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok((c, records))
+}
+
+/// Print DIDIM's iterations as they end.
+fn print_iteration(i: usize, it: &crate::identify::didim::DidimIteration) {
+    let values: Vec<String> = it
+        .values
+        .iter()
+        .map(|(n, v)| format!("{n} = {v:.6}"))
+        .collect();
+    crate::outln!(
+        "  {:>2}  force {:>8.4} %  velocity {:>8.4} %  {}",
+        i,
+        it.force_error,
+        it.velocity_error,
+        values.join(", ")
+    );
+}
+
+/// `lockstep identify didim`: DIDIM ([`crate::identify::didim`]) from the plant's values
+/// on the records under the controller; the iterations, the fit's table and, with `out`,
+/// the plant written with the values and the step in its history.
+///
+/// # Errors
+/// As [`closed_loop_records`] and [`crate::identify::didim::didim`]; no convergence within
+/// the iterations (the last change named; nothing written); I/O (path named).
+pub fn didim_command(
+    plant: &crate::plant::Plant,
+    controller: &Path,
+    data: &[PathBuf],
+    out: Option<&Path>,
+) -> Result<crate::identify::didim::DidimResult> {
+    use crate::identify::didim::{didim, DidimOptions};
+    let (c, records) = closed_loop_records(plant, controller, data)?;
+    crate::outln!(
+        "DIDIM, plant {}, controller {}, configuration {}, {} record(s): iteration, closed-loop errors, values",
+        plant.name(),
+        controller.display(),
+        c.configuration,
+        records.len()
+    );
+    let r = didim(
+        plant,
+        &c,
+        &records,
+        &DidimOptions::default(),
+        &print_iteration,
+    )?;
+    if !r.converged {
+        bail!(
+            "DIDIM did not converge in {} iterations (force error {:.4} % → {:.4} %): nothing written",
+            r.iterations.len() - 1,
+            r.iterations[r.iterations.len().saturating_sub(2)].force_error,
+            r.iterations.last().map_or(f64::NAN, |x| x.force_error)
+        );
+    }
+    crate::out!("{}", crate::report::fit_table(&r.fit));
+    if let Some(out) = out {
+        r.plant.save(out)?;
+        crate::outln!("wrote {}", out.display());
+    }
+    Ok(r)
+}
+
+/// `lockstep diagnose --controller C`: the diagnosis in closed-loop space
+/// ([`crate::identify::didim::diagnose_closed_loop`]); with `apply` = Some(K) (1-based) and
+/// `out`, finding K added at its estimate and the plant refitted by DIDIM, then diagnosed
+/// again, and with `all` repeated until nothing significant is missing (at most
+/// [`crate::diagnose::apply::MAX_APPLIED_STEPS`] steps); the plant written to `out`.
+///
+/// # Errors
+/// As [`closed_loop_records`], the diagnosis and DIDIM; finding K absent or not a plant
+/// edit (named); I/O (path named).
+pub fn closed_loop_diagnose_command(
+    plant: &crate::plant::Plant,
+    controller: &Path,
+    data: &[PathBuf],
+    top: usize,
+    apply: Option<(usize, bool)>,
+    out: Option<&Path>,
+) -> Result<()> {
+    use crate::identify::didim::{diagnose_closed_loop, didim, DidimOptions};
+    let (c, records) = closed_loop_records(plant, controller, data)?;
+    let options = DidimOptions::default();
+    let mut current = plant.clone();
+    let steps = match apply {
+        Some((_, true)) => crate::diagnose::apply::MAX_APPLIED_STEPS,
+        Some((_, false)) => 1,
+        None => 0,
+    };
+    for step in 0..=steps {
+        let d = diagnose_closed_loop(&current, &c, &records, &options.idim)?;
+        crate::outln!(
+            "plant {}, closed-loop space (controller {}, configuration {}; the inverse model on the simulated closed loop, the measured forces or torques):",
+            current.name(),
+            controller.display(),
+            c.configuration
+        );
+        crate::out!(
+            "{}",
+            crate::diagnose::table_with(&d.findings, top, &d.not_white)
+        );
+        let Some((k, all)) = apply else {
+            return Ok(());
+        };
+        let pick = if all { 1 } else { k };
+        let Some(f) = d.findings.get(pick.saturating_sub(1)) else {
+            bail!(
+                "--apply {pick}: the diagnosis has {} findings",
+                d.findings.len()
+            );
+        };
+        if step == steps || (all && !f.significant) {
+            break;
+        }
+        // The loop stops at a finding it cannot take (about the input or the values, or an
+        // effect the inverse model cannot fit); one finding asked for by number fails.
+        let edited = match f.apply(&current) {
+            Ok(p) => p,
+            Err(e) if all => {
+                crate::outln!("stopped: {e:#}");
+                break;
+            }
+            Err(e) => return Err(e),
+        };
+        crate::outln!("adding {} on {}, refitting by DIDIM:", f.name, f.joint);
+        let r = match didim(&edited, &c, &records, &options, &print_iteration) {
+            Ok(r) => r,
+            Err(e) if all => {
+                crate::outln!(
+                    "stopped: {} on {} cannot be refitted: {e:#}",
+                    f.name,
+                    f.joint
+                );
+                break;
+            }
+            Err(e) => return Err(e),
+        };
+        if !r.converged {
+            bail!(
+                "DIDIM did not converge after adding {} on {}: nothing written",
+                f.name,
+                f.joint
+            );
+        }
+        current = r.plant;
+        if !all {
+            break;
+        }
+    }
+    if let Some(out) = out {
+        current.save(out)?;
+        crate::outln!("wrote {}", out.display());
+    }
+    Ok(())
+}
