@@ -5,6 +5,9 @@
 //! 2. Add the effects the residual points to (Coulomb friction, offset), refit, and show the
 //!    error fall; validate on the pulses record with the same parameters.
 //! 3. Refine with direction-dependent friction.
+//! 4. Simulate the model of step 2 in closed loop under the benchmark's controller on both
+//!    records' references (`model/control/emps_controller.toml`) and compare force and
+//!    velocity with the benchmark's published closed-loop figures.
 //!
 //! Everything is written under the output directory, which is named at the end.
 
@@ -104,7 +107,7 @@ fn fit_and_compare(
 /// Missing bundled files, or an output file that cannot be written.
 pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let bar = ProgressBar::new(5);
+    let bar = ProgressBar::new(6);
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{bar:30}] {pos}/{len} {msg}")
             .expect("valid template")
@@ -181,6 +184,27 @@ pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
     text.push_str(&indent(&fit_table(&s3.fit)));
     writeln!(text, "   Benchmark reference: M 95.1540, Fv+ 166.7061, Fc+ 20.1440, Fv- 240.4236, Fc- 20.6277, error 3.1117 %.\n")?;
 
+    // Step 4: the model of step 2 in closed loop, as the device ran.
+    bar.set_message("closed loop under the benchmark's controller");
+    let closed = closed_loop(&plant, data_dir)?;
+    bar.inc(1);
+    writeln!(
+        text,
+        "4. The model of step 2 in closed loop under the benchmark's controller (model/control/emps_controller.toml:\n   u = kv (kp (qref - q) - dq), one sample of delay, +/-10 V, force = gtau u), on each record's reference:"
+    )?;
+    writeln!(
+        text,
+        "   {:<18} {:>10} {:>12}   {}",
+        "record", "force", "velocity", "benchmark's published model"
+    )?;
+    for (name, force, velocity, published) in &closed {
+        writeln!(
+            text,
+            "   {name:<18} {force:>9.3}% {velocity:>11.3}%   {published}"
+        )?;
+    }
+    writeln!(text)?;
+
     bar.set_message("summary");
     let steps = vec![s1, s2, s3];
     writeln!(
@@ -207,6 +231,34 @@ pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
         out: out.to_path_buf(),
         text,
     })
+}
+
+/// The closed-loop force and velocity errors (%) of `plant` on both records under the
+/// benchmark's controller, with the published figures.
+fn closed_loop(plant: &Plant, data_dir: &Path) -> Result<Vec<(String, f64, f64, &'static str)>> {
+    use crate::control::controller::{compare_closed_loop, ClosedLoopRecord, Controller};
+    let controller = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("model")
+        .join("control")
+        .join("emps_controller.toml");
+    let c = Controller::load(&controller, plant)?;
+    [
+        ("emps_train", "force 5.848 %, velocity 0.229 %"),
+        ("emps_test_pulses", "force 8.941 %, velocity 0.479 %"),
+    ]
+    .into_iter()
+    .map(|(name, published)| {
+        let table = crate::measurement::Table::read(&data_dir.join(format!("{name}.csv")))?;
+        let record = ClosedLoopRecord::from_table(&table, plant, &c)?;
+        let (cmp, _) = compare_closed_loop(plant, &c, &record)?;
+        Ok((
+            name.to_string(),
+            cmp[0][0].relative_error,
+            cmp[0][1].relative_error,
+            published,
+        ))
+    })
+    .collect()
 }
 
 fn indent(s: &str) -> String {
