@@ -10,6 +10,9 @@
 //! - `effects/k5_10s_{built_in,expression}_springs`: 10 s of k5 with the six cable-drag
 //!   springs built in, and written by hand as user-defined effects `Ks*(qj - qe)`
 //!   (`crate::expression`; target: an expression effect costs ≤ 3× the built-in, issue 54).
+//! - `closed_loop/emps_train_24.8s`: the EMPS benchmark's published model under its
+//!   controller on the training record's reference, 24,841 samples at 1 kHz, ten RK4 steps
+//!   each (target < 0.5 s, issue 59).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 mod common;
@@ -85,6 +88,23 @@ fn springs_by_hand(plant: &lockstep::plant::Plant) -> lockstep::plant::Plant {
 }
 
 fn bench(c: &mut Criterion) {
+    {
+        use lockstep::control::controller::{simulate_closed_loop, ClosedLoopRecord, Controller};
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let plant =
+            lockstep::plant::Plant::load(&root.join("model/plants/emps_published.toml")).unwrap();
+        let controller =
+            Controller::load(&root.join("model/control/emps_controller.toml"), &plant).unwrap();
+        let table =
+            lockstep::measurement::Table::read(&root.join("data/emps/emps_train.csv")).unwrap();
+        let record = ClosedLoopRecord::from_table(&table, &plant, &controller).unwrap();
+        let mut g = c.benchmark_group("closed_loop");
+        g.sample_size(10).measurement_time(Duration::from_secs(5));
+        g.bench_function("emps_train_24.8s", |b| {
+            b.iter(|| simulate_closed_loop(&plant, &controller, &record).unwrap())
+        });
+        g.finish();
+    }
     {
         let plant = common::appendix_d_coupled();
         let by_hand = springs_by_hand(&plant);
