@@ -20,8 +20,9 @@
 //! search and whiteness tests, each timed (`cargo bench --bench diagnosis -- torque` runs
 //! this part alone).
 //!
-//! Then the output-space detector on six joints (`cargo bench --bench diagnosis -- k5`,
-//! minutes): the k5 file made by the truth with a cogging 0.005 sin(6 q3) N·m it lacks,
+//! Then the output-space detector on six joints (`cargo bench --bench diagnosis -- k5`;
+//! more than half an hour on 2 cores, docs/src/record/independent-data.md): the k5 file
+//! made by the truth with a cogging 0.005 sin(6 q3) N·m it lacks,
 //! diagnosed from the truth: the catalogue, the structure search on every joint above its
 //! noise or not white, the built-ins and the coupled-motor pairs, timed with its
 //! simulations.

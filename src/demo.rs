@@ -194,8 +194,8 @@ pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
     )?;
     writeln!(
         text,
-        "   {:<18} {:>10} {:>12}   {}",
-        "record", "force", "velocity", "benchmark's published model"
+        "   {:<18} {:>10} {:>12}   benchmark's published model",
+        "record", "force", "velocity"
     )?;
     for (name, force, velocity, published) in &closed {
         writeln!(

@@ -247,7 +247,7 @@ fn didim_and_the_closed_loop_diagnosis_find_coulomb_then_the_offset_emps() {
         (EffectKind::Coulomb, "Fc_0"),
         (EffectKind::Offset, "offset_0"),
     ] {
-        let d = diagnose_closed_loop(&plant, &c, &records, &options.idim).unwrap();
+        let (d, _) = diagnose_closed_loop(&plant, &c, &records, &options.idim, &[]).unwrap();
         let text = table(&d.findings, 4);
         eprintln!("{text}");
         assert_eq!(d.findings[0].kind, Some(expected), "{text}");
@@ -272,7 +272,7 @@ fn didim_and_the_closed_loop_diagnosis_find_coulomb_then_the_offset_emps() {
 /// `identify didim` and `diagnose --controller` on the command line: DIDIM from the mass +
 /// viscous IDIM-LS values writes its plant, the closed-loop diagnosis of it names Coulomb
 /// friction, and `--apply 1` adds it and refits by DIDIM (Fc within 1 % of the benchmark's
-/// 20.39 N); a plant whose effect the inverse model cannot fit is refused with the reason
+/// 20.39 N); a user's candidate is ranked beside the catalogue; a plant whose effect the inverse model cannot fit is refused with the reason
 /// and nothing written.
 #[test]
 fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
@@ -326,6 +326,33 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
     let fitted = Plant::load(&p3).unwrap();
     let fc = fitted.parameters["Fc_0"];
     assert!((fc / 20.3935 - 1.0).abs() < 0.01, "Fc {fc}");
+    // The user's candidates are ranked beside the catalogue in closed-loop space too.
+    let candidates = d.join("candidates.toml");
+    std::fs::write(
+        &candidates,
+        r#"
+[[candidate]]
+name = "drag"
+joints = ["q0"]
+torque = "c*qd0*abs(qd0)"
+parameters = { c = { start = 0.0, bounds = [-1e5, 1e5] } }
+"#,
+    )
+    .unwrap();
+    let text = common::ok(&common::lockstep(&[
+        "diagnose",
+        "--plant",
+        &s(&p3),
+        "--data",
+        &data,
+        "--controller",
+        &controller,
+        "--candidates",
+        &s(&candidates),
+        "--top",
+        "20",
+    ]));
+    assert!(text.contains("candidate drag"), "{text}");
     // The inverse model cannot fit a spring's rest angle: refused, nothing written.
     let mut spring = Plant::load(&p2).unwrap();
     spring

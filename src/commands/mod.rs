@@ -110,7 +110,7 @@ pub enum Command {
         /// A controller file: diagnose in closed-loop space (the catalogue on the inverse
         /// model of the plant simulated under that controller, against the measured forces
         /// or torques); --apply adds the finding and refits by DIDIM.
-        #[arg(long, conflicts_with_all = ["candidates", "keep_values"])]
+        #[arg(long, conflicts_with = "keep_values")]
         controller: Option<PathBuf>,
     },
     /// Refit chosen parameters (output error on position data; the inverse model's least
@@ -363,6 +363,10 @@ fn run_command(cli: Cli) -> Result<()> {
             }
             if let Some(controller) = controller {
                 let (plant, _) = common.load_plant()?;
+                let user = match &candidates {
+                    Some(path) => lockstep::diagnose::candidates::read(path)?,
+                    None => Vec::new(),
+                };
                 let apply = apply.map(|a| match a {
                     Apply::Finding(k) => (k, false),
                     Apply::AllSignificant => (1, true),
@@ -371,7 +375,7 @@ fn run_command(cli: Cli) -> Result<()> {
                     &plant,
                     &controller,
                     &common.files.data,
-                    top,
+                    (top, &user),
                     apply,
                     out.as_deref(),
                 )?;

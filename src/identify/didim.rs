@@ -125,9 +125,11 @@ pub fn closed_loop_observation(
 }
 
 /// The diagnosis in closed-loop space: the torque-space catalogue, built-ins and structure
-/// search ([`crate::diagnose::torque::diagnosis`]) on the regressor of the simulated closed
-/// loop and the measured forces or torques ([`closed_loop_observation`]): what the plant,
-/// run as the device ran, leaves of the measured command.
+/// search ([`crate::diagnose::torque::diagnosis_with`]) on the regressor of the simulated
+/// closed loop and the measured forces or torques ([`closed_loop_observation`]): what the
+/// plant, run as the device ran, leaves of the measured command; the user's `candidates`
+/// ranked beside them (those not linear in their parameters left out, each with its
+/// reason in the second value).
 ///
 /// # Errors
 /// As [`closed_loop_observation`] and the torque-space diagnosis.
@@ -136,9 +138,20 @@ pub fn diagnose_closed_loop(
     c: &Controller,
     records: &[ClosedLoopRecord],
     idim: &IdimOptions,
-) -> Result<crate::diagnose::torque::TorqueDiagnosis> {
-    let (obs, _) = closed_loop_observation(plant, c, records, idim)?;
-    crate::diagnose::torque::diagnosis(plant, &obs)
+    candidates: &[crate::diagnose::candidates::UserCandidate],
+) -> Result<(crate::diagnose::torque::TorqueDiagnosis, Vec<String>)> {
+    let (obs, simulated) = closed_loop_observation(plant, c, records, idim)?;
+    let (user, left_out) = crate::diagnose::candidates::columns(
+        candidates,
+        plant,
+        &c.configuration,
+        &simulated,
+        idim,
+    )?;
+    Ok((
+        crate::diagnose::torque::diagnosis_with(plant, &obs, &user)?,
+        left_out,
+    ))
 }
 
 /// DIDIM on `records` under controller `c` from the values of `plant` (module

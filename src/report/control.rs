@@ -716,7 +716,8 @@ pub fn didim_command(
 }
 
 /// `lockstep diagnose --controller C`: the diagnosis in closed-loop space
-/// ([`crate::identify::didim::diagnose_closed_loop`]); with `apply` = Some(K) (1-based) and
+/// ([`crate::identify::didim::diagnose_closed_loop`]), the user's `candidates` ranked
+/// beside the catalogue, the first `top` findings printed; with `apply` = Some(K) (1-based) and
 /// `out`, finding K added at its estimate and the plant refitted by DIDIM, then diagnosed
 /// again, and with `all` repeated until nothing significant is missing (at most
 /// [`crate::diagnose::apply::MAX_APPLIED_STEPS`] steps); the plant written to `out`.
@@ -728,7 +729,7 @@ pub fn closed_loop_diagnose_command(
     plant: &crate::plant::Plant,
     controller: &Path,
     data: &[PathBuf],
-    top: usize,
+    (top, candidates): (usize, &[crate::diagnose::candidates::UserCandidate]),
     apply: Option<(usize, bool)>,
     out: Option<&Path>,
 ) -> Result<()> {
@@ -742,7 +743,14 @@ pub fn closed_loop_diagnose_command(
         None => 0,
     };
     for step in 0..=steps {
-        let d = diagnose_closed_loop(&current, &c, &records, &options.idim)?;
+        let (d, left_out) =
+            diagnose_closed_loop(&current, &c, &records, &options.idim, candidates)?;
+        for line in left_out
+            .iter()
+            .filter(|l| step == 0 || !l.contains("has this effect already"))
+        {
+            crate::outln!("{line}");
+        }
         crate::outln!(
             "plant {}, closed-loop space (controller {}, configuration {}; the inverse model on the simulated closed loop, the measured forces or torques):",
             current.name(),
