@@ -547,8 +547,10 @@ impl Plant {
             .collect()
     }
 
-    /// Per link: `Some(true)` when given in the model file's symbols, `Some(false)` in
-    /// barycentric form, `None` when nothing is given.
+    /// Per link: `Some(true)` when given in the model file's symbols (or when the model
+    /// file gives the link in numbers only and the plant gives no barycentric parameter of
+    /// it: the model file's values), `Some(false)` in barycentric form, `None` when nothing
+    /// is given.
     fn link_forms(&self) -> Result<Vec<Option<bool>>> {
         let m = self.model;
         let mut forms = Vec::new();
@@ -589,7 +591,10 @@ impl Plant {
                     gb.join(", ")
                 );
             }
-            let symbol_form = gb.is_empty() && (!gs.is_empty() || !has(&shared).is_empty());
+            // A link the model file gives in numbers only (no symbol) takes those numbers
+            // unless the plant gives its barycentric parameters.
+            let symbol_form =
+                gb.is_empty() && (!gs.is_empty() || !has(&shared).is_empty() || syms.is_empty());
             if symbol_form {
                 let missing: Vec<&str> = syms
                     .iter()

@@ -737,3 +737,40 @@ fn a_divergence_from_an_indefinite_inertia_matrix_says_so() {
     // The same torque on the physical plant stays finite over the second.
     run(&sim(&coupled_consistent())).unwrap();
 }
+
+/// A plant of a model whose file gives the links in numbers (the Puma 560, no inertial
+/// symbol) takes those numbers: without any parameter, its simulator's gravity at q = 0 is
+/// the Robotics Toolbox's documented g(qz) = [0, 37.4837, 0.2489] N·m on the three arm
+/// joints (the wrist locked at 0), and its inertia matrix is positive definite. A plant
+/// that gives a link's barycentric parameters uses them instead (the check can fail).
+#[test]
+fn a_plant_takes_the_model_files_numeric_inertial_values_puma560() {
+    let plant = Plant::new("puma560", vec![]).unwrap();
+    let model = plant
+        .simulator("arm", &[0.0; 6], ConsistencyPolicy::Warn)
+        .unwrap()
+        .model;
+    let mut g = [0.0; 3];
+    (model.conf.gravity)(&[0.0; 6], &model.p, &mut g);
+    eprintln!("g(0) = {g:?}");
+    for (a, published) in [0.0, 37.4837, 0.2489].iter().enumerate() {
+        assert!((g[a] - published).abs() < 5e-5, "g(0) = {g:?}");
+    }
+    let eig = model.inertia_matrix(&[0.0; 3]).symmetric_eigenvalues();
+    assert!(eig.iter().all(|&l| l > 0.0), "{eig:?}");
+    // Link 2's barycentric mass given: the link takes the plant's numbers.
+    let mut heavier = plant.clone();
+    let m2 = plant.values_with_barycentric().unwrap()["M_link2"];
+    for (n, v) in plant.values_with_barycentric().unwrap() {
+        if n.ends_with("_link2") {
+            heavier.parameters.insert(n, v);
+        }
+    }
+    heavier.parameters.insert("M_link2".into(), 2.0 * m2);
+    let model = heavier
+        .simulator("arm", &[0.0; 6], ConsistencyPolicy::Warn)
+        .unwrap()
+        .model;
+    (model.conf.gravity)(&[0.0; 6], &model.p, &mut g);
+    assert!((g[1] - 37.4837).abs() > 1.0, "g(0) = {g:?}");
+}

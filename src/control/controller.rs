@@ -29,7 +29,11 @@
 //! - `cascade` (position loop → velocity loop → command): u = kv (kp e − q̇̂);
 //! - `pd`: u = kp e − kd q̇̂ (derivative on the measurement);
 //! - `pid`: u = kp e + ki T Σ e − kd q̇̂, the sum frozen while u is saturated and would
-//!   grow further (conditional integration).
+//!   grow further (conditional integration);
+//!
+//! and with `feedforward = "gravity"`, φ_j(q)/drive_gain added: the plant's gravity torque
+//! at the positions the controller reads (a model-based feed-forward; the plant simulated
+//! is the controller's model).
 //!
 //! Sample k (time t_k = t_0 + kT): the controller reads q(t_k), computes u(k) and
 //! saturates it; over [t_k, t_k+1) the joint receives drive_gain · (u(k − delay) + d(k)),
@@ -73,6 +77,10 @@ pub struct JointLawSpec {
     pub drive_gain: f64,
     /// The measurement's reference column for this joint (standard name, e.g. `qref0`).
     pub reference: String,
+    /// `"gravity"`: the controller adds the plant's gravity torque φ(q) at the positions it
+    /// reads (over the drive gain), a model-based feed-forward.
+    #[serde(default)]
+    pub feedforward: Option<String>,
 }
 
 fn one() -> f64 {
@@ -160,6 +168,8 @@ pub struct JointController {
     pub drive_gain: f64,
     /// The measurement's reference column.
     pub reference: String,
+    /// Whether the command adds the gravity torque at the read positions.
+    pub gravity_feedforward: bool,
 }
 
 /// A controller file, checked against a model: one [`JointController`] per free joint of
@@ -313,12 +323,20 @@ impl Controller {
                     s.drive_gain
                 );
             }
+            let gravity_feedforward = match s.feedforward.as_deref() {
+                None => false,
+                Some("gravity") => true,
+                Some(other) => bail!(
+                    "{file}: [joints.{name}] feedforward = '{other}': expected 'gravity' (or none)"
+                ),
+            };
             joints.push(JointController {
                 law,
                 velocity: s.velocity.clone(),
                 saturation,
                 drive_gain: s.drive_gain,
                 reference: s.reference.clone(),
+                gravity_feedforward,
             });
         }
         Ok(Controller {
@@ -489,7 +507,16 @@ pub fn simulate_closed_loop(
         tau: vec![Vec::with_capacity(n); nf],
     };
     let names: Vec<&str> = conf.free.iter().map(|&j| m.joints[j]).collect();
+    let feedforward = c.joints.iter().any(|j| j.gravity_feedforward);
+    let mut q_full = model.q_locked.clone();
+    let mut gravity = vec![0.0; nf];
     for k in 0..n {
+        if feedforward {
+            for (a, &j) in conf.free.iter().enumerate() {
+                q_full[j] = x.q[a];
+            }
+            (conf.gravity)(&q_full, &model.p, &mut gravity);
+        }
         let mut u = vec![0.0; nf];
         for (a, jc) in c.joints.iter().enumerate() {
             let h_a = &mut history[a];
@@ -497,10 +524,16 @@ pub fn simulate_closed_loop(
             h_a[0] = x.q[a];
             let qd_hat = estimate(&jc.velocity, h_a, c.period);
             let e = record.qref[a][k] - x.q[a];
-            let raw = match jc.law {
-                Law::Cascade { kp, kv } => kv * (kp * e - qd_hat),
-                Law::Pid { kp, ki, kd } => kp * e + ki * integral[a] - kd * qd_hat,
+            let ff = if jc.gravity_feedforward {
+                gravity[a] / jc.drive_gain
+            } else {
+                0.0
             };
+            let raw = ff
+                + match jc.law {
+                    Law::Cascade { kp, kv } => kv * (kp * e - qd_hat),
+                    Law::Pid { kp, ki, kd } => kp * e + ki * integral[a] - kd * qd_hat,
+                };
             let (lo, hi) = jc.saturation;
             let sat = raw.clamp(lo, hi);
             if let Law::Pid { ki, .. } = jc.law {
