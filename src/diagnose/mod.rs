@@ -233,6 +233,52 @@ pub const STRUCTURE_SEARCH_BELOW: f64 = 0.95;
 /// effect with a physical name.
 pub const STRUCTURE_MARGIN: f64 = 10.0;
 
+/// Sizes that a dissipative or inertial term cannot have negative: Coulomb and viscous
+/// friction, armature and coupled-motor inertia, quadratic drag, load-dependent and
+/// coupled-motor friction, backlash (by the estimate's name, with or without its joint
+/// suffix).
+const NOT_NEGATIVE: [&str; 8] = ["Fc", "Fv", "Ia", "cd_", "mu_", "Fm_", "Jm_", "backlash"];
+
+/// A finding whose estimate of such a size is negative ([`NOT_NEGATIVE`]) is not
+/// significant, and says why: a negative drag or rotor inertia is a fit of noise or of
+/// another effect's shadow, not the physics it is named for (on a Puma with Coulomb
+/// friction hidden on two joints, "armature on q1" at Ia = −1.41 kg·m² had led).
+pub(crate) fn refuse_unphysical_signs(findings: &mut [Finding]) {
+    for f in findings {
+        if let Some((name, v)) = negative_size(f) {
+            f.significant = false;
+            f.meaning = format!(
+                "{} (not physical here: {name} = {v:.4e} is negative, which a dissipative or inertial term cannot be)",
+                f.meaning
+            );
+        }
+    }
+}
+
+/// The estimate of `f` that [`NOT_NEGATIVE`] says cannot be negative and is, if any.
+fn negative_size(f: &Finding) -> Option<(String, f64)> {
+    f.estimate
+        .iter()
+        .find(|(name, v)| {
+            *v < 0.0
+                && NOT_NEGATIVE.iter().any(|p| {
+                    name == p || name.starts_with(&format!("{}_", p.trim_end_matches('_')))
+                })
+        })
+        .cloned()
+}
+
+/// Sort findings by ΔBIC, those refused as not physical ([`refuse_unphysical_signs`])
+/// after the rest.
+pub(crate) fn sort_findings(findings: &mut [Finding]) {
+    findings.sort_by(|a, b| {
+        negative_size(a)
+            .is_some()
+            .cmp(&negative_size(b).is_some())
+            .then(a.delta_bic.total_cmp(&b.delta_bic))
+    });
+}
+
 /// Move the best significant catalogued finding ahead of structure findings that do not
 /// beat it by [`STRUCTURE_MARGIN`]. `findings` is sorted by ΔBIC.
 pub(crate) fn prefer_the_catalogue(findings: &mut Vec<Finding>) {

@@ -616,7 +616,8 @@ pub fn diagnose_output(
             f.significant = false;
         }
     }
-    findings.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    super::refuse_unphysical_signs(&mut findings);
+    super::sort_findings(&mut findings);
     prefer_edits_among_equals(&mut findings);
     super::prefer_the_catalogue(&mut findings);
     Ok(OutputDiagnosis {

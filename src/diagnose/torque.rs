@@ -478,7 +478,8 @@ pub fn diagnosis_with(
             out.push(Finding::of_structure(plant, &st, (sst, n), 1.0));
         }
     }
-    out.sort_by(|a, b| a.delta_bic.total_cmp(&b.delta_bic));
+    super::refuse_unphysical_signs(&mut out);
+    super::sort_findings(&mut out);
     super::prefer_the_catalogue(&mut out);
     Ok(TorqueDiagnosis {
         findings: out,

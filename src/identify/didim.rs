@@ -12,6 +12,12 @@
 //! error with W as the Jacobian's approximation; it stops when the relative force error of
 //! the closed-loop simulation changes by less than [`DidimOptions::tolerance`] of itself.
 //! The start θ_0 is the plant's values (IDIM-LS estimates or a CAD model).
+//!
+//! DIDIM's fixed point is not exactly the minimum of the closed-loop force error: the
+//! regressor pairs each sample's held command with the states at the sample (a half-sample
+//! offset of the zero-order hold) through the IDIM filter. Started at the truth on a Puma
+//! arm under PD, it settles at 0.658 % where the truth gives 0.551 %
+//! (docs/src/record/closed-loop.md).
 
 use crate::control::controller::{compare_closed_loop, ClosedLoopRecord, Controller};
 use crate::identify::idim::{least_squares_base, observation, Fit, IdimOptions};
@@ -30,12 +36,13 @@ pub struct DidimOptions {
 }
 
 impl Default for DidimOptions {
-    /// Ten iterations (Gautier et al. report convergence in 2 to 5), a change of 1e-4, and
-    /// IDIM-LS's preparation.
+    /// Ten iterations (Gautier et al. report convergence in 2 to 5), a change of 1e-3 of
+    /// the force error (on a Puma with noisy positions read by its controller the error
+    /// wanders by 1e-3 of itself once converged), and IDIM-LS's preparation.
     fn default() -> Self {
         DidimOptions {
             max_iter: 10,
-            tolerance: 1e-4,
+            tolerance: 1e-3,
             idim: IdimOptions::default(),
         }
     }
