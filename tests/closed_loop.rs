@@ -480,11 +480,12 @@ fn puma_closed_loop_record(truth: &Plant, path: &Path, seconds: f64, sigma: f64)
         history.remove(1);
         history.insert(0, measured.clone());
         write!(csv, "{t:e}").unwrap();
-        for a in 0..6 {
-            write!(csv, ",{:e}", if a < 3 { applied[a] } else { 0.0 }).unwrap();
+        // The three arm joints, then the locked wrist's three zeros.
+        for v in applied.iter().chain(&[0.0; 3]) {
+            write!(csv, ",{v:e}").unwrap();
         }
-        for a in 0..6 {
-            write!(csv, ",{:e}", if a < 3 { measured[a] } else { 0.0 }).unwrap();
+        for v in measured.iter().chain(&[0.0; 3]) {
+            write!(csv, ",{v:e}").unwrap();
         }
         for a in 0..3 {
             write!(csv, ",{:e}", puma_reference(a, t)).unwrap();
