@@ -272,7 +272,9 @@ fn didim_and_the_closed_loop_diagnosis_find_coulomb_then_the_offset_emps() {
 /// `identify didim` and `diagnose --controller` on the command line: DIDIM from the mass +
 /// viscous IDIM-LS values writes its plant, the closed-loop diagnosis of it names Coulomb
 /// friction, and `--apply 1` adds it and refits by DIDIM (Fc within 1 % of the benchmark's
-/// 20.39 N); a user's candidate is ranked beside the catalogue; a plant whose effect the inverse model cannot fit is refused with the reason
+/// 20.39 N); `refit --controller --params Fc_0` takes Fc from 10 N back there with the
+/// others held and records the step; a user's candidate is ranked beside the catalogue; a
+/// plant whose effect the inverse model cannot fit is refused with the reason
 /// and nothing written.
 #[test]
 fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
@@ -326,6 +328,44 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
     let fitted = Plant::load(&p3).unwrap();
     let fc = fitted.parameters["Fc_0"];
     assert!((fc / 20.3935 - 1.0).abs() < 0.01, "Fc {fc}");
+    // `refit --controller`: Fc_0 alone refitted from 10 N, the others held; the step in
+    // the history with the closed-loop force RMS before and after.
+    let mut off = fitted.clone();
+    off.parameters.insert("Fc_0".into(), 10.0);
+    let (p6, p7) = (d.join("p6.toml"), d.join("p7.toml"));
+    off.save(&p6).unwrap();
+    let refit = |params: &str, out: &Path| {
+        common::lockstep(&[
+            "refit",
+            "--plant",
+            &s(&p6),
+            "--data",
+            &data,
+            "--controller",
+            &controller,
+            "--params",
+            params,
+            "--out",
+            &s(out),
+        ])
+    };
+    common::ok(&refit("Fc_0", &p7));
+    let refitted = Plant::load(&p7).unwrap();
+    let fc = refitted.parameters["Fc_0"];
+    assert!((fc / 20.3935 - 1.0).abs() < 0.01, "Fc {fc}");
+    assert_eq!(refitted.parameters["Fv_0"], fitted.parameters["Fv_0"]);
+    let step = refitted.history.last().unwrap();
+    assert_eq!(step.space.as_deref(), Some("closed loop"));
+    assert!(
+        step.rms_after["q0"] < 0.5 * step.rms_before["q0"],
+        "{step:?}"
+    );
+    let p8 = d.join("p8.toml");
+    common::fails(
+        &refit("Ks_0", &p8),
+        &["'Ks_0' is not a parameter of the inverse model"],
+    );
+    assert!(!p8.exists());
     // The user's candidates are ranked beside the catalogue in closed-loop space too.
     let candidates = d.join("candidates.toml");
     std::fs::write(

@@ -131,6 +131,10 @@ pub enum Command {
         /// Plant file to write (default: the plant file itself).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// A controller file: refit in closed-loop space by DIDIM, the other parameters
+        /// held (the inverse model's, so effects linear in their parameters).
+        #[arg(long)]
+        controller: Option<PathBuf>,
     },
     /// Edit a plant's effects: `effect add KIND --joint q3 --plant P` (or `--from q5 --to
     /// q4` for input_coupling).
@@ -308,6 +312,7 @@ fn run_command(cli: Cli) -> Result<()> {
                     &plant,
                     &controller,
                     &files.data,
+                    (&[], None),
                     out.as_deref(),
                 )?;
             }
@@ -447,9 +452,24 @@ fn run_command(cli: Cli) -> Result<()> {
             params,
             change,
             out,
+            controller,
         } => {
             let out = out.unwrap_or_else(|| common.files.plant.clone());
             lockstep::files::check_writable(&[&out])?;
+            if let Some(controller) = controller {
+                let (plant, _) = common.load_plant()?;
+                let change = change.unwrap_or_else(|| {
+                    format!("refitted {} in closed loop (DIDIM)", params.join(", "))
+                });
+                lockstep::report::control::didim_command(
+                    &plant,
+                    &controller,
+                    &common.files.data,
+                    (&params, Some(&change)),
+                    Some(&out),
+                )?;
+                return Ok(());
+            }
             let (plant, inputs) = common.inputs(&space)?;
             let change = change.unwrap_or_else(|| format!("refitted {}", params.join(", ")));
             refit_command(&plant, &inputs, &params, &change, &out)?;

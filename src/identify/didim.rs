@@ -33,6 +33,10 @@ pub struct DidimOptions {
     pub tolerance: f64,
     /// How the regressor is prepared from the simulated positions.
     pub idim: IdimOptions,
+    /// The parameters fitted (the regressor's columns by name); empty: all of them. The
+    /// others are held at the plant's values, their columns' torque taken off the
+    /// measured one.
+    pub params: Vec<String>,
 }
 
 impl Default for DidimOptions {
@@ -44,6 +48,7 @@ impl Default for DidimOptions {
             max_iter: 10,
             tolerance: 1e-3,
             idim: IdimOptions::default(),
+            params: Vec::new(),
         }
     }
 }
@@ -161,6 +166,40 @@ pub fn diagnose_closed_loop(
     ))
 }
 
+/// The observation restricted to the columns `params`: the others' torque at their values
+/// `value(name)` taken off y.
+///
+/// # Errors
+/// A name that is not a column (the columns listed), a held column without a value.
+fn held_out(
+    obs: crate::identify::idim::Observation,
+    params: &[String],
+    value: &dyn Fn(&str) -> Option<f64>,
+) -> Result<crate::identify::idim::Observation> {
+    if let Some(p) = params.iter().find(|p| !obs.names.contains(p)) {
+        bail!(
+            "'{p}' is not a parameter of the inverse model (its parameters: {})",
+            obs.names.join(", ")
+        );
+    }
+    let mut y = obs.y.clone();
+    let mut kept = Vec::new();
+    for (c, name) in obs.names.iter().enumerate() {
+        if params.contains(name) {
+            kept.push(c);
+            continue;
+        }
+        let v = value(name).ok_or_else(|| anyhow::anyhow!("'{name}' is held but has no value"))?;
+        y -= obs.w.column(c) * v;
+    }
+    Ok(crate::identify::idim::Observation {
+        names: kept.iter().map(|&c| obs.names[c].clone()).collect(),
+        y,
+        w: nalgebra::DMatrix::from_fn(obs.w.nrows(), kept.len(), |i, a| obs.w[(i, kept[a])]),
+        rows: obs.rows,
+    })
+}
+
 /// DIDIM on `records` under controller `c` from the values of `plant` (module
 /// documentation); `progress` gets each iteration as it ends.
 ///
@@ -210,6 +249,11 @@ pub fn didim(
     for i in 1..=options.max_iter {
         let (obs, simulated) = closed_loop_observation(&current, c, records, &options.idim)?;
         let prior = current.values_with_barycentric()?;
+        let obs = if options.params.is_empty() {
+            obs
+        } else {
+            held_out(obs, &options.params, &|n| prior.get(n).copied())?
+        };
         let locked_at: Vec<Vec<f64>> = simulated
             .iter()
             .map(|r| r.q.iter().map(|q| q[0]).collect())

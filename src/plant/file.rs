@@ -113,7 +113,8 @@ pub struct HistoryEntry {
     pub rms_after: BTreeMap<String, f64>,
     /// The space of the figures: `torque` when `rms_before`/`rms_after` are the inverse
     /// model's torque residuals (N·m or N, [`crate::identify::refit::refit_torque`]);
-    /// absent for position errors (output space).
+    /// `closed loop` when they are the closed-loop force or torque errors (N·m or N,
+    /// `refit --controller`); absent for position errors (output space).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub space: Option<String>,
 }

@@ -548,20 +548,9 @@ pub fn closed_loop_compare_command(
     data: &[std::path::PathBuf],
     out: &Path,
 ) -> Result<Vec<[crate::compare::Comparison; 2]>> {
-    use crate::control::controller::{compare_closed_loop, ClosedLoopRecord, Controller};
-    let c = Controller::load(controller, plant)?;
-    let files = crate::measurement::expand_data_paths(data)?;
+    use crate::control::controller::compare_closed_loop;
     // Every file read and checked before anything is written.
-    let records = files
-        .iter()
-        .map(|f| {
-            let table = crate::measurement::Table::read(f)?;
-            for n in &table.notes {
-                crate::errln!("note: {n}");
-            }
-            ClosedLoopRecord::from_table(&table, plant, &c)
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let (c, records) = closed_loop_records(plant, controller, data)?;
     let compared = records
         .iter()
         .map(|r| compare_closed_loop(plant, &c, r).map(|(v, _)| v))
@@ -670,9 +659,11 @@ fn print_iteration(i: usize, it: &crate::identify::didim::DidimIteration) {
     );
 }
 
-/// `lockstep identify didim`: DIDIM ([`crate::identify::didim`]) from the plant's values
-/// on the records under the controller; the iterations, the fit's table and, with `out`,
-/// the plant written with the values and the step in its history.
+/// `lockstep identify didim` and `refit --controller`: DIDIM ([`crate::identify::didim`])
+/// from the plant's values on the records under the controller, of `params` (all the
+/// inverse model's parameters when empty); the iterations, the fit's table and, with
+/// `out`, the plant written with the values (with `change`, the step in its history: the
+/// closed-loop force RMS per joint before and after, `space = "closed loop"`).
 ///
 /// # Errors
 /// As [`closed_loop_records`] and [`crate::identify::didim::didim`]; no convergence within
@@ -681,10 +672,15 @@ pub fn didim_command(
     plant: &crate::plant::Plant,
     controller: &Path,
     data: &[PathBuf],
+    (params, change): (&[String], Option<&str>),
     out: Option<&Path>,
 ) -> Result<crate::identify::didim::DidimResult> {
     use crate::identify::didim::{didim, DidimOptions};
     let (c, records) = closed_loop_records(plant, controller, data)?;
+    let options = DidimOptions {
+        params: params.to_vec(),
+        ..DidimOptions::default()
+    };
     crate::outln!(
         "DIDIM, plant {}, controller {}, configuration {}, {} record(s): iteration, closed-loop errors, values",
         plant.name(),
@@ -692,13 +688,7 @@ pub fn didim_command(
         c.configuration,
         records.len()
     );
-    let r = didim(
-        plant,
-        &c,
-        &records,
-        &DidimOptions::default(),
-        &print_iteration,
-    )?;
+    let r = didim(plant, &c, &records, &options, &print_iteration)?;
     if !r.converged {
         bail!(
             "DIDIM did not converge in {} iterations (force error {:.4} % → {:.4} %): nothing written",
@@ -709,7 +699,46 @@ pub fn didim_command(
     }
     crate::out!("{}", crate::report::fit_table(&r.fit));
     if let Some(out) = out {
-        r.plant.save(out)?;
+        let mut written = r.plant.clone();
+        if let Some(change) = change {
+            // The closed-loop force RMS per joint before and after, over every record.
+            let force_rms =
+                |p: &crate::plant::Plant| -> Result<std::collections::BTreeMap<String, f64>> {
+                    let mut sums: std::collections::BTreeMap<String, (f64, usize)> =
+                        std::collections::BTreeMap::new();
+                    for rec in &records {
+                        let (cmp, _) = crate::control::controller::compare_closed_loop(p, &c, rec)?;
+                        for [force, _] in &cmp {
+                            let e = sums.entry(force.joint.clone()).or_default();
+                            e.0 += force.rmse * force.rmse * force.y.len() as f64;
+                            e.1 += force.y.len();
+                        }
+                    }
+                    Ok(sums
+                        .into_iter()
+                        .map(|(j, (s, n))| (j, (s / n.max(1) as f64).sqrt()))
+                        .collect())
+                };
+            written.history.push(crate::plant::HistoryEntry {
+                change: change.to_string(),
+                configuration: c.configuration.clone(),
+                files: records
+                    .iter()
+                    .map(|r| r.file.display().to_string())
+                    .collect(),
+                fitted: r
+                    .fit
+                    .names
+                    .iter()
+                    .cloned()
+                    .zip(r.fit.theta.iter().copied())
+                    .collect(),
+                rms_before: force_rms(plant)?,
+                rms_after: force_rms(&r.plant)?,
+                space: Some("closed loop".into()),
+            });
+        }
+        written.save(out)?;
         crate::outln!("wrote {}", out.display());
     }
     Ok(r)
