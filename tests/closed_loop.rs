@@ -271,9 +271,9 @@ fn didim_and_the_closed_loop_diagnosis_find_coulomb_then_the_offset_emps() {
 
 /// `identify didim` and `diagnose --controller` on the command line: DIDIM from the mass +
 /// viscous IDIM-LS values writes its plant, the closed-loop diagnosis of it names Coulomb
-/// friction, and `--apply 1` adds it and refits by DIDIM (Fc within 1 % of the benchmark's
-/// 20.39 N); `refit --controller --params Fc_0` takes Fc from 10 N back there with the
-/// others held and records the step; a user's candidate is ranked beside the catalogue; a
+/// friction, and `--apply 1` adds it and refits by DIDIM (Fc within 5 % of the benchmark's
+/// 20.39 N, the offset still missing); `refit --controller --params Fc_0` takes Fc from 10 N
+/// back to that value (1 %) with the others held and records the step; a user's candidate is ranked beside the catalogue; a
 /// plant whose effect the inverse model cannot fit is refused with the reason
 /// and nothing written.
 #[test]
@@ -327,7 +327,8 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
     );
     let fitted = Plant::load(&p3).unwrap();
     let fc = fitted.parameters["Fc_0"];
-    assert!((fc / 20.3935 - 1.0).abs() < 0.01, "Fc {fc}");
+    // Without the offset yet, the closed-loop fit puts Fc a little below the full model's.
+    assert!((fc / 20.3935 - 1.0).abs() < 0.05, "Fc {fc}");
     // `refit --controller`: Fc_0 alone refitted from 10 N, the others held; the step in
     // the history with the closed-loop force RMS before and after.
     let mut off = fitted.clone();
@@ -351,8 +352,8 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
     };
     common::ok(&refit("Fc_0", &p7));
     let refitted = Plant::load(&p7).unwrap();
-    let fc = refitted.parameters["Fc_0"];
-    assert!((fc / 20.3935 - 1.0).abs() < 0.01, "Fc {fc}");
+    let back = refitted.parameters["Fc_0"];
+    assert!((back / fc - 1.0).abs() < 0.01, "Fc {back} against {fc}");
     assert_eq!(refitted.parameters["Fv_0"], fitted.parameters["Fv_0"]);
     let step = refitted.history.last().unwrap();
     assert_eq!(step.space.as_deref(), Some("closed loop"));
@@ -588,9 +589,9 @@ fn puma_controller(path: &Path) {
 /// reads. The open-loop simulation of the same data goes far off (its position error more
 /// than 100 times the noise); in closed-loop space, from the truth without the Coulomb
 /// friction, the diagnosis names Coulomb on one of the two joints, then on the other; each
-/// added and refitted by DIDIM, the force error falls to where DIDIM started at the truth
-/// settles on the same data (within 2 %; that is 1.19 times the truth's own error, DIDIM's
-/// bias, docs/src/record/closed-loop.md) with Fc within 5 %.
+/// added and refitted by DIDIM and its closed-loop output-error polish, the force error
+/// falls to the truth's own on the same data (within 1 %: the noise floor, the part of the
+/// commands the controller's noisy readings made) with Fc within 1 %.
 #[test]
 fn hidden_coulomb_on_two_joints_of_a_puma_under_pd_in_closed_loop_space() {
     use lockstep::effects::{Effect, EffectKind};
@@ -672,9 +673,6 @@ fn hidden_coulomb_on_two_joints_of_a_puma_under_pd_in_closed_loop_space() {
         assert!(r.converged);
         r.plant
     };
-    // DIDIM's own fixed point on these data, started at the truth.
-    let settled = closed_loop_errors(&refit(&truth), &c, &records).unwrap();
-    eprintln!("DIDIM from the truth: force {:.4} %", settled.0);
     plant = refit(&plant);
     let mut named = Vec::new();
     for _ in 0..2 {
@@ -693,21 +691,15 @@ fn hidden_coulomb_on_two_joints_of_a_puma_under_pd_in_closed_loop_space() {
     assert_eq!(named, ["q2", "q3"]);
     let last = closed_loop_errors(&plant, &c, &records).unwrap();
     eprintln!(
-        "with both: force {:.4} % (truth {:.4} %, DIDIM from the truth {:.4} %), Fc {:.4} / {:.4}",
-        last.0, floor.0, settled.0, plant.parameters["Fc_1"], plant.parameters["Fc_2"]
+        "with both: force {:.4} % (truth {:.4} %), Fc {:.4} / {:.4}",
+        last.0, floor.0, plant.parameters["Fc_1"], plant.parameters["Fc_2"]
     );
     assert!(
-        last.0 <= 1.02 * settled.0,
-        "force {} DIDIM's floor {}",
-        last.0,
-        settled.0
-    );
-    assert!(
-        last.0 <= 1.25 * floor.0,
+        last.0 <= 1.01 * floor.0,
         "force {} truth {}",
         last.0,
         floor.0
     );
-    assert!((plant.parameters["Fc_1"] / 3.0 - 1.0).abs() < 0.05);
-    assert!((plant.parameters["Fc_2"] / 2.0 - 1.0).abs() < 0.05);
+    assert!((plant.parameters["Fc_1"] / 3.0 - 1.0).abs() < 0.01);
+    assert!((plant.parameters["Fc_2"] / 2.0 - 1.0).abs() < 0.01);
 }
