@@ -189,6 +189,19 @@ fn compare_in_closed_loop_on_the_command_line_and_its_mistakes() {
         ],
     );
     assert!(!o.exists());
+    // A record whose side file names another configuration than the controller's.
+    std::fs::copy(manifest("data/emps/emps_train.csv"), other.join("half.csv")).unwrap();
+    let side = std::fs::read_to_string(manifest("data/emps/emps_train.toml")).unwrap();
+    std::fs::write(
+        other.join("half.toml"),
+        side.replace("[columns]", "configuration = \"other\"\n\n[columns]"),
+    )
+    .unwrap();
+    common::fails(
+        &run(&manifest("model/control/emps_controller.toml"), &other, &o),
+        &["half.csv", "configuration 'other'", "is for 'full'"],
+    );
+    assert!(!o.exists());
 }
 
 /// The plant of `file` with its IDIM-LS values on the training record (DIDIM's start),

@@ -400,13 +400,26 @@ impl ClosedLoopRecord {
     /// torque.
     ///
     /// # Errors
-    /// A missing column (the file and the columns present named), a sample period that is
-    /// not the controller's (both named).
+    /// A missing column (the file and the columns present named), a sample period or a side
+    /// file's configuration that is not the controller's (both named).
     pub fn from_table(table: &Table, plant: &Plant, c: &Controller) -> Result<ClosedLoopRecord> {
         let m = plant.model;
         let conf = m
             .configuration(&c.configuration)
             .ok_or_else(|| anyhow!("configuration '{}'", c.configuration))?;
+        if let Some(own) = table
+            .side
+            .configuration
+            .as_deref()
+            .filter(|own| *own != c.configuration)
+        {
+            bail!(
+                "{}: its side file says configuration '{own}', the controller {} is for '{}'",
+                table.file.display(),
+                c.file.display(),
+                c.configuration
+            );
+        }
         let t = table.need("t")?;
         if t.len() < 2 {
             bail!("{}: fewer than two samples", table.file.display());
