@@ -7,6 +7,28 @@ use super::*;
 
 /// `lockstep identify`'s methods: each takes only its own options (one of the other is
 /// refused naming the subcommand it belongs to, [`misplaced_option`]).
+/// `identify idim --weighting`.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum WeightingArg {
+    /// IDIM-WLS.
+    Wls,
+    /// Ordinary least squares.
+    Ols,
+    /// WLS where the joints' torque scales differ by more than 10×.
+    Auto,
+}
+
+impl From<WeightingArg> for lockstep::identify::idim::Weighting {
+    fn from(w: WeightingArg) -> Self {
+        use lockstep::identify::idim::Weighting;
+        match w {
+            WeightingArg::Wls => Weighting::Wls,
+            WeightingArg::Ols => Weighting::Ols,
+            WeightingArg::Auto => Weighting::Auto,
+        }
+    }
+}
+
 #[derive(Debug, Subcommand)]
 pub enum IdentifyMethod {
     /// IDIM-LS: the inverse dynamic model, linear least squares on torque-measured data
@@ -22,6 +44,11 @@ pub enum IdentifyMethod {
         /// value leaves its bounds (refused by default, with the reasons).
         #[arg(long)]
         allow_inconsistent: bool,
+        /// Row weighting: `wls` (IDIM-WLS, each joint's rows divided by its residual σ),
+        /// `ols` (every row alike), `auto` (WLS where the joints' torque RMS differ by more
+        /// than 10×).
+        #[arg(long, value_enum, default_value = "auto")]
+        weighting: WeightingArg,
     },
     /// DIDIM (Gautier, Janot, Vandanjon 2013): closed-loop output error for a device
     /// measured under its own controller. The plant, from its values, is simulated under
@@ -528,6 +555,7 @@ pub fn identify_idim(
     common: &Common,
     out: Option<PathBuf>,
     allow_inconsistent: bool,
+    weighting: WeightingArg,
 ) -> Result<()> {
     let config = common.config.as_deref().unwrap_or("full");
     if let Some(out) = &out {
@@ -543,16 +571,31 @@ pub fn identify_idim(
         .iter()
         .map(|r| r.q.iter().map(|q| q[0]).collect())
         .collect();
-    let fit =
-        lockstep::identify::idim::least_squares_base(&obs, plant.model, conf, &locked_at, &|n| {
-            values.get(n).copied()
-        })?;
+    let (fit, sigma) = lockstep::identify::idim::weighted_least_squares_base(
+        &obs,
+        plant.model,
+        conf,
+        &locked_at,
+        &|n| values.get(n).copied(),
+        weighting.into(),
+    )?;
     lockstep::outln!(
-        "IDIM-LS, plant {}, configuration {}, {} record(s)",
+        "{}, plant {}, configuration {}, {} record(s)",
+        if sigma.is_empty() {
+            "IDIM-LS"
+        } else {
+            "IDIM-WLS"
+        },
         common.files.plant.display(),
         config,
         records.len()
     );
+    for (j, s) in &sigma {
+        lockstep::outln!(
+            "  rows of {} weighted by 1/σ, σ = {s:.4e} (the residual of the ordinary fit)",
+            plant.model.joints[*j]
+        );
+    }
     lockstep::out!("{}", fit_table(&fit));
     if let Some(out) = out {
         fit.apply(&mut plant)?;

@@ -297,7 +297,8 @@ fn run_command(cli: Cli) -> Result<()> {
                 common,
                 out,
                 allow_inconsistent,
-            } => identify_idim(&common, out, allow_inconsistent)?,
+                weighting,
+            } => identify_idim(&common, out, allow_inconsistent, weighting)?,
             IdentifyMethod::Sequence(args) => identify_sequence(&args)?,
             IdentifyMethod::Didim {
                 files,

@@ -572,6 +572,124 @@ pub fn least_squares_base(
     })
 }
 
+/// How IDIM weights the rows of its joints.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Weighting {
+    /// Ordinary least squares: every row alike.
+    Ols,
+    /// IDIM-WLS ([`weighted_least_squares_base`]).
+    Wls,
+    /// WLS where the joints' torque scales (RMS of y per joint) differ by more than
+    /// [`WLS_SCALE_RATIO`], else OLS (the default).
+    #[default]
+    Auto,
+}
+
+/// The ratio of the largest to the smallest joint torque RMS above which `Auto` weights.
+pub const WLS_SCALE_RATIO: f64 = 10.0;
+
+/// The joints of an observation's rows and each joint's row indices, in joint order.
+fn rows_by_joint(obs: &Observation) -> Vec<(usize, Vec<usize>)> {
+    let mut joints: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
+    joints.sort_unstable();
+    joints.dedup();
+    joints
+        .into_iter()
+        .map(|j| {
+            let idx = (0..obs.rows.len())
+                .filter(|&i| obs.rows[i].joint == j)
+                .collect();
+            (j, idx)
+        })
+        .collect()
+}
+
+/// IDIM-WLS (Gautier, *Dynamic identification of robots with power model*, ICRA 1997; the
+/// weighting FIGAROH uses): each joint j's subsystem alone (its rows on the columns that act
+/// on them) fitted by least squares gives its residual σ_j² = ‖ρ_j‖² / (r_j − b_j) (r_j its
+/// rows, b_j the rank of its columns: not the whole fit's residual, into which the other
+/// joints' noise leaks through the shared parameters); the rows of joint j are divided by
+/// σ_j and the whole fitted again ([`least_squares_base`]). Joints whose torques differ by orders of magnitude (a wrist beside a
+/// shoulder) then count by their own noise, not by their size. With `weighting` `Ols`, or
+/// `Auto` where the joints' torque RMS differ by at most [`WLS_SCALE_RATIO`], the ordinary
+/// fit is returned and the σ list is empty. The returned fit's relative error is the
+/// unweighted 100‖y − Wθ̂‖/‖y‖; its standard deviations are the weighted fit's.
+///
+/// # Errors
+/// As [`least_squares_base`]; a joint whose residual is 0 or not finite (no weight).
+pub fn weighted_least_squares_base(
+    obs: &Observation,
+    model: &generated::Model,
+    conf: &generated::Configuration,
+    locked_at: &[Vec<f64>],
+    prior: &dyn Fn(&str) -> Option<f64>,
+    weighting: Weighting,
+) -> Result<(Fit, Vec<(usize, f64)>)> {
+    let ols = least_squares_base(obs, model, conf, locked_at, prior)?;
+    let joints = rows_by_joint(obs);
+    let scale = |idx: &[usize]| {
+        (idx.iter().map(|&i| obs.y[i] * obs.y[i]).sum::<f64>() / idx.len().max(1) as f64).sqrt()
+    };
+    let scales: Vec<f64> = joints.iter().map(|(_, idx)| scale(idx)).collect();
+    let ratio = scales.iter().fold(0.0f64, |a, &s| a.max(s))
+        / scales
+            .iter()
+            .fold(f64::INFINITY, |a, &s| a.min(s))
+            .max(f64::MIN_POSITIVE);
+    let weigh = match weighting {
+        Weighting::Ols => false,
+        Weighting::Wls => true,
+        Weighting::Auto => ratio > WLS_SCALE_RATIO,
+    };
+    if !weigh || joints.len() < 2 {
+        return Ok((ols, Vec::new()));
+    }
+    let mut sigma = Vec::new();
+    for (j, idx) in &joints {
+        // The joint's own subsystem: its rows on the columns that act on them, by least
+        // squares (minimum norm where they are dependent).
+        let active: Vec<usize> = (0..obs.w.ncols())
+            .filter(|&c| idx.iter().any(|&i| obs.w[(i, c)] != 0.0))
+            .collect();
+        let wj = DMatrix::from_fn(idx.len(), active.len(), |r, c| obs.w[(idx[r], active[c])]);
+        let yj = DVector::from_iterator(idx.len(), idx.iter().map(|&i| obs.y[i]));
+        let svd = crate::util::svd(wj.clone()).with_context(|| {
+            format!(
+                "IDIM-WLS: joint {}'s regressor is not finite",
+                model.joints[*j]
+            )
+        })?;
+        let tol = 1e-10 * svd.singular_values.max();
+        let rank = svd.singular_values.iter().filter(|&&v| v > tol).count();
+        let xj = svd
+            .solve(&yj, tol)
+            .map_err(|e| anyhow::anyhow!("IDIM-WLS: joint {}: {e}", model.joints[*j]))?;
+        let rho = &yj - &wj * xj;
+        let dof = idx.len().saturating_sub(rank).max(1) as f64;
+        let s = (rho.norm_squared() / dof).sqrt();
+        if !(s.is_finite() && s > 0.0) {
+            bail!(
+                "IDIM-WLS: joint {}'s residual is {s}: it gives no weight (use the ordinary least squares)",
+                model.joints[*j]
+            );
+        }
+        sigma.push((*j, s));
+    }
+    let mut weighted = obs.clone();
+    for ((_, idx), (_, s)) in joints.iter().zip(&sigma) {
+        for &i in idx {
+            weighted.y[i] /= s;
+            for c in 0..weighted.w.ncols() {
+                weighted.w[(i, c)] /= s;
+            }
+        }
+    }
+    let mut fit = least_squares_base(&weighted, model, conf, locked_at, prior)?;
+    let th = DVector::from_column_slice(&fit.theta);
+    fit.relative_error = 100.0 * (&obs.y - &obs.w * th).norm() / obs.y.norm();
+    Ok((fit, sigma))
+}
+
 /// Why the values of `plant` (after a fit) are not a physical body, for configuration
 /// `conf`: links with mass ≤ 0 or an inertia that is not positive definite
 /// ([`Plant::consistency`], blocking findings only), and values outside the plant's
