@@ -589,7 +589,7 @@ pub enum Weighting {
 pub const WLS_SCALE_RATIO: f64 = 10.0;
 
 /// The joints of an observation's rows and each joint's row indices, in joint order.
-fn rows_by_joint(obs: &Observation) -> Vec<(usize, Vec<usize>)> {
+pub(crate) fn rows_by_joint(obs: &Observation) -> Vec<(usize, Vec<usize>)> {
     let mut joints: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
     joints.sort_unstable();
     joints.dedup();

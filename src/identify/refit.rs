@@ -257,23 +257,13 @@ fn rms_per_joint(
     obs: &crate::identify::idim::Observation,
     yhat: &nalgebra::DVector<f64>,
 ) -> Vec<(String, f64)> {
-    let mut joints: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
-    joints.sort_unstable();
-    joints.dedup();
-    joints
+    crate::identify::idim::rows_by_joint(obs)
         .into_iter()
-        .map(|j| {
-            let (sum, n) = obs
-                .rows
-                .iter()
-                .enumerate()
-                .filter(|(_, r)| r.joint == j)
-                .fold((0.0, 0usize), |(s, n), (i, _)| {
-                    (s + (obs.y[i] - yhat[i]).powi(2), n + 1)
-                });
+        .map(|(j, idx)| {
+            let sum: f64 = idx.iter().map(|&i| (obs.y[i] - yhat[i]).powi(2)).sum();
             (
                 plant.model.joints[j].to_string(),
-                (sum / n.max(1) as f64).sqrt(),
+                (sum / idx.len().max(1) as f64).sqrt(),
             )
         })
         .collect()
