@@ -597,21 +597,6 @@ pub fn simulate_closed_loop(
     Ok(run)
 }
 
-/// The controller's velocity estimate on measured positions `q` (one joint): q̇̂(k) =
-/// Σ c_i q(k − i) / period, the samples before the first taken as the first.
-pub fn estimated_velocity(jc: &JointController, q: &[f64], period: f64) -> Vec<f64> {
-    (0..q.len())
-        .map(|k| {
-            jc.velocity
-                .iter()
-                .enumerate()
-                .map(|(i, c)| c * q[k.saturating_sub(i)])
-                .sum::<f64>()
-                / period
-        })
-        .collect()
-}
-
 /// The comparison of a closed-loop run of `plant` under `c` with `record`, per free joint:
 /// the force or torque (the applied command times the drive gain against the recorded one)
 /// and the velocity (the plant's against the measured position's filtered central

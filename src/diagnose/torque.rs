@@ -98,18 +98,10 @@ pub fn diagnosis_with(
 ) -> Result<TorqueDiagnosis> {
     let yhat = predict(plant, obs)?;
     let m = plant.model;
-    let mut joints: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
-    joints.sort_unstable();
-    joints.dedup();
-    let rows_of = |j: usize| -> Vec<usize> {
-        (0..obs.rows.len())
-            .filter(|&i| obs.rows[i].joint == j)
-            .collect()
-    };
     let mut out = Vec::new();
     let mut not_white = Vec::new();
-    for &j in &joints {
-        let idx = rows_of(j);
+    let by_joint = crate::identify::idim::rows_by_joint(obs);
+    for (j, idx) in by_joint.iter().map(|(j, idx)| (*j, idx.clone())) {
         let n = idx.len();
         let e0: Vec<f64> = idx.iter().map(|&i| obs.y[i] - yhat[i]).collect();
         // The columns that act on this joint's rows (on a six-joint arm most parameters
@@ -298,8 +290,8 @@ pub fn diagnosis_with(
                 ));
             }
         }
-        for &k in joints.iter().filter(|&&k| k != j) {
-            let other = rows_of(k);
+        for (k, other) in by_joint.iter().filter(|(k, _)| *k != j) {
+            let k = *k;
             if other.len() == n {
                 let y: Vec<f64> = other.iter().map(|&i| obs.y[i]).collect();
                 cands.push((

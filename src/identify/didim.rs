@@ -92,9 +92,37 @@ pub fn closed_loop_errors(
     c: &Controller,
     records: &[ClosedLoopRecord],
 ) -> Result<(f64, f64)> {
+    Ok(evaluate(plant, c, records)?.0)
+}
+
+/// The record `r` with the free joints' positions of the closed-loop `run` in place of
+/// the measured ones (the measured forces or torques kept).
+fn with_simulated_positions(
+    r: &ClosedLoopRecord,
+    run: &crate::control::controller::ClosedLoopRun,
+    free: &[usize],
+) -> crate::measurement::Measurement {
+    let mut m = r.measurement.clone();
+    for (a, &j) in free.iter().enumerate() {
+        m.q[j] = run.q[a].clone();
+    }
+    m
+}
+
+/// One closed-loop simulation of `plant` per record, for both of its uses: the relative
+/// force and velocity errors ([`closed_loop_errors`]) and the records with the simulated
+/// positions ([`with_simulated_positions`]).
+fn evaluate(
+    plant: &Plant,
+    c: &Controller,
+    records: &[ClosedLoopRecord],
+) -> Result<((f64, f64), Vec<crate::measurement::Measurement>)> {
+    let conf = crate::util::configuration(plant.model, &c.configuration)?;
     let mut sums = [(0.0, 0.0); 2];
+    let mut simulated = Vec::with_capacity(records.len());
     for r in records {
-        let (cmp, _) = compare_closed_loop(plant, c, r)?;
+        let (cmp, run) = compare_closed_loop(plant, c, r)?;
+        simulated.push(with_simulated_positions(r, &run, conf.free));
         for pair in &cmp {
             for (k, x) in pair.iter().enumerate() {
                 sums[k].0 +=
@@ -107,7 +135,7 @@ pub fn closed_loop_errors(
         }
     }
     let rel = |(e, n): (f64, f64)| 100.0 * (e / n).sqrt();
-    Ok((rel(sums[0]), rel(sums[1])))
+    Ok(((rel(sums[0]), rel(sums[1])), simulated))
 }
 
 /// The inverse model's observation on the closed loop of `plant` under `c`: each record
@@ -130,11 +158,7 @@ pub fn closed_loop_observation(
         .iter()
         .map(|r| {
             let run = crate::control::controller::simulate_closed_loop(plant, c, r)?;
-            let mut m = r.measurement.clone();
-            for (a, &j) in conf.free.iter().enumerate() {
-                m.q[j] = run.q[a].clone();
-            }
-            Ok(m)
+            Ok(with_simulated_positions(r, &run, conf.free))
         })
         .collect::<Result<Vec<_>>>()?;
     let obs = observation(plant, &c.configuration, &simulated, idim)?;
@@ -351,7 +375,8 @@ pub fn didim(
             .map(|n| (n.clone(), p.value(n).unwrap_or(f64::NAN)))
             .collect()
     };
-    let (f0, v0) = closed_loop_errors(&current, c, records)?;
+    // Each evaluation's simulation serves the next iteration's regressor too.
+    let ((f0, v0), mut simulated) = evaluate(&current, c, records)?;
     let start = DidimIteration {
         values: values(&current),
         force_error: f0,
@@ -362,7 +387,7 @@ pub fn didim(
     let mut fit = None;
     let mut converged = false;
     for i in 1..=options.max_iter {
-        let (obs, simulated) = closed_loop_observation(&current, c, records, &options.idim)?;
+        let obs = observation(&current, &c.configuration, &simulated, &options.idim)?;
         let prior = current.values_with_barycentric()?;
         let obs = if options.params.is_empty() {
             obs
@@ -375,7 +400,8 @@ pub fn didim(
             .collect();
         let f = least_squares_base(&obs, m, conf, &locked_at, &|n| prior.get(n).copied())?;
         f.apply(&mut current)?;
-        let (force, velocity) = closed_loop_errors(&current, c, records)?;
+        let ((force, velocity), next) = evaluate(&current, c, records)?;
+        simulated = next;
         let it = DidimIteration {
             values: values(&current),
             force_error: force,

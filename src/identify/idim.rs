@@ -625,7 +625,6 @@ pub fn weighted_least_squares_base(
     prior: &dyn Fn(&str) -> Option<f64>,
     weighting: Weighting,
 ) -> Result<(Fit, Vec<(usize, f64)>)> {
-    let ols = least_squares_base(obs, model, conf, locked_at, prior)?;
     let joints = rows_by_joint(obs);
     let scale = |idx: &[usize]| {
         (idx.iter().map(|&i| obs.y[i] * obs.y[i]).sum::<f64>() / idx.len().max(1) as f64).sqrt()
@@ -642,7 +641,10 @@ pub fn weighted_least_squares_base(
         Weighting::Auto => ratio > WLS_SCALE_RATIO,
     };
     if !weigh || joints.len() < 2 {
-        return Ok((ols, Vec::new()));
+        return Ok((
+            least_squares_base(obs, model, conf, locked_at, prior)?,
+            Vec::new(),
+        ));
     }
     let mut sigma = Vec::new();
     for (j, idx) in &joints {
