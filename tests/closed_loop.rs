@@ -438,25 +438,6 @@ parameters = { c = { start = 0.0, bounds = [-1e5, 1e5] } }
     assert!(!p5.exists());
 }
 
-/// Gaussian deviates from SplitMix64 by Box–Muller (the test's own generator).
-struct Noise(u64);
-
-impl Noise {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-
-    fn gaussian(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform(), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
-
 /// The plant's state equation under a command held over one sample.
 struct Held<'a> {
     model: &'a lockstep::simulation::PlantModel,
@@ -496,7 +477,7 @@ fn puma_reference(a: usize, t: f64) -> f64 {
 /// the plant integrated between samples by Dop853 at a fixed 1e-4 s; the file holds the
 /// applied torques, the measured positions and the references.
 fn puma_closed_loop_record(truth: &Plant, path: &Path, seconds: f64, sigma: f64) {
-    use ode_solvers::{DVector, Dop853};
+    use ode_solvers::DVector;
     use std::fmt::Write as _;
     const T: f64 = 1e-3;
     let model = truth
@@ -504,7 +485,7 @@ fn puma_closed_loop_record(truth: &Plant, path: &Path, seconds: f64, sigma: f64)
         .unwrap()
         .model;
     let n = (seconds / T).round() as usize + 1;
-    let mut noise = Noise(11);
+    let mut noise = common::independent::Noise(11);
     let mut y = DVector::zeros(6);
     for a in 0..3 {
         y[a] = puma_reference(a, 0.0);
@@ -553,24 +534,8 @@ fn puma_closed_loop_record(truth: &Plant, path: &Path, seconds: f64, sigma: f64)
             model: &model,
             tau: applied.clone(),
         };
-        let mut solver = Dop853::from_param(
-            system,
-            t,
-            t + 1.5 * T,
-            T,
-            y.clone(),
-            1e3,
-            1e3,
-            0.9,
-            0.0,
-            0.333,
-            6.0,
-            1e-4,
-            1e-4,
-            1_000_000,
-            u32::MAX,
-            ode_solvers::OutputType::Dense,
-        );
+        let mut solver =
+            common::independent::fixed_step_dop853(system, (t, t + 1.5 * T), T, y.clone(), 1e-4);
         solver.integrate().expect("Dop853");
         y = solver.y_out()[1].clone();
         applied = u;

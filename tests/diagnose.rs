@@ -378,6 +378,26 @@ fn a_hidden_cubic_stiffness_is_named_in_torque_space() {
     assert!(rms <= 1.01 * floor, "residual {rms}, floor {floor}");
 }
 
+/// The synthetic record with the cubic stiffness 2e5 q³ hidden ([`synthetic_emps`]) in
+/// `dir`, and the symmetric model identified on it by `lockstep identify idim`, written to
+/// `dir/p1.toml`.
+fn identified_synthetic_emps(dir: &std::path::Path) -> (Measurement, PathBuf) {
+    let m = synthetic_emps(dir, 2e5);
+    let p1 = dir.join("p1.toml");
+    let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
+    common::ok(&common::lockstep(&[
+        "identify",
+        "idim",
+        "--plant",
+        &s(&root().join("model/plants/emps_symmetric.toml")),
+        "--data",
+        &s(&m.file),
+        "--out",
+        &s(&p1),
+    ]));
+    (m, p1)
+}
+
 /// `lockstep report` draws the diagnosis's leading finding over the residual figures and
 /// writes it beside the residual (issue 54 item 4): on the synthetic record with the cubic
 /// stiffness hidden, the figure's legend names "finding 1: cubic stiffness on q0" and the
@@ -390,19 +410,8 @@ fn the_report_draws_the_leading_finding_over_the_residual_emps() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
-    let m = synthetic_emps(d, 2e5);
+    let (m, p1) = identified_synthetic_emps(d);
     let data = s(&m.file);
-    let p1 = d.join("p1.toml");
-    common::ok(&common::lockstep(&[
-        "identify",
-        "idim",
-        "--plant",
-        &s(&root().join("model/plants/emps_symmetric.toml")),
-        "--data",
-        &data,
-        "--out",
-        &s(&p1),
-    ]));
     let rep = d.join("rep");
     common::ok(&common::lockstep(&[
         "report",
@@ -458,19 +467,9 @@ fn the_users_candidates_are_ranked_with_the_catalogue_and_applied_emps() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let s = |p: &std::path::Path| p.to_str().unwrap().to_string();
-    let m = synthetic_emps(d, 2e5);
+    let (m, p1) = identified_synthetic_emps(d);
     let data = s(&m.file);
-    let (p1, p2) = (d.join("p1.toml"), d.join("p2.toml"));
-    common::ok(&common::lockstep(&[
-        "identify",
-        "idim",
-        "--plant",
-        &s(&root().join("model/plants/emps_symmetric.toml")),
-        "--data",
-        &data,
-        "--out",
-        &s(&p1),
-    ]));
+    let p2 = d.join("p2.toml");
     let candidates = d.join("candidates.toml");
     std::fs::write(
         &candidates,

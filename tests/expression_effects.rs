@@ -644,6 +644,18 @@ fn loop_on_data_of(
     done
 }
 
+/// Every joint of the loop's last diagnosis within 1.1 σ of the sensor.
+fn assert_at_the_noise(tag: &str, done: &lockstep::diagnose::apply::AppliedLoop) {
+    for last in &done.last.joints {
+        assert!(
+            last.rms <= 1.1 * common::sensor_sigma(),
+            "{tag}: {} {}",
+            last.joint,
+            last.rms
+        );
+    }
+}
+
 /// A hidden torque outside the catalogue in data written by the independent integrator
 /// (`config`, excitation `test` of `table`, 8 s): the loop diagnose → `--apply` starting
 /// from the truth without it. Its first diagnosis is significant and its leading finding
@@ -667,14 +679,7 @@ fn hidden_outside_the_catalogue(
         "{tag}: {}",
         done.first.table(4)
     );
-    for last in &done.last.joints {
-        assert!(
-            last.rms <= 1.1 * common::sensor_sigma(),
-            "{tag}: {} {}",
-            last.joint,
-            last.rms
-        );
-    }
+    assert_at_the_noise(tag, &done);
     first.name.clone()
 }
 
@@ -716,14 +721,7 @@ fn hidden_backlash_is_named_and_applied_to_the_noise_c3() {
     );
     let b = done.plant.value("backlash_3").unwrap();
     assert!((b - 2e-3).abs() <= 0.05 * 2e-3, "backlash {b}");
-    for last in &done.last.joints {
-        assert!(
-            last.rms <= 1.1 * common::sensor_sigma(),
-            "{} {}",
-            last.joint,
-            last.rms
-        );
-    }
+    assert_at_the_noise("", &done);
 }
 
 /// Armature (rotor inertia) hidden on c3: Ia_3 = 0.3 D_33 (at q3 = 0) in the plant that
@@ -761,14 +759,7 @@ fn hidden_armature_is_named_and_applied_to_the_noise_c3() {
     let fitted = done.plant.value("Ia_3").unwrap();
     eprintln!("Ia_3 {fitted:.6e} (truth {ia:.6e}, D_33 {d33:.6e})");
     assert!((fitted / ia - 1.0).abs() <= 0.02, "Ia {fitted} vs {ia}");
-    for last in &done.last.joints {
-        assert!(
-            last.rms <= 1.1 * common::sensor_sigma(),
-            "{} {}",
-            last.joint,
-            last.rms
-        );
-    }
+    assert_at_the_noise("", &done);
 }
 
 /// The rotor inertia of a motor that drives the wrist's two joints through a differential,
@@ -801,14 +792,7 @@ fn hidden_coupled_motor_inertia_is_named_and_applied_to_the_noise_k1() {
     let fitted = done.plant.value("Jm_45").unwrap();
     eprintln!("Jm {fitted:.6e} (truth {jm:.6e})");
     assert!((fitted / jm - 1.0).abs() <= 0.02, "Jm {fitted} vs {jm}");
-    for last in &done.last.joints {
-        assert!(
-            last.rms <= 1.1 * common::sensor_sigma(),
-            "{} {}",
-            last.joint,
-            last.rms
-        );
-    }
+    assert_at_the_noise("", &done);
 }
 
 /// Friction of a motor that drives the wrist's two joints through a differential, 0.005
@@ -850,22 +834,11 @@ fn accelerations_in_an_expression_enter_the_inertia_matrix_emps_k1() {
         emps.parameters.insert(n.into(), v);
     }
     let motion = |p: &Plant| {
-        let model = p
-            .simulator("full", &[0.0], ConsistencyPolicy::Warn)
-            .unwrap()
-            .model;
-        let mut q = Vec::new();
-        model
-            .simulate(
-                State::at_rest(vec![0.0]),
-                1e-3,
-                3000,
-                10.0,
-                |t, tau| tau[0] = 60.0 * (2.0 * t).sin() + 25.0 * (9.0 * t).sin(),
-                |_, x| q.push(x.q[0]),
-            )
-            .unwrap();
-        q
+        common::emps_multisine_motion(
+            &p.simulator("full", &[0.0], ConsistencyPolicy::Warn)
+                .unwrap()
+                .model,
+        )
     };
     let mass = emps.parameters["M"];
     let mut heavier = emps.clone();

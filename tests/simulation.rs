@@ -3,6 +3,8 @@
 //! a spring's natural frequency, RK4's and ETDRK4's fourth order, ETDRK4's exactness on a
 //! damping-dominated joint, energy, and divergence reports.
 
+mod common;
+
 use lockstep::simulation::{phi1234, Integrator, JointTerms, LuGre, PlantModel, State};
 
 const M: f64 = 95.0;
@@ -362,18 +364,7 @@ fn an_armature_on_the_emps_axis_moves_as_the_same_added_mass() {
             });
             plant.p = vec![mass];
             plant.integrator = integrator;
-            let mut q = Vec::new();
-            plant
-                .simulate(
-                    State::at_rest(vec![0.0]),
-                    1e-3,
-                    3000,
-                    10.0,
-                    |t, tau| tau[0] = 60.0 * (2.0 * t).sin() + 25.0 * (9.0 * t).sin(),
-                    |_, x| q.push(x.q[0]),
-                )
-                .unwrap();
-            q
+            common::emps_multisine_motion(&plant)
         };
         let (a, b) = (run(95.0, 5.0), run(100.0, 0.0));
         let c = run(95.0, 0.0);

@@ -80,14 +80,44 @@ impl System<f64, DVector<f64>> for Driven<'_> {
 /// The fixed step of the Dop853 run (s): 240 steps per 100 Hz sample.
 pub const STEP: f64 = 1.0 / 24000.0;
 
+/// Dop853 at the fixed step `step` over `(from, to)` (tolerances left wide so that the
+/// step is never refined), dense output every `dx`: the independent integrator's setting.
+pub fn fixed_step_dop853<F: System<f64, DVector<f64>>>(
+    system: F,
+    (from, to): (f64, f64),
+    dx: f64,
+    y0: DVector<f64>,
+    step: f64,
+) -> Dop853<f64, DVector<f64>, F> {
+    Dop853::from_param(
+        system,
+        from,
+        to,
+        dx,
+        y0,
+        1e3,
+        1e3,
+        0.9,
+        0.0,
+        0.333,
+        6.0,
+        step,
+        step,
+        50_000_000,
+        u32::MAX,
+        ode_solvers::OutputType::Dense,
+    )
+}
+
 /// Dense-output points per file sample on which a backlash is played (4 kHz).
 pub const BACKLASH_OVERSAMPLING: usize = 40;
 
 /// Gaussian deviates from SplitMix64 by Box–Muller.
-struct Noise(u64);
+pub struct Noise(pub u64);
 
 impl Noise {
-    fn uniform(&mut self) -> f64 {
+    /// A uniform deviate in (0, 1).
+    pub fn uniform(&mut self) -> f64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -96,7 +126,8 @@ impl Noise {
         ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
     }
 
-    fn gaussian(&mut self) -> f64 {
+    /// A standard normal deviate.
+    pub fn gaussian(&mut self) -> f64 {
         let (u1, u2) = (self.uniform(), self.uniform());
         (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
     }
@@ -164,25 +195,14 @@ pub fn write_sensed(
     let y0 = DVector::zeros(3 * nf);
     let played = backlash.iter().any(|&b| b > 0.0);
     let fine = if played { BACKLASH_OVERSAMPLING } else { 1 };
-    let mut solver = Dop853::from_param(
+    let mut solver = fixed_step_dop853(
         system,
-        0.0,
         // Past the end: ode_solvers' dense output at x_end itself is not trustworthy (a
         // 15 s k1 run gave −8e7 rad there, the sample before it 4.7 rad).
-        spec.duration + 2.0 / RATE,
+        (0.0, spec.duration + 2.0 / RATE),
         1.0 / (RATE * fine as f64),
         y0,
-        1e3,
-        1e3,
-        0.9,
-        0.0,
-        0.333,
-        6.0,
         STEP,
-        STEP,
-        50_000_000,
-        u32::MAX,
-        ode_solvers::OutputType::Dense,
     );
     let stats = solver.integrate().expect("Dop853 integration");
     if std::env::var_os("LOCKSTEP_INDEPENDENT_STATS").is_some() {
