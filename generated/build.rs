@@ -1,4 +1,5 @@
-//! Regenerates the kernels from `model/*.toml` whenever a model or the generator changes.
+//! Regenerates the kernels from `model/*.toml` whenever a model (or the URDF it reads) or
+//! the generator changes.
 //!
 //! Symbolica (restricted, unlicensed) prints a banner on stdout at first use; cargo ignores
 //! build-script lines that do not start with `cargo:`, so the banner never reaches the
@@ -19,6 +20,12 @@ fn main() {
     for f in &files {
         println!("cargo:rerun-if-changed={}", f.display());
         let model = codegen::load(f).unwrap_or_else(|e| fail(&e.to_string()));
+        if let Some((urdf, _)) = &model.urdf {
+            println!("cargo:rerun-if-changed={}", urdf.display());
+        }
+        for w in &model.warnings {
+            println!("cargo:warning={}: {w}", f.display());
+        }
         let g = codegen::generate::generate(&model, None)
             .unwrap_or_else(|e| fail(&format!("{}: {e}", f.display())));
         let path = out.join(format!("{}.rs", model.name));

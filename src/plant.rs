@@ -151,7 +151,7 @@ impl Plant {
     /// Unknown model name.
     pub fn new(model: &str, effects: Vec<Effect>) -> Result<Plant> {
         let m = crate::util::model(model)?;
-        Ok(Plant {
+        let mut plant = Plant {
             file: None,
             model: m,
             description: String::new(),
@@ -163,7 +163,32 @@ impl Plant {
             undetermined: Vec::new(),
             standard_errors: BTreeMap::new(),
             correlations: BTreeMap::new(),
-        })
+        };
+        plant.fill_model_defaults();
+        Ok(plant)
+    }
+
+    /// Give each inertial symbol that has a default in the model file (its `[defaults]` or
+    /// its URDF's `<inertial>` numbers) and no value here its default, on every link the
+    /// plant does not give in barycentric form.
+    fn fill_model_defaults(&mut self) {
+        let m = self.model;
+        for l in 0..m.links.len() {
+            let syms = self.link_symbols(l);
+            let barycentric_given = (0..m.params.len()).any(|j| {
+                m.param_link[j] == l
+                    && !syms.contains(&m.params[j])
+                    && self.parameters.contains_key(m.params[j])
+            });
+            if barycentric_given {
+                continue;
+            }
+            for (i, s) in m.inertial_symbols.iter().enumerate() {
+                if let (true, Some(d)) = (m.symbol_link[i] == l, m.symbol_defaults[i]) {
+                    self.parameters.entry(s.to_string()).or_insert(d);
+                }
+            }
+        }
     }
 
     fn joint_index(&self, name: &str, item: &str) -> Result<usize> {
@@ -314,6 +339,7 @@ impl Plant {
             }
         }
         plant.parameters = spec.parameters;
+        plant.fill_model_defaults();
         plant.bounds = spec
             .bounds
             .iter()

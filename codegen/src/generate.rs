@@ -674,6 +674,22 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
         .iter()
         .map(|&(_, _, r)| proc_macro2::Literal::usize_unsuffixed(r))
         .collect();
+    let sdefaults: Vec<TokenStream> = model
+        .inertial_symbols
+        .iter()
+        .map(|(s, _, _)| match model.defaults.get(s) {
+            Some(&v) if v < 0.0 => {
+                let l = proc_macro2::Literal::f64_unsuffixed(-v);
+                quote!(Some(-#l))
+            }
+            Some(&v) => {
+                let l = proc_macro2::Literal::f64_unsuffixed(v);
+                quote!(Some(#l))
+            }
+            None => quote!(None),
+        })
+        .collect();
+    let description = crate::describe::describe(model);
     let mname = &model.name;
     // Locking sequences whose steps were all generated.
     let seqs: Vec<TokenStream> = model
@@ -718,6 +734,12 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
         pub const SYMBOL_LINK: [usize; NI] = [#(#slinks),*];
         /// Role of each inertial symbol: 0 = mass, 1 = centroid, 2 = inertia about the centroid.
         pub const SYMBOL_ROLE: [usize; NI] = [#(#sroles),*];
+        /// Default value of each inertial symbol (the model file's `[defaults]` or its URDF's
+        /// `<inertial>` numbers), `None` where it has none.
+        pub const SYMBOL_DEFAULTS: [Option<f64>; NI] = [#(#sdefaults),*];
+        /// What the generator read: joints, frames, links with their default values,
+        /// configurations (`lockstep model show`).
+        pub const DESCRIPTION: &str = #description;
         /// Gravity in frame 0 (m/s²).
         pub const GRAVITY: [f64; 3] = [#(#gravity),*];
 
@@ -744,6 +766,8 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
             inertial_symbols: &INERTIAL_SYMBOLS,
             symbol_link: &SYMBOL_LINK,
             symbol_role: &SYMBOL_ROLE,
+            symbol_defaults: &SYMBOL_DEFAULTS,
+            description: DESCRIPTION,
             barycentric_from_symbols: barycentric_from_symbols_dyn,
             configurations: &[#(#conf_idents::CONFIGURATION),*],
             sequences: &[#(#seqs),*],

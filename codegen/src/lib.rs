@@ -11,6 +11,7 @@
 // Index loops mirror the equations (D_ab, Γ_ijk); iterator rewrites would hide them.
 #![allow(clippy::needless_range_loop)]
 
+pub mod describe;
 pub mod dynamics;
 pub mod emit;
 pub mod expr;
@@ -18,6 +19,7 @@ pub mod generate;
 pub mod graph;
 pub mod model;
 pub mod symbolic;
+pub mod urdf;
 
 use std::path::{Path, PathBuf};
 

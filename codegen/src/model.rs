@@ -75,10 +75,22 @@ pub struct RobotSpec {
     /// Source of the data (paper, table, toolbox).
     #[serde(default)]
     pub source: String,
-    /// Joint variables in the order of the q vector.
+    /// Joint variables in the order of the q vector. With `urdf`, optional: the names of the
+    /// URDF's independent moving joints in tree order (default: the URDF joint names).
+    #[serde(default)]
     pub joints: Vec<String>,
-    /// Gravity vector in frame 0 (m/s²); `[0, 0, -9.81]` when z is up.
-    pub gravity: [Scalar; 3],
+    /// Gravity vector in frame 0 (m/s²); `[0, 0, -9.81]` when z is up. With `urdf`,
+    /// optional (default `[0, 0, -9.81]`, ROS's convention).
+    #[serde(default)]
+    pub gravity: Option<[Scalar; 3]>,
+    /// A URDF robot description (path relative to this file) that gives the frames and
+    /// links; the model file then adds configurations, sequences and defaults.
+    #[serde(default)]
+    pub urdf: Option<String>,
+    /// With `urdf`: the URDF links whose inertial values are known numbers rather than
+    /// symbols to identify (e.g. a tool).
+    #[serde(default)]
+    pub known_links: Vec<String>,
 }
 
 /// DH convention of a chain.
@@ -229,6 +241,10 @@ pub struct ModelFile {
     /// `[[sequence]]`.
     #[serde(default, rename = "sequence")]
     pub sequences: Vec<SequenceSpec>,
+    /// `[defaults]`: default values of inertial symbols (the prior: CAD, a URDF, a paper),
+    /// used where a plant gives no value.
+    #[serde(default)]
+    pub defaults: BTreeMap<String, f64>,
 }
 
 /// An elementary transform with parsed entries.
@@ -318,6 +334,12 @@ pub struct Model {
     pub configurations: Vec<Configuration>,
     /// Locking sequences: name and configuration indices.
     pub sequences: Vec<(String, Vec<usize>)>,
+    /// Default value of inertial symbols (`[defaults]`, or a URDF's `<inertial>` numbers).
+    pub defaults: BTreeMap<String, f64>,
+    /// The URDF the frames and links were read from, and its moving joints.
+    pub urdf: Option<(PathBuf, Vec<crate::urdf::UrdfJoint>)>,
+    /// Warnings of the physical-consistency check of the URDF's inertial values.
+    pub warnings: Vec<String>,
 }
 
 impl Model {
@@ -334,7 +356,40 @@ impl Model {
             item: String::new(),
             reason: format!("cannot read the model file: {e}"),
         })?;
+        if path.extension().is_some_and(|x| x == "urdf") {
+            return Model::from_urdf(path, &text);
+        }
         Model::from_toml(path, &text)
+    }
+
+    /// A bare URDF as a model: its name is the `<robot name>`, its joints the URDF's
+    /// independent moving joints, every body's inertial values symbols with the URDF's
+    /// numbers as defaults, one configuration `full`.
+    ///
+    /// # Errors
+    /// As [`crate::urdf::read`], and the validation of [`Model::from_toml`].
+    pub fn from_urdf(path: &Path, text: &str) -> Result<Model, ModelError> {
+        let u = crate::urdf::read(path, text, &[], None)?;
+        let mut spec = ModelFile {
+            robot: RobotSpec {
+                name: crate::urdf::identifier(&u.robot),
+                description: format!("URDF robot '{}'", u.robot),
+                source: path.display().to_string(),
+                joints: vec![],
+                gravity: None,
+                urdf: Some(path.display().to_string()),
+                known_links: vec![],
+            },
+            constants: BTreeMap::new(),
+            chains: vec![],
+            frames: vec![],
+            links: vec![],
+            configurations: vec![],
+            sequences: vec![],
+            defaults: BTreeMap::new(),
+        };
+        let (warnings, joints) = fill_from_urdf(&mut spec, u);
+        Model::from_spec(path, spec, Some((path.to_path_buf(), joints)), warnings)
     }
 
     /// Validate model text; `path` is used in error messages only.
@@ -357,6 +412,47 @@ impl Model {
                 msg.replace('`', "'"),
             )
         })?;
+        let (mut spec, mut urdf, mut warnings) = (spec, None, Vec::new());
+        if let Some(u) = spec.robot.urdf.clone() {
+            if !spec.chains.is_empty() || !spec.frames.is_empty() || !spec.links.is_empty() {
+                return Err(err(
+                    "[robot] field 'urdf'",
+                    "a model read from a URDF takes its frames and links from it: remove the [[chain]], [[frame]] and [[link]] tables".into(),
+                ));
+            }
+            let file = path.parent().unwrap_or(Path::new(".")).join(&u);
+            let utext = std::fs::read_to_string(&file).map_err(|e| {
+                err(
+                    "[robot] field 'urdf'",
+                    format!("cannot read '{}': {e}", file.display()),
+                )
+            })?;
+            let vars = (!spec.robot.joints.is_empty()).then(|| spec.robot.joints.clone());
+            let read = crate::urdf::read(&file, &utext, &spec.robot.known_links, vars.as_deref())?;
+            let (w, joints) = fill_from_urdf(&mut spec, read);
+            warnings = w;
+            urdf = Some((file, joints));
+        } else if !spec.robot.known_links.is_empty() {
+            return Err(err(
+                "[robot] field 'known_links'",
+                "only a model read from a URDF ('urdf = \"…\"') has known links".into(),
+            ));
+        }
+        Model::from_spec(path, spec, urdf, warnings)
+    }
+
+    /// Validate a parsed model file; `path` is used in error messages only.
+    fn from_spec(
+        path: &Path,
+        spec: ModelFile,
+        urdf: Option<(PathBuf, Vec<crate::urdf::UrdfJoint>)>,
+        warnings: Vec<String>,
+    ) -> Result<Model, ModelError> {
+        let err = |item: &str, reason: String| ModelError {
+            file: path.to_path_buf(),
+            item: item.to_string(),
+            reason,
+        };
         let joints = spec.robot.joints.clone();
         if joints.is_empty() {
             return Err(err(
@@ -432,9 +528,13 @@ impl Model {
             known(&e, allow_joints).map_err(|r| err(item, r))?;
             Ok(e)
         };
-        let gravity_expr: Vec<Expr> = spec
-            .robot
-            .gravity
+        let Some(gravity_spec) = &spec.robot.gravity else {
+            return Err(err(
+                "[robot]",
+                "missing field 'gravity' (gravity in frame 0, m/s², e.g. [0, 0, -9.81])".into(),
+            ));
+        };
+        let gravity_expr: Vec<Expr> = gravity_spec
             .iter()
             .enumerate()
             .map(|(i, g)| parse(&format!("[robot] field 'gravity'[{i}]"), g, false))
@@ -788,9 +888,33 @@ impl Model {
                 .collect::<Result<Vec<_>, _>>()?;
             sequences.push((s.name.clone(), steps));
         }
+        let symbol_names: BTreeSet<&str> = inertial_symbols
+            .iter()
+            .map(|(n, _, _)| n.as_str())
+            .collect();
+        for (k, v) in &spec.defaults {
+            if !symbol_names.contains(k.as_str()) {
+                return Err(err(
+                    &format!("[defaults] '{k}'"),
+                    format!(
+                        "not an inertial symbol of a link (symbols: {})",
+                        symbol_names.iter().copied().collect::<Vec<_>>().join(", ")
+                    ),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(err(
+                    &format!("[defaults] '{k}'"),
+                    "expected a finite number".into(),
+                ));
+            }
+        }
         Ok(Model {
             file: path.to_path_buf(),
             name: spec.robot.name.clone(),
+            defaults: spec.defaults.clone(),
+            urdf,
+            warnings,
             spec,
             joints,
             constants,
@@ -813,4 +937,30 @@ fn is_identifier(s: &str) -> bool {
     let mut c = s.chars();
     matches!(c.next(), Some(ch) if ch.is_ascii_alphabetic() || ch == '_')
         && c.all(|ch| ch.is_ascii_alphanumeric() || ch == '_')
+}
+
+/// Put a URDF's frames, links, joints and defaults into a model file's spec (defaults the
+/// file gives itself win); returns the URDF's warnings and moving joints.
+fn fill_from_urdf(
+    spec: &mut ModelFile,
+    u: crate::urdf::UrdfModel,
+) -> (Vec<String>, Vec<crate::urdf::UrdfJoint>) {
+    spec.robot.joints = u.joint_vars;
+    if spec.robot.gravity.is_none() {
+        spec.robot.gravity = Some([Scalar::Num(0.0), Scalar::Num(0.0), Scalar::Num(-9.81)]);
+    }
+    spec.frames = u
+        .frames
+        .into_iter()
+        .map(|f| FrameSpec {
+            name: f.name,
+            parent: Some(f.parent),
+            transforms: f.transforms,
+        })
+        .collect();
+    spec.links = u.links;
+    for (k, v) in u.defaults {
+        spec.defaults.entry(k).or_insert(v);
+    }
+    (u.warnings, u.joints)
 }

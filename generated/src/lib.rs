@@ -81,6 +81,12 @@ pub struct Model {
     /// Role of each inertial symbol: 0 = mass (kg), 1 = centroid coordinate (m),
     /// 2 = inertia about the centroid (kg·m²) (the model-file field it appears in).
     pub symbol_role: &'static [usize],
+    /// Default value of each inertial symbol (the model file's `[defaults]` or its URDF's
+    /// `<inertial>` numbers: the prior), `None` where it has none.
+    pub symbol_defaults: &'static [Option<f64>],
+    /// What the generator read (joints, frames, links and default values, configurations),
+    /// as `lockstep model show` prints it.
+    pub description: &'static str,
     /// Barycentric parameters from the model file's inertial symbols:
     /// `(symbols[NI], out[NP])`.
     pub barycentric_from_symbols: fn(&[f64], &mut [f64]),
