@@ -1,17 +1,23 @@
 """Pinocchio 4 (pip `pin`) reading lockstep's URDFs: reference values for generated/tests/urdf.rs.
 
-For each URDF shipped in model/urdf/ that the tests compare (the Staubli TX40 from FIGAROH and
-the Panda), Pinocchio builds the fixed-base model from the URDF itself and evaluates, at ten
+For each URDF shipped in model/urdf/ that the tests compare (the Staubli TX40 from FIGAROH,
+the Panda, and the UR5 with its y axes and rpy origins), Pinocchio builds the fixed-base model from the URDF itself and evaluates, at ten
 random states (seeded), the inertia matrix M (crba), gravity g (computeGeneralizedGravity),
 the Coriolis matrix C (computeCoriolisMatrix) and C(q, qd) qd (nonLinearEffects - g), inverse
 dynamics tau (rnea) and forward dynamics qdd (aba) for a random torque. The numbers are
 written as Rust constants to generated/tests/data/pinocchio_<model>.rs, which is committed;
+Pinocchio reads each URDF with its rpy angles that lie within 1e-9 rad of a multiple of pi/2
+set to that multiple, as lockstep reads them (URDFs print pi/2 as 1.57079632679, 5e-12 rad
+short, which moves the UR5's C qd by 1e-10 relative: the input's rounding, not a difference of
+the two dynamics codes).
 run again only to refresh them:
 
     pip install pin==4.1.0
     python3 bench/pinocchio_urdf.py
 """
 import os
+import re
+import tempfile
 import numpy as np
 import pinocchio as pin
 
@@ -19,7 +25,8 @@ ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 # name, URDF, whether forward dynamics is also compared with the last joint locked (the TX40's
 # link 6 has no inertia about its axis in the URDF: its full M is singular, in Pinocchio's aba
 # as in lockstep's forward dynamics, so its q̈ is compared on joints 1-5 with q6 locked).
-MODELS = [("tx40", "model/urdf/tx40.urdf", True), ("panda_urdf", "model/urdf/panda.urdf", False)]
+MODELS = [("tx40", "model/urdf/tx40.urdf", True), ("panda_urdf", "model/urdf/panda.urdf", False),
+          ("ur5", "model/urdf/ur5.urdf", False)]
 
 
 def rust_array(v):
@@ -29,9 +36,23 @@ def rust_array(v):
     return "[" + ", ".join(repr(float(x)) for x in v) + "]"
 
 
+def snapped_urdf(path):
+    """The URDF text with rpy angles within 1e-9 of k*pi/2 written as k*pi/2 (to 17 digits)."""
+
+    def snap(x):
+        k = round(x / (np.pi / 2))
+        return repr(k * (np.pi / 2)) if abs(x - k * np.pi / 2) < 1e-9 else repr(x)
+
+    text = open(path).read()
+    return re.sub(r'rpy="([^"]*)"', lambda m: 'rpy="' + " ".join(snap(float(v)) for v in m.group(1).split()) + '"', text)
+
+
 def main():
     for name, rel, lock_last in MODELS:
-        model = pin.buildModelFromUrdf(os.path.join(ROOT, rel))
+        with tempfile.NamedTemporaryFile("w", suffix=".urdf", delete=False) as tmp:
+            tmp.write(snapped_urdf(os.path.join(ROOT, rel)))
+        model = pin.buildModelFromUrdf(tmp.name)
+        os.unlink(tmp.name)
         data = model.createData()
         nv = model.nv
         rng = np.random.default_rng(20261128)

@@ -301,7 +301,8 @@ pub fn read(
         item,
         reason,
     };
-    if text.contains("xmlns:xacro") || text.contains("<xacro:") || text.contains("${") {
+    // An expanded URDF may keep the xacro namespace declaration; markup is what matters.
+    if text.contains("<xacro:") || text.contains("${") || text.contains("$(") {
         return Err(err(
             String::new(),
             "xacro markup is not supported: expand the file first (`xacro robot.urdf.xacro > robot.urdf`, ROS) and give the URDF".into(),

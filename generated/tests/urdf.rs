@@ -1,7 +1,8 @@
 //! Models read from URDF (model/urdf/) against independent references:
 //!
 //! - the Staubli TX40 (FIGAROH's URDF) and the Panda against Pinocchio 4 reading the same
-//!   URDF files (M, C, g, C q̇, τ and forward dynamics at ten random states; the numbers were
+//!   URDF files, and the UR5 (joint axes along y, rpy origins) likewise
+//!   (M, C, g, C q̇, τ and forward dynamics at ten random states; the numbers were
 //!   printed by bench/pinocchio_urdf.py and are committed in tests/data/);
 //! - the Panda from URDF against the hand-written modified-DH file panda.toml;
 //! - the planar parallelogram with a `<mimic>` joint against its twin written with a coupled
@@ -31,6 +32,10 @@ mod pinocchio_tx40 {
 #[allow(dead_code)]
 mod pinocchio_panda_urdf {
     include!("data/pinocchio_panda_urdf.rs");
+}
+#[allow(dead_code)]
+mod pinocchio_ur5 {
+    include!("data/pinocchio_ur5.rs");
 }
 
 /// The model's default parameter vector: barycentric parameters from the symbols' defaults.
@@ -122,6 +127,12 @@ fn tx40_from_urdf_matches_pinocchio() {
         (c.forward_dynamics)(&s.q, &s.qd[..5], &s.tau_in[..5], &p, &mut acc);
         close(&format!("tx40 arm5 state {i} qdd"), &acc, r, 1e-10);
     }
+}
+
+#[test]
+fn ur5_from_urdf_matches_pinocchio() {
+    // Four joints about y, rpy origins, a world link and massless fixed frames.
+    against_pinocchio("ur5", &pinocchio_ur5::STATES);
 }
 
 #[test]
