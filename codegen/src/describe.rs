@@ -42,6 +42,7 @@ fn linear(model: &Model, coef: impl Fn(usize) -> f64, offset: f64, angle: bool) 
                 match k.round() as i64 {
                     1 => "π/2".to_string(),
                     -1 => "-π/2".to_string(),
+                    2 | -2 => "π".to_string(),
                     n => format!("{n}π/2"),
                 }
             } else {

@@ -690,6 +690,10 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
         })
         .collect();
     let description = crate::describe::describe(model);
+    let dh = match crate::dh::equivalent_dh(model) {
+        Ok(t) => quote!(Ok(#t)),
+        Err(e) => quote!(Err(#e)),
+    };
     let mname = &model.name;
     // Locking sequences whose steps were all generated.
     let seqs: Vec<TokenStream> = model
@@ -740,6 +744,9 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
         /// What the generator read: joints, frames, links with their default values,
         /// configurations (`lockstep model show`).
         pub const DESCRIPTION: &str = #description;
+        /// The equivalent modified DH table as model-file TOML, or why none exists
+        /// (`lockstep model dh`).
+        pub const DH_TABLE: Result<&str, &str> = #dh;
         /// Gravity in frame 0 (m/s²).
         pub const GRAVITY: [f64; 3] = [#(#gravity),*];
 
@@ -768,6 +775,7 @@ pub fn generate(model: &Model, only: Option<&[String]>) -> Result<Generated, Emi
             symbol_role: &SYMBOL_ROLE,
             symbol_defaults: &SYMBOL_DEFAULTS,
             description: DESCRIPTION,
+            dh_table: DH_TABLE,
             barycentric_from_symbols: barycentric_from_symbols_dyn,
             configurations: &[#(#conf_idents::CONFIGURATION),*],
             sequences: &[#(#seqs),*],

@@ -12,6 +12,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod describe;
+pub mod dh;
 pub mod dynamics;
 pub mod emit;
 pub mod expr;

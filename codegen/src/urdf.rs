@@ -912,6 +912,10 @@ fn consistency(link: &str, b: &Inertial) -> Vec<String> {
         w.push(format!(
             "link '{link}': the inertia about the centroid is not positive semidefinite"
         ));
+    } else if minors[6] <= tols[6] {
+        w.push(format!(
+            "link '{link}': the inertia about the centroid is singular (a point or a line): the plant's consistency check calls the link impossible until the inertia is identified or set"
+        ));
     } else {
         let (a, b2, c) = (i[0][0], i[1][1], i[2][2]);
         // The triangle inequality on the diagonal (necessary for a real body).

@@ -355,3 +355,80 @@ fn a_model_file_with_urdf_gets_its_frames_links_and_defaults() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+fn shipped(name: &str) -> Model {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../model");
+    Model::load(&dir.join(format!("{name}.toml"))).unwrap()
+}
+
+#[test]
+fn the_panda_urdf_gives_back_frankas_published_dh_table() {
+    // Franka Robotics' published modified DH table (model/panda.toml), row by row.
+    let t = codegen::dh::equivalent_dh(&shipped("panda_urdf")).unwrap();
+    let rows = [
+        r#"{ alpha = 0, a = 0, theta = "q1", d = 0 }"#,
+        r#"{ alpha = "-pi/2", a = 0, theta = "q2", d = 0 }"#,
+        r#"{ alpha = "pi/2", a = 0, theta = "q3", d = 0.316 }"#,
+        r#"{ alpha = "pi/2", a = 0.0825, theta = "q4", d = 0 }"#,
+        r#"{ alpha = "-pi/2", a = -0.0825, theta = "q5", d = 0.384 }"#,
+        r#"{ alpha = "pi/2", a = 0, theta = "q6", d = 0 }"#,
+        r#"{ alpha = "pi/2", a = 0.088, theta = "q7", d = 0 }"#,
+    ];
+    for r in rows {
+        assert!(t.contains(r), "{r} not in\n{t}");
+    }
+    // The base is the URDF's 0.333 m lift; every link frame is its DH frame.
+    assert!(
+        t.contains("transforms = [{ trans = [0, 0, 0.333] }]"),
+        "{t}"
+    );
+    assert_eq!(t.matches("transforms = []").count(), 7, "{t}");
+}
+
+#[test]
+fn the_printed_dh_table_is_a_model_file_that_loads() {
+    // The TX40's table with its links hung on the printed frames is a valid model file.
+    let m = shipped("tx40");
+    let t = codegen::dh::equivalent_dh(&m).unwrap();
+    let mut toml = String::from(
+        "[robot]\nname = \"tx40_dh\"\njoints = [\"q1\", \"q2\", \"q3\", \"q4\", \"q5\", \"q6\"]\ngravity = [0, 0, -9.81]\n",
+    );
+    toml.push_str(&t);
+    for l in &m.links {
+        toml.push_str(&format!(
+            "[[link]]\nname = \"{0}\"\nframe = \"{0}_frame\"\nmass = \"m_{0}\"\n",
+            l.name
+        ));
+    }
+    let dh = Model::from_toml(Path::new("tx40_dh.toml"), &toml).unwrap();
+    assert_eq!(dh.links.len(), 6);
+    // The TX40's modified DH geometry as published for it (FIGAROH's "mdh" model):
+    // a3 = 0.225 m, d3 = 0.035 m, d4 = 0.225 m, alternating ±π/2 twists.
+    assert!(
+        t.contains(r#"{ alpha = 0, a = 0.225, theta = "q3", d = 0.035 }"#),
+        "{t}"
+    );
+    assert!(
+        t.contains(r#"{ alpha = "pi/2", a = 0, theta = "q4", d = 0.225 }"#),
+        "{t}"
+    );
+}
+
+#[test]
+fn coupled_joints_and_trees_have_no_dh_table() {
+    let e = codegen::dh::equivalent_dh(&shipped("parallelogram")).unwrap_err();
+    assert!(e.contains("joint q2 moves more than one transform"), "{e}");
+    let tree = r#"<robot name="t"><link name="b"/>
+      <joint name="j1" type="revolute"><parent link="b"/><child link="l1"/><axis xyz="0 0 1"/></joint>
+      <link name="l1"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+      <joint name="j2" type="revolute"><parent link="b"/><child link="l2"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/></joint>
+      <link name="l2"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+    </robot>"#;
+    let dir = std::env::temp_dir().join(format!("lockstep-tree-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("t.urdf"), tree).unwrap();
+    let m = Model::load(&dir.join("t.urdf")).unwrap();
+    let e = codegen::dh::equivalent_dh(&m).unwrap_err();
+    assert!(e.contains("another branch"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -87,6 +87,9 @@ pub struct Model {
     /// What the generator read (joints, frames, links and default values, configurations),
     /// as `lockstep model show` prints it.
     pub description: &'static str,
+    /// The equivalent modified (Craig) DH table as model-file TOML, checked against the
+    /// model's kinematics, or why none exists (a tree, a coupled joint).
+    pub dh_table: Result<&'static str, &'static str>,
     /// Barycentric parameters from the model file's inertial symbols:
     /// `(symbols[NI], out[NP])`.
     pub barycentric_from_symbols: fn(&[f64], &mut [f64]),

@@ -162,6 +162,12 @@ pub enum Command {
     },
     /// List the generated models, their joints, parameters and configurations.
     Models,
+    /// What the generator read for one model (joints, frames, links with default values,
+    /// configurations), or its equivalent DH table.
+    Model {
+        #[command(subcommand)]
+        action: ModelAction,
+    },
     /// Sample an excitation of the thesis (Tables 4.3, 4.4, 4.5, 4.7, 4.9) for a configuration
     /// and write a torque (or position-command) file with a side file naming the configuration.
     Excite {
@@ -249,6 +255,25 @@ pub enum Command {
         /// Output directory.
         #[arg(long, default_value = "lockstep-out/params")]
         out: PathBuf,
+    },
+}
+
+/// `lockstep model …`.
+#[derive(Debug, Subcommand)]
+pub enum ModelAction {
+    /// Print the joints (with the URDF joint each comes from), the frames as products of
+    /// elementary transforms, the links with their inertial symbols and default values, the
+    /// configurations and the consistency warnings.
+    Show {
+        /// Model name (see `lockstep models`).
+        model: String,
+    },
+    /// Print the equivalent modified (Craig) DH table as model-file TOML, checked against
+    /// the model's kinematics; exit 1 with the reason where none exists (a tree, a coupled
+    /// or mimic joint).
+    Dh {
+        /// Model name (see `lockstep models`).
+        model: String,
     },
 }
 
@@ -763,6 +788,18 @@ fn run_command(cli: Cli) -> Result<()> {
             None => lockstep::report::control::wall_command(&bundled_wall_args(args))?,
             Some(WallAction::Tune { args }) => {
                 lockstep::report::control::tune_command(&bundled_wall_args(args))?
+            }
+        },
+        Command::Model { action } => match action {
+            ModelAction::Show { model } => {
+                lockstep::outln!("{}", model_named(&model)?.description.trim_end());
+            }
+            ModelAction::Dh { model } => {
+                let m = model_named(&model)?;
+                match m.dh_table {
+                    Ok(t) => lockstep::outln!("{}", t.trim_end()),
+                    Err(e) => bail!("model '{model}' has no DH table: {e}"),
+                }
             }
         },
         Command::Models => {

@@ -1,5 +1,7 @@
 //! `cargo xtask gen --model NAME [--config NAME]`: regenerate kernels by hand and print
 //! what was written, the operation counts and the generation time.
+//! `cargo xtask model show|dh FILE`: what the generator reads from any model file (`.toml` or
+//! `.urdf`, in `model/` or not) and its equivalent DH table, without building it.
 //!
 //! `cargo build` regenerates the kernels by itself (generated/build.rs) whenever a model or
 //! the generator changes; this command is for inspecting one model or configuration.
@@ -30,6 +32,14 @@ enum Cmd {
         #[arg(long, default_value = "target/xtask-gen")]
         out: PathBuf,
     },
+    /// Print what the generator reads from a model file, or its equivalent DH table.
+    Model {
+        /// `show` or `dh`.
+        #[arg(value_parser = ["show", "dh"])]
+        action: String,
+        /// A model file (`.toml` or `.urdf`) or the name of one in model/.
+        file: String,
+    },
 }
 
 fn main() {
@@ -41,10 +51,26 @@ fn main() {
 }
 
 fn run() -> Result<()> {
-    let Cli {
-        cmd: Cmd::Gen { model, config, out },
-    } = Cli::parse();
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let (model, config, out) = match Cli::parse().cmd {
+        Cmd::Gen { model, config, out } => (model, config, out),
+        Cmd::Model { action, file } => {
+            let mut path = PathBuf::from(&file);
+            if !path.exists() {
+                path = root.join("model").join(format!("{file}.toml"));
+            }
+            let m = codegen::load(&path)?;
+            if action == "show" {
+                print!("{}", codegen::describe::describe(&m));
+            } else {
+                match codegen::dh::equivalent_dh(&m) {
+                    Ok(t) => print!("{t}"),
+                    Err(e) => bail!("{}: no DH table: {e}", path.display()),
+                }
+            }
+            return Ok(());
+        }
+    };
     let file = root.join("model").join(format!("{model}.toml"));
     if !file.exists() {
         bail!("{}: no such model file", file.display());
