@@ -1,5 +1,6 @@
 //! Generation time of whole models (criterion, 10 samples): the Freedom 6S (both locking
-//! sequences and the full model), the Puma 560 and the Panda. Symbolica runs restricted (one
+//! sequences and the full model), the Puma 560, the Panda, and the TX40 and the Panda read
+//! from their URDFs (reading the URDF included). Symbolica runs restricted (one
 //! thread): criterion runs the samples one after another in this one process.
 
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -14,6 +15,15 @@ fn generation(c: &mut Criterion) {
         let model = codegen::load(&dir.join(format!("{name}.toml"))).expect("model loads");
         g.bench_function(name, |b| {
             b.iter(|| codegen::generate::generate(&model, None).expect("generates"))
+        });
+    }
+    for name in ["tx40", "panda_urdf"] {
+        let file = dir.join(format!("{name}.toml"));
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let model = codegen::load(&file).expect("model loads");
+                codegen::generate::generate(&model, None).expect("generates")
+            })
         });
     }
     g.finish();
