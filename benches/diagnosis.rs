@@ -134,6 +134,8 @@ fn torque_space(truth: &lockstep::plant::Plant, dir: &std::path::Path) {
         cutoff_hz: 20.0,
         filter_order: 4,
         decimation: 1,
+        window: None,
+        min_speed: None,
     };
     let started = Instant::now();
     let obs = observation(&linear, "k5", std::slice::from_ref(&m), &options).unwrap();

@@ -21,6 +21,8 @@ fn opts() -> IdimOptions {
         cutoff_hz: 100.0,
         filter_order: 4,
         decimation: 10,
+        window: None,
+        min_speed: None,
     }
 }
 
@@ -620,6 +622,8 @@ fn a_six_joint_torque_diagnosis_has_finite_figures_k5() {
         cutoff_hz: 20.0,
         filter_order: 4,
         decimation: 1,
+        window: None,
+        min_speed: None,
     };
     let diagnose = |p: &Plant| {
         let obs = observation(p, "k5", std::slice::from_ref(&m), &options).unwrap();
@@ -648,9 +652,14 @@ fn a_six_joint_torque_diagnosis_has_finite_figures_k5() {
     assert!(d.findings[0].significant);
     let conf = plant.model.configuration("k5").unwrap();
     let prior = plant.clone();
-    least_squares_base(&obs, plant.model, conf, &[m_locked(&m)], &|n| {
-        prior.parameters.get(n).copied()
-    })
+    least_squares_base(
+        &obs,
+        plant.model,
+        conf,
+        &[m_locked(&m)],
+        &|n| prior.parameters.get(n).copied(),
+        None,
+    )
     .unwrap()
     .apply(&mut plant)
     .unwrap();

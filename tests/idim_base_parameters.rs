@@ -215,7 +215,7 @@ fn idim_wls_weights_each_joint_by_its_own_noise() {
     let model = lockstep::util::model("emps").unwrap();
     let conf = lockstep::util::configuration(model, "full").unwrap();
     let fit = |weighting| {
-        weighted_least_squares_base(&obs, model, conf, &[], &|_| None, weighting).unwrap()
+        weighted_least_squares_base(&obs, model, conf, &[], &|_| None, weighting, None).unwrap()
     };
     let (ols, none) = fit(Weighting::Ols);
     assert!(none.is_empty());

@@ -204,7 +204,11 @@ fn urdf_inertial_values_are_symbols_with_defaults() {
 
 /// Operations of a model's `full` configuration, from the generated module's header.
 fn full_operations(model: &str) -> usize {
-    let s = generated::SOURCES.iter().find(|(m, _)| *m == model).unwrap().1;
+    let s = generated::SOURCES
+        .iter()
+        .find(|(m, _)| *m == model)
+        .unwrap()
+        .1;
     let line = s
         .lines()
         .find(|l| l.starts_with("// Configuration full:"))
@@ -219,5 +223,8 @@ fn the_urdf_panda_kernels_are_as_small_as_the_dh_ones() {
     // trans_z: the same tree up to where translations sit; at most 10 % more operations.
     let (urdf, dh) = (full_operations("panda_urdf"), full_operations("panda"));
     assert!(urdf as f64 <= 1.1 * dh as f64, "URDF {urdf}, DH {dh}");
-    assert!(urdf >= dh / 2, "URDF {urdf}, DH {dh}: the header parse is wrong");
+    assert!(
+        urdf >= dh / 2,
+        "URDF {urdf}, DH {dh}: the header parse is wrong"
+    );
 }

@@ -242,6 +242,55 @@ pub struct Common {
     #[arg(long, default_value_t = 10)]
     #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
     pub decimate: usize,
+    /// Only the samples from FROM to TO seconds (`0.1:5.5`) enter the fit or the
+    /// comparison; the records are filtered whole first. Train on one window, validate on
+    /// another.
+    #[arg(long, value_parser = parse_window)]
+    #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
+    pub window: Option<(f64, f64)>,
+    /// Leave out each joint's rows slower than this: a speed (`0.05`, rad/s or m/s) or a
+    /// share of the joint's peak speed (`1%`). Coulomb friction's sign(q̇) is not the
+    /// presliding regime near rest.
+    #[arg(long, value_parser = parse_min_speed)]
+    #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
+    pub min_speed: Option<lockstep::identify::idim::MinSpeed>,
+}
+
+/// `0.05` (a speed) or `1%` (of each joint's peak speed).
+fn parse_min_speed(s: &str) -> Result<lockstep::identify::idim::MinSpeed, String> {
+    use lockstep::identify::idim::MinSpeed;
+    let bad = || format!("'{s}': expected a speed (0.05) or a percentage of the peak speed (1%)");
+    if let Some(p) = s.strip_suffix('%') {
+        let v: f64 = p.trim().parse().map_err(|_| bad())?;
+        if !(v.is_finite() && (0.0..100.0).contains(&v)) {
+            return Err(bad());
+        }
+        return Ok(MinSpeed::FractionOfPeak(v / 100.0));
+    }
+    let v: f64 = s.trim().parse().map_err(|_| bad())?;
+    if !(v.is_finite() && v >= 0.0) {
+        return Err(bad());
+    }
+    Ok(MinSpeed::Absolute(v))
+}
+
+/// `FROM:TO` in seconds, FROM < TO.
+fn parse_window(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(':')
+        .ok_or_else(|| format!("'{s}': expected FROM:TO in seconds, e.g. 0.1:5.5"))?;
+    let parse = |x: &str| {
+        x.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| format!("'{x}': expected a number of seconds"))
+    };
+    let (from, to) = (parse(a)?, parse(b)?);
+    if from >= to {
+        return Err(format!("'{s}': FROM must be before TO"));
+    }
+    Ok((from, to))
 }
 
 impl Common {
@@ -260,6 +309,8 @@ impl Common {
                 cutoff_hz: self.cutoff,
                 filter_order: self.order,
                 decimation: self.decimate,
+                window: self.window,
+                min_speed: self.min_speed,
             },
         ))
     }

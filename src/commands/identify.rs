@@ -571,6 +571,8 @@ pub fn identify_idim(
         .iter()
         .map(|r| r.q.iter().map(|q| q[0]).collect())
         .collect();
+    let random =
+        lockstep::identify::idim::random_motion_observation(&plant, config, &locked_at, &opts)?;
     let (fit, sigma) = lockstep::identify::idim::weighted_least_squares_base(
         &obs,
         plant.model,
@@ -578,6 +580,7 @@ pub fn identify_idim(
         &locked_at,
         &|n| values.get(n).copied(),
         weighting.into(),
+        Some(&random),
     )?;
     lockstep::outln!(
         "{}, plant {}, configuration {}, {} record(s)",

@@ -319,9 +319,16 @@ fn lowered(r: &Refit) -> bool {
     energy(&r.after) < energy(&r.before)
 }
 
-/// The most steps `diagnose --apply all-significant` keeps (the loop's preset): the
+/// The fewest steps `diagnose --apply all-significant` may keep (the loop's preset): the
 /// thesis's plants carry at most four effects per joint beyond the rigid body.
 pub const MAX_APPLIED_STEPS: usize = 8;
+
+/// The most steps `diagnose --apply all-significant` keeps on a configuration with `nf` free
+/// joints: three per joint (a friction law's two terms and one more effect), at least
+/// [`MAX_APPLIED_STEPS`] (a six-joint arm without friction needs twelve).
+pub fn max_applied_steps(nf: usize) -> usize {
+    MAX_APPLIED_STEPS.max(3 * nf)
+}
 
 /// What [`apply_all_significant`] reports as it goes.
 #[derive(Debug, Clone, Copy)]
@@ -375,7 +382,7 @@ impl std::fmt::Display for LoopEnd {
             LoopEnd::NoImprovement(w) => {
                 write!(
                     f,
-                    "stopped: applying {w} did not lower the error (not kept)"
+                    "stopped: applying {w} did not lower the error enough (not kept)"
                 )
             }
             LoopEnd::StepLimit(k) => {

@@ -273,3 +273,107 @@ pub fn columns<'a>(
     }
     Ok((out, left_out))
 }
+
+/// The built-in coupled-motor candidates of torque space, one set per pair of free joints
+/// (a, b) of configuration `conf` (issue 57: a motor driving both joints through a
+/// differential, as the TX40's motor 6 turns with q5 + q6): its friction at the motor's
+/// speed, `Fvm_ab (q̇a + q̇b) + Fm_ab sign(q̇a + q̇b)`, and its rotor's inertia
+/// `Jm_ab (q̈a + q̈b)`, each taken from both joints (the transmission's transpose). Pairs the
+/// plant already has an effect of that name for are left out.
+pub fn coupled_motor_candidates(
+    plant: &Plant,
+    conf: &generated::Configuration,
+) -> Vec<UserCandidate> {
+    let m = plant.model;
+    let mut out = Vec::new();
+    let nf = conf.free.len();
+    for a in 0..nf {
+        for b in a + 1..nf {
+            let (ja, jb) = (conf.free[a], conf.free[b]);
+            let (qa, qb) = (m.joints[ja], m.joints[jb]);
+            let friction = UserCandidate {
+                spec: ExpressionSpec {
+                    name: format!("coupled_motor_{qa}_{qb}"),
+                    joints: vec![qa.to_string(), qb.to_string()],
+                    torque: format!(
+                        "Fvm_{ja}{jb}*(qd{ja} + qd{jb}) + Fm_{ja}{jb}*sign(qd{ja} + qd{jb})"
+                    ),
+                    parameters: vec![format!("Fvm_{ja}{jb}"), format!("Fm_{ja}{jb}")],
+                },
+                meaning: format!(
+                    "a motor driving {qa} and {qb} through a differential: its viscous and Coulomb friction at the motor's speed qd_a + qd_b, taken from both"
+                ),
+                start: vec![0.0, 0.0],
+                bounds: vec![(0.0, 1e6), (0.0, 1e6)],
+            };
+            let inertia = UserCandidate {
+                spec: ExpressionSpec {
+                    name: format!("coupled_rotor_{qa}_{qb}"),
+                    joints: vec![qa.to_string(), qb.to_string()],
+                    torque: format!("Jm_{ja}{jb}*(qdd{ja} + qdd{jb})"),
+                    parameters: vec![format!("Jm_{ja}{jb}")],
+                },
+                meaning: format!(
+                    "a motor driving {qa} and {qb} through a differential: its rotor's inertia at the motor's acceleration qdd_a + qdd_b, taken from both"
+                ),
+                start: vec![0.0],
+                bounds: vec![(0.0, 1e6)],
+            };
+            for c in [friction, inertia] {
+                let taken = plant.expressions.iter().any(|x| x.name == c.spec.name)
+                    || c.spec
+                        .parameters
+                        .iter()
+                        .any(|p| plant.parameters.contains_key(p));
+                if !taken {
+                    out.push(c);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// As [`columns`] for candidates whose names and parameters are all distinct (the built-in
+/// ones): every candidate is added to one probe plant and the regressor built once.
+///
+/// # Errors
+/// As [`crate::identify::idim::observation`].
+pub fn columns_together<'a>(
+    candidates: &'a [UserCandidate],
+    plant: &Plant,
+    config: &str,
+    records: &[crate::measurement::Measurement],
+    options: &crate::identify::idim::IdimOptions,
+) -> Result<Vec<CandidateColumns<'a>>> {
+    let mut probe = plant.clone();
+    let mut kept = Vec::new();
+    for c in candidates {
+        if probe
+            .add_expression_spec(&c.spec, "built-in candidate")
+            .is_ok()
+        {
+            for (p, v) in c.spec.parameters.iter().zip(&c.start) {
+                probe.parameters.insert(p.clone(), *v);
+            }
+            kept.push(c);
+        }
+    }
+    if kept.is_empty() {
+        return Ok(Vec::new());
+    }
+    let obs = crate::identify::idim::observation(&probe, config, records, options)?;
+    Ok(kept
+        .into_iter()
+        .filter_map(|c| {
+            let cols: Vec<Vec<f64>> = c
+                .spec
+                .parameters
+                .iter()
+                .filter_map(|p| obs.names.iter().position(|x| x == p))
+                .map(|k| obs.w.column(k).iter().copied().collect())
+                .collect();
+            (cols.len() == c.spec.parameters.len()).then_some((c, cols))
+        })
+        .collect())
+}

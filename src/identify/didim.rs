@@ -398,7 +398,7 @@ pub fn didim(
             .iter()
             .map(|r| r.q.iter().map(|q| q[0]).collect())
             .collect();
-        let f = least_squares_base(&obs, m, conf, &locked_at, &|n| prior.get(n).copied())?;
+        let f = least_squares_base(&obs, m, conf, &locked_at, &|n| prior.get(n).copied(), None)?;
         f.apply(&mut current)?;
         let ((force, velocity), next) = evaluate(&current, c, records)?;
         simulated = next;

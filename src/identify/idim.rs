@@ -12,7 +12,7 @@
 //!    linear relation y = W θ.
 //! 5. θ̂ = argmin ‖y − Wθ‖ (SVD), σ̂² = ‖y − Wθ̂‖²/(r − p), cov(θ̂) = σ̂² (WᵀW)⁻¹.
 
-use crate::identify::identifiability::{base_parameters_at, BaseParameter};
+use crate::identify::identifiability::{base_parameters_at, BaseParameter, BaseParameters};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
 use crate::signal::{butter_lowpass, central_difference, decimate, decimation_indices};
@@ -32,6 +32,24 @@ pub struct IdimOptions {
     pub filter_order: usize,
     /// Parallel decimation factor (1 = none).
     pub decimation: usize,
+    /// Only the rows whose time lies in `[from, to]` (s) enter the system: the records are
+    /// filtered, differentiated and decimated whole, then cut (so the window's edges carry
+    /// no filter transient). `None`: every row.
+    pub window: Option<(f64, f64)>,
+    /// Rows of a joint whose velocity is below this are left out (Gautier's practice with
+    /// Coulomb friction: near q̇ = 0 the filtered velocity's sign and the presliding regime
+    /// are not the model's sign(q̇)). `None`: every row.
+    pub min_speed: Option<MinSpeed>,
+}
+
+/// The speed below which a joint's rows are left out of IDIM.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MinSpeed {
+    /// An absolute speed (rad/s or m/s).
+    Absolute(f64),
+    /// A fraction of the joint's peak |q̇| over the rows (FIGAROH's `dq_lim_def` is 1 % of
+    /// the joints' speed limits).
+    FractionOfPeak(f64),
 }
 
 impl Default for IdimOptions {
@@ -41,6 +59,8 @@ impl Default for IdimOptions {
             cutoff_hz: 100.0,
             filter_order: 4,
             decimation: 10,
+            window: None,
+            min_speed: None,
         }
     }
 }
@@ -284,6 +304,46 @@ pub fn observation(
             }
         }
     }
+    if let Some((from, to)) = opts.window {
+        let keep: Vec<usize> = (0..rows.len())
+            .filter(|&i| rows[i].t >= from && rows[i].t <= to)
+            .collect();
+        if keep.is_empty() {
+            bail!("the window {from} s to {to} s holds no sample of the records");
+        }
+        y_all = keep.iter().map(|&i| y_all[i]).collect();
+        for c in w_cols.iter_mut() {
+            *c = keep.iter().map(|&i| c[i]).collect();
+        }
+        rows = keep.iter().map(|&i| rows[i]).collect();
+    }
+    if let Some(min) = opts.min_speed {
+        let mut peak = vec![0.0f64; nj];
+        for r in &rows {
+            peak[r.joint] = peak[r.joint].max(r.qd.abs());
+        }
+        let threshold = |j: usize| match min {
+            MinSpeed::Absolute(v) => v,
+            MinSpeed::FractionOfPeak(f) => f * peak[j],
+        };
+        let keep: Vec<usize> = (0..rows.len())
+            .filter(|&i| rows[i].qd.abs() >= threshold(rows[i].joint))
+            .collect();
+        for j in conf.free.iter().copied() {
+            if !keep.iter().any(|&i| rows[i].joint == j) {
+                bail!(
+                    "no row of joint {} moves faster than the minimum speed {}: lower it",
+                    model.joints[j],
+                    threshold(j)
+                );
+            }
+        }
+        y_all = keep.iter().map(|&i| y_all[i]).collect();
+        for c in w_cols.iter_mut() {
+            *c = keep.iter().map(|&i| c[i]).collect();
+        }
+        rows = keep.iter().map(|&i| rows[i]).collect();
+    }
     let r = y_all.len();
     let w = DMatrix::from_fn(r, ncol, |i, c| w_cols[c][i]);
     Ok(Observation {
@@ -514,21 +574,32 @@ pub fn least_squares(obs: &Observation) -> Result<Fit> {
 ///
 /// `prior(name)` gives a dependent parameter's value (`None`: 0).
 ///
+/// `structural`, when given, is the same plant's observation on a record of random motion
+/// ([`random_motion_observation`]): columns that depend on the others there as well as in
+/// the data (a rotor inertia Ia_j beside the link inertia about joint j's axis, which
+/// multiply the same q̈_j) are grouped the same way, effect columns kept and rigid-body
+/// columns folded into them ([`effect_grouping`]).
+///
 /// # Errors
 /// As [`least_squares`] on the kept columns (fewer rows than base parameters, a kept
-/// column the data do not determine, non-finite estimates).
+/// column the data do not determine, non-finite estimates); a dependency that holds at the
+/// data only is named with the joints' excitation ([`explain_deficiency`]).
 pub fn least_squares_base(
     obs: &Observation,
     model: &generated::Model,
     conf: &generated::Configuration,
     locked_at: &[Vec<f64>],
     prior: &dyn Fn(&str) -> Option<f64>,
+    structural: Option<&Observation>,
 ) -> Result<Fit> {
-    let grouping = base_parameters_at(model, conf, locked_at);
+    let mut grouping = base_parameters_at(model, conf, locked_at);
+    if let Some(random) = structural {
+        effect_grouping(obs, random, &mut grouping);
+    }
     let p = obs.names.len();
     let is_dependent = |c: usize| grouping.dependent.contains(&obs.names[c]);
     if !(0..p).any(is_dependent) {
-        return least_squares(obs);
+        return least_squares(obs).map_err(|e| explain_deficiency(e, obs, model));
     }
     let kept: Vec<usize> = (0..p).filter(|&c| !is_dependent(c)).collect();
     let reduced = Observation {
@@ -537,7 +608,7 @@ pub fn least_squares_base(
         w: DMatrix::from_fn(obs.w.nrows(), kept.len(), |i, a| obs.w[(i, kept[a])]),
         rows: obs.rows.clone(),
     };
-    let beta = least_squares(&reduced)?;
+    let beta = least_squares(&reduced).map_err(|e| explain_deficiency(e, &reduced, model))?;
     let mut theta = vec![0.0; p];
     let mut std = vec![f64::NAN; p];
     let mut base = Vec::new();
@@ -570,6 +641,217 @@ pub fn least_squares_base(
         base,
         ..beta
     })
+}
+
+/// The observation of `plant` on a record of random smooth motion (each joint a sum of three
+/// sines of random amplitude, frequency 0.2–3 Hz and phase, 4 s at 1 kHz; locked joints at
+/// `locked_at[0]`, or 0), with the same columns as the data's: what holds for every motion
+/// (a structural dependency) holds here too, what holds only at the data does not.
+///
+/// # Errors
+/// As [`observation`].
+pub fn random_motion_observation(
+    plant: &Plant,
+    config: &str,
+    locked_at: &[Vec<f64>],
+    window_free: &IdimOptions,
+) -> Result<Observation> {
+    let model = plant.model;
+    let conf = crate::util::configuration(model, config)?;
+    let nj = model.joints.len();
+    let n = 4000;
+    let dt = 1e-3;
+    let mut rng = generated::inertia::Xorshift(0x5eed_0057);
+    let t: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+    let q: Vec<Vec<f64>> = (0..nj)
+        .map(|j| {
+            if !conf.free.contains(&j) {
+                let at = locked_at.first().map_or(0.0, |v| v[j]);
+                return vec![at; n];
+            }
+            let waves: Vec<(f64, f64, f64)> = (0..3)
+                .map(|_| {
+                    (
+                        rng.uniform(0.2, 0.8),
+                        rng.uniform(0.2, 3.0),
+                        rng.uniform(0.0, std::f64::consts::TAU),
+                    )
+                })
+                .collect();
+            t.iter()
+                .map(|&tk| {
+                    waves
+                        .iter()
+                        .map(|(a, f, ph)| a * (std::f64::consts::TAU * f * tk + ph).sin())
+                        .sum()
+                })
+                .collect()
+        })
+        .collect();
+    let record = Measurement {
+        file: "random motion".into(),
+        t,
+        tau: vec![vec![0.0; n]; nj],
+        q,
+        qd: vec![None; nj],
+        tau_m: vec![None; nj],
+        notes: Vec::new(),
+    };
+    let opts = IdimOptions {
+        cutoff_hz: 40.0,
+        filter_order: window_free.filter_order,
+        decimation: 5,
+        window: None,
+        min_speed: None,
+    };
+    observation(plant, config, std::slice::from_ref(&record), &opts)
+}
+
+/// The structural dependencies left after the rigid-body grouping: the columns of the data
+/// `obs` and of a random motion `random` (the same columns) are scaled, stacked and taken
+/// effect columns first (in the plant's order), then the kept rigid-body columns; a column
+/// that depends on those before it in both is folded into them, β = θ_kept + Σ k θ_dep, as
+/// [`base_parameters_at`] does for the rigid body (Gautier & Khalil 1990). Added to
+/// `grouping`.
+pub fn effect_grouping(obs: &Observation, random: &Observation, grouping: &mut BaseParameters) {
+    let p = obs.names.len();
+    if random.names != obs.names {
+        return;
+    }
+    let rigid_dependent = |c: usize| grouping.dependent.contains(&obs.names[c]);
+    let is_rigid = |c: usize| grouping.base.iter().any(|b| b.name == obs.names[c]);
+    let mut order: Vec<usize> = (0..p)
+        .filter(|&c| !rigid_dependent(c) && !is_rigid(c))
+        .collect();
+    order.extend((0..p).filter(|&c| !rigid_dependent(c) && is_rigid(c)));
+    let (ra, rb) = (obs.w.nrows(), random.w.nrows());
+    let stacked = |c: usize| -> DVector<f64> {
+        let a = obs.w.column(c);
+        let b = random.w.column(c);
+        let (na, nb) = (a.norm().max(1e-300), b.norm().max(1e-300));
+        DVector::from_iterator(
+            ra + rb,
+            a.iter().map(|x| x / na).chain(b.iter().map(|x| x / nb)),
+        )
+    };
+    let mut basis: Vec<DVector<f64>> = Vec::new();
+    let mut kept: Vec<usize> = Vec::new();
+    let mut dependent: Vec<usize> = Vec::new();
+    for c in order {
+        let col = stacked(c);
+        let norm = col.norm();
+        if norm < 1e-12 {
+            continue;
+        }
+        let mut r = col.clone();
+        for _ in 0..2 {
+            for b in &basis {
+                let d = b.dot(&r);
+                r -= b * d;
+            }
+        }
+        if r.norm() > 1e-8 * norm {
+            basis.push(r.normalize());
+            kept.push(c);
+        } else {
+            dependent.push(c);
+        }
+    }
+    if dependent.is_empty() {
+        return;
+    }
+    // Coefficients in the parameters' own units, from the data and the random motion
+    // together (unscaled): W_dep = W_kept K.
+    let unscaled = |c: usize| -> DVector<f64> {
+        DVector::from_iterator(
+            ra + rb,
+            obs.w
+                .column(c)
+                .iter()
+                .chain(random.w.column(c).iter())
+                .copied(),
+        )
+    };
+    let w1 = DMatrix::from_columns(&kept.iter().map(|&c| unscaled(c)).collect::<Vec<_>>());
+    let Some(svd) = crate::util::svd(w1) else {
+        return;
+    };
+    for &d in &dependent {
+        let Ok(k) = svd.solve(&unscaled(d), 1e-12) else {
+            continue;
+        };
+        grouping.dependent.push(obs.names[d].clone());
+        // A rigid-body base parameter that folds here brings its own dependent terms along.
+        let carried: Vec<(f64, String)> =
+            match grouping.base.iter().position(|b| b.name == obs.names[d]) {
+                Some(at) => grouping.base.remove(at).terms,
+                None => Vec::new(),
+            };
+        for (i, &ki) in k.iter().enumerate() {
+            if ki.abs() <= 1e-9 {
+                continue;
+            }
+            let name = &obs.names[kept[i]];
+            let mut terms = vec![(ki, obs.names[d].clone())];
+            terms.extend(carried.iter().map(|(c, n)| (ki * c, n.clone())));
+            match grouping.base.iter_mut().find(|b| b.name == *name) {
+                Some(b) => b.terms.extend(terms),
+                None => grouping.base.push(BaseParameter {
+                    name: name.clone(),
+                    terms,
+                }),
+            }
+        }
+    }
+}
+
+/// A rank-deficiency error of the least squares made specific: the combination the data
+/// cannot separate (structurally separable, or it would have been grouped) and, for each
+/// joint whose rows those columns act on, its excitation (RMS q̇ and q̈ over its rows).
+fn explain_deficiency(
+    e: anyhow::Error,
+    obs: &Observation,
+    model: &generated::Model,
+) -> anyhow::Error {
+    let msg = e.to_string();
+    if !msg.contains("rank-deficient") {
+        return e;
+    }
+    let names: Vec<&str> = obs
+        .names
+        .iter()
+        .filter(|n| msg.contains(&format!(" {n},")) || msg.contains(&format!(" {n} ")))
+        .map(|s| s.as_str())
+        .collect();
+    let mut joints: Vec<usize> = Vec::new();
+    for n in &names {
+        let c = obs.names.iter().position(|x| x == n).unwrap_or(0);
+        for (i, r) in obs.rows.iter().enumerate() {
+            if obs.w[(i, c)] != 0.0 && !joints.contains(&r.joint) {
+                joints.push(r.joint);
+            }
+        }
+    }
+    joints.sort_unstable();
+    let excitation: Vec<String> = joints
+        .iter()
+        .map(|&j| {
+            let rows: Vec<&RowInfo> = obs.rows.iter().filter(|r| r.joint == j).collect();
+            let rms = |f: &dyn Fn(&RowInfo) -> f64| {
+                (rows.iter().map(|r| f(r).powi(2)).sum::<f64>() / rows.len().max(1) as f64).sqrt()
+            };
+            format!(
+                "joint {}: RMS velocity {:.3e}, RMS acceleration {:.3e}",
+                model.joints[j],
+                rms(&|r| r.qd),
+                rms(&|r| r.qdd)
+            )
+        })
+        .collect();
+    anyhow::anyhow!(
+        "{msg}; these columns are separable for other motions, so the records do not excite them enough (too little motion of the joints they act on: {}); add motion of those joints, or fix one of the parameters",
+        excitation.join("; ")
+    )
 }
 
 /// How IDIM weights the rows of its joints.
@@ -624,6 +906,7 @@ pub fn weighted_least_squares_base(
     locked_at: &[Vec<f64>],
     prior: &dyn Fn(&str) -> Option<f64>,
     weighting: Weighting,
+    structural: Option<&Observation>,
 ) -> Result<(Fit, Vec<(usize, f64)>)> {
     let joints = rows_by_joint(obs);
     let scale = |idx: &[usize]| {
@@ -642,7 +925,7 @@ pub fn weighted_least_squares_base(
     };
     if !weigh || joints.len() < 2 {
         return Ok((
-            least_squares_base(obs, model, conf, locked_at, prior)?,
+            least_squares_base(obs, model, conf, locked_at, prior, structural)?,
             Vec::new(),
         ));
     }
@@ -686,7 +969,7 @@ pub fn weighted_least_squares_base(
             }
         }
     }
-    let mut fit = least_squares_base(&weighted, model, conf, locked_at, prior)?;
+    let mut fit = least_squares_base(&weighted, model, conf, locked_at, prior, structural)?;
     let th = DVector::from_column_slice(&fit.theta);
     fit.relative_error = 100.0 * (&obs.y - &obs.w * th).norm() / obs.y.norm();
     Ok((fit, sigma))

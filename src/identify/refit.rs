@@ -337,10 +337,17 @@ fn refit_torque_of(
                 .collect()
         })
         .collect();
+    let random =
+        crate::identify::idim::random_motion_observation(plant, conf_name, &locked_at, options)?;
     let mut fit = match names {
-        None => least_squares_base(&obs, plant.model, conf, &locked_at, &|n| {
-            values.get(n).copied()
-        }),
+        None => least_squares_base(
+            &obs,
+            plant.model,
+            conf,
+            &locked_at,
+            &|n| values.get(n).copied(),
+            Some(&random),
+        ),
         Some(names) => held_least_squares(&obs, &values, names, conf_name),
     }
     .map_err(|e| anyhow!("refitting in torque space: {e:#}"))?;

@@ -767,7 +767,7 @@ pub fn closed_loop_diagnose_command(
     let options = DidimOptions::default();
     let mut current = plant.clone();
     let steps = match apply {
-        Some((_, true)) => crate::diagnose::apply::MAX_APPLIED_STEPS,
+        Some((_, true)) => crate::diagnose::apply::max_applied_steps(plant.model.joints.len()),
         Some((_, false)) => 1,
         None => 0,
     };

@@ -429,13 +429,22 @@ pub fn diagnose(plant: &Plant, inputs: &Inputs, data: &Data) -> Result<Vec<Diagn
             .map(|(k, m)| {
                 let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
                 let one = std::slice::from_ref(m);
-                let (user, left_out) = crate::diagnose::candidates::columns(
+                let (mut user, left_out) = crate::diagnose::candidates::columns(
                     &inputs.candidates,
                     plant,
                     config,
                     one,
                     &inputs.idim,
                 )?;
+                let conf = crate::util::configuration(plant.model, config)?;
+                let builtin = crate::diagnose::candidates::coupled_motor_candidates(plant, conf);
+                user.extend(crate::diagnose::candidates::columns_together(
+                    &builtin,
+                    plant,
+                    config,
+                    one,
+                    &inputs.idim,
+                )?);
                 if k == 0 {
                     for line in left_out
                         .iter()
@@ -667,7 +676,9 @@ pub fn apply_all_command(
                 config,
                 records,
                 (&inputs.idim, &inputs.candidates),
-                crate::diagnose::apply::MAX_APPLIED_STEPS,
+                crate::diagnose::apply::max_applied_steps(
+                    crate::util::configuration(plant.model, config)?.free.len(),
+                ),
                 &|turn| match turn {
                     crate::diagnose::torque::Turn::Diagnosed(d) => {
                         crate::outln!(
@@ -701,7 +712,9 @@ pub fn apply_all_command(
         config,
         records,
         &output_options(inputs),
-        crate::diagnose::apply::MAX_APPLIED_STEPS,
+        crate::diagnose::apply::max_applied_steps(
+            crate::util::configuration(plant.model, config)?.free.len(),
+        ),
         &|turn| match turn {
             crate::diagnose::Turn::Diagnosed(d) => {
                 crate::outln!(
