@@ -49,6 +49,13 @@ pub enum IdentifyMethod {
         /// than 10×).
         #[arg(long, value_enum, default_value = "auto")]
         weighting: WeightingArg,
+        /// After the least squares, the physically consistent standard set nearest to the
+        /// data and to the plant's values (every link's pseudo-inertia positive definite,
+        /// friction and rotor inertias non-negative; Wensing et al. 2018, log-Cholesky of
+        /// Rucker & Wensing 2022): its torque error beside the unconstrained one, and the
+        /// values that moved furthest from the plant's. `--out` then writes it.
+        #[arg(long)]
+        consistent: bool,
     },
     /// DIDIM (Gautier, Janot, Vandanjon 2013): closed-loop output error for a device
     /// measured under its own controller. The plant, from its values, is simulated under
@@ -556,6 +563,7 @@ pub fn identify_idim(
     out: Option<PathBuf>,
     allow_inconsistent: bool,
     weighting: WeightingArg,
+    consistent: bool,
 ) -> Result<()> {
     let config = common.config.as_deref().unwrap_or("full");
     if let Some(out) = &out {
@@ -600,8 +608,23 @@ pub fn identify_idim(
         );
     }
     lockstep::out!("{}", fit_table(&fit));
+    let consistent_set = if consistent {
+        let c = lockstep::identify::consistent::consistent_parameters(
+            &obs,
+            &plant,
+            &fit,
+            &Default::default(),
+        )?;
+        lockstep::out!("{}", consistent_table(&c));
+        Some(c)
+    } else {
+        None
+    };
     if let Some(out) = out {
-        fit.apply(&mut plant)?;
+        match &consistent_set {
+            Some(c) => c.apply(&mut plant)?,
+            None => fit.apply(&mut plant)?,
+        }
         let reasons = lockstep::identify::idim::implausible(&plant, conf)?;
         if !reasons.is_empty() {
             if !allow_inconsistent {
@@ -1054,4 +1077,57 @@ mod method_tests {
         let e = refused(&["lockstep", "identify", "--plant", "p", "--data", "d"]).unwrap();
         assert!(!e.contains("lockstep identify --plant"), "{e}");
     }
+}
+
+/// The consistent set's report: torque errors, the links made consistent, the values that
+/// moved furthest from the plant's (relative to their size).
+fn consistent_table(c: &lockstep::identify::consistent::ConsistentFit) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    writeln!(
+        s,
+        "physically consistent set ({} iterations): torque error {:.3} % (least squares {:.3} %); links {}",
+        c.iterations,
+        c.consistent_error,
+        c.unconstrained_error,
+        c.links.join(", ")
+    )
+    .ok();
+    for k in &c.skipped {
+        writeln!(s, "  {k}").ok();
+    }
+    // The rigid body's values (effects start from the plant's, often none).
+    let rigid = |n: &str| {
+        c.links
+            .iter()
+            .any(|l| n.ends_with(&format!("_{l}")) || n == format!("m_{l}"))
+    };
+    let mut moved: Vec<(usize, f64)> = (0..c.names.len())
+        .filter(|&i| rigid(&c.names[i]))
+        .map(|i| {
+            let d = (c.theta[i] - c.prior[i]).abs() / c.prior[i].abs().max(1e-9);
+            (i, d)
+        })
+        .collect();
+    moved.sort_by(|a, b| b.1.total_cmp(&a.1));
+    writeln!(
+        s,
+        "  rigid-body values furthest from the plant's (relative):"
+    )
+    .ok();
+    writeln!(
+        s,
+        "  {:<16} {:>12} {:>12}",
+        "parameter", "plant", "consistent"
+    )
+    .ok();
+    for &(i, _) in moved.iter().take(10) {
+        writeln!(
+            s,
+            "  {:<16} {:>12.6} {:>12.6}",
+            c.names[i], c.prior[i], c.theta[i]
+        )
+        .ok();
+    }
+    s
 }

@@ -323,7 +323,8 @@ fn run_command(cli: Cli) -> Result<()> {
                 out,
                 allow_inconsistent,
                 weighting,
-            } => identify_idim(&common, out, allow_inconsistent, weighting)?,
+                consistent,
+            } => identify_idim(&common, out, allow_inconsistent, weighting, consistent)?,
             IdentifyMethod::Sequence(args) => identify_sequence(&args)?,
             IdentifyMethod::Didim {
                 files,

@@ -7,6 +7,7 @@
 //! balance at every sample from the measured motion, the cheap warm start of an
 //! output-error fit. [`joint`]: the joint fit of a locking sequence's steps, every
 //! parameter on every step's files at once.
+pub mod consistent;
 pub mod didim;
 pub mod equation_error;
 pub mod identifiability;
