@@ -137,6 +137,53 @@ impl EffectKind {
         )
     }
 
+    /// True when the inverse model (torque space) takes the kind: the linear ones, and the
+    /// spring and Stribeck friction, linear in their other parameters once the rest angle
+    /// qeq or the Stribeck speed vs is given (fitted by variable projection:
+    /// [`crate::identify::idim::separable_fit`]).
+    pub fn in_torque_space(self) -> bool {
+        self.is_linear() || matches!(self, EffectKind::Spring | EffectKind::Stribeck)
+    }
+
+    /// The symbols the torque is linear in, given [`EffectKind::nonlinear_symbols`]: the
+    /// inverse model's columns.
+    pub fn linear_symbols(self) -> &'static [&'static str] {
+        match self {
+            EffectKind::Spring => &["Ks"],
+            EffectKind::Stribeck => &["Fc", "Fs"],
+            k if k.is_linear() => k.symbols(),
+            _ => &[],
+        }
+    }
+
+    /// The symbols the torque depends on nonlinearly in torque space (the spring's rest
+    /// angle, the Stribeck speed).
+    pub fn nonlinear_symbols(self) -> &'static [&'static str] {
+        match self {
+            EffectKind::Spring => &["qeq"],
+            EffectKind::Stribeck => &["vs"],
+            _ => &[],
+        }
+    }
+
+    /// The inverse model's columns of the kind at position `q`, velocity `qd` and
+    /// acceleration `qdd`, its nonlinear values `nonlinear` given (one per
+    /// [`EffectKind::nonlinear_symbols`]): the spring's q − qeq; Stribeck's
+    /// sign(q̇)(1 − e) and sign(q̇) e with e = exp(−(q̇/vs)²) for Fc and Fs (thesis 3.8, the
+    /// simulator's law); the linear kinds' [`EffectKind::regressor`].
+    pub fn regressor_at(self, q: f64, qd: f64, qdd: f64, nonlinear: &[f64]) -> Option<Vec<f64>> {
+        match self {
+            EffectKind::Spring => Some(vec![q - nonlinear[0]]),
+            EffectKind::Stribeck => {
+                let vs = nonlinear[0];
+                let e = (-(qd / vs).powi(2)).exp();
+                let s = sign(qd);
+                Some(vec![s * (1.0 - e), s * e])
+            }
+            _ => self.regressor(qd, qdd),
+        }
+    }
+
     /// True when the kind acts between two joints (`from` → `joint`).
     pub fn is_pairwise(self) -> bool {
         self == EffectKind::InputCoupling

@@ -569,27 +569,36 @@ pub fn identify_idim(
     if let Some(out) = &out {
         lockstep::files::check_writable(&[out])?;
     }
-    let (mut plant, records, opts) = common.load()?;
-    let obs = observation(&plant, config, &records, &opts)?;
+    let (plant, records, opts) = common.load()?;
     // A rank-deficient regressor (every serial arm's) is fitted on its base parameters,
     // grouped at the records' locked positions; the dependent ones keep the plant's values.
+    // A spring's rest angle or a Stribeck speed is fitted around that by variable projection.
     let conf = lockstep::util::configuration(plant.model, config)?;
-    let values = plant.values_with_barycentric()?;
     let locked_at: Vec<Vec<f64>> = records
         .iter()
         .map(|r| r.q.iter().map(|q| q[0]).collect())
         .collect();
-    let random =
-        lockstep::identify::idim::random_motion_observation(&plant, config, &locked_at, &opts)?;
-    let (fit, sigma) = lockstep::identify::idim::weighted_least_squares_base(
-        &obs,
-        plant.model,
-        conf,
-        &locked_at,
-        &|n| values.get(n).copied(),
-        weighting.into(),
-        Some(&random),
-    )?;
+    let sigma_of = std::sync::Mutex::new(Vec::new());
+    let linear = |p: &Plant, obs: &lockstep::identify::idim::Observation| {
+        let random =
+            lockstep::identify::idim::random_motion_observation(p, config, &locked_at, &opts)?;
+        let values = p.values_with_barycentric()?;
+        let (fit, sigma) = lockstep::identify::idim::weighted_least_squares_base(
+            obs,
+            p.model,
+            conf,
+            &locked_at,
+            &|n| values.get(n).copied(),
+            weighting.into(),
+            Some(&random),
+        )?;
+        *sigma_of.lock().unwrap_or_else(|e| e.into_inner()) = sigma;
+        Ok(fit)
+    };
+    let separable =
+        lockstep::identify::idim::separable_fit(&plant, config, &records, &opts, &linear)?;
+    let (obs, fit, mut plant) = (separable.observation, separable.fit, separable.plant);
+    let sigma = sigma_of.into_inner().unwrap_or_default();
     lockstep::outln!(
         "{}, plant {}, configuration {}, {} record(s)",
         if sigma.is_empty() {
@@ -608,6 +617,11 @@ pub fn identify_idim(
         );
     }
     lockstep::out!("{}", fit_table(&fit));
+    for (n, v) in &separable.nonlinear {
+        lockstep::outln!(
+            "{n:<16} {v:>11.6}   (nonlinear: variable projection around the least squares)"
+        );
+    }
     let consistent_set = if consistent {
         let c = lockstep::identify::consistent::consistent_parameters(
             &obs,
@@ -816,6 +830,59 @@ pub fn given_identify_options(matches: &ArgMatches) -> Vec<String> {
         .filter(|id| sub.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine))
         .map(|id| id.to_string())
         .collect()
+}
+
+/// The consistent set's report: torque errors, the links made consistent, the values that
+/// moved furthest from the plant's (relative to their size).
+fn consistent_table(c: &lockstep::identify::consistent::ConsistentFit) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    writeln!(
+        s,
+        "physically consistent set ({} iterations): torque error {:.3} % (least squares {:.3} %); links {}",
+        c.iterations,
+        c.consistent_error,
+        c.unconstrained_error,
+        c.links.join(", ")
+    )
+    .ok();
+    for k in &c.skipped {
+        writeln!(s, "  {k}").ok();
+    }
+    // The rigid body's values (effects start from the plant's, often none).
+    let rigid = |n: &str| {
+        c.links
+            .iter()
+            .any(|l| n.ends_with(&format!("_{l}")) || n == format!("m_{l}"))
+    };
+    let mut moved: Vec<(usize, f64)> = (0..c.names.len())
+        .filter(|&i| rigid(&c.names[i]))
+        .map(|i| {
+            let d = (c.theta[i] - c.prior[i]).abs() / c.prior[i].abs().max(1e-9);
+            (i, d)
+        })
+        .collect();
+    moved.sort_by(|a, b| b.1.total_cmp(&a.1));
+    writeln!(
+        s,
+        "  rigid-body values furthest from the plant's (relative):"
+    )
+    .ok();
+    writeln!(
+        s,
+        "  {:<16} {:>12} {:>12}",
+        "parameter", "plant", "consistent"
+    )
+    .ok();
+    for &(i, _) in moved.iter().take(10) {
+        writeln!(
+            s,
+            "  {:<16} {:>12.6} {:>12.6}",
+            c.names[i], c.prior[i], c.theta[i]
+        )
+        .ok();
+    }
+    s
 }
 
 #[cfg(test)]
@@ -1077,57 +1144,4 @@ mod method_tests {
         let e = refused(&["lockstep", "identify", "--plant", "p", "--data", "d"]).unwrap();
         assert!(!e.contains("lockstep identify --plant"), "{e}");
     }
-}
-
-/// The consistent set's report: torque errors, the links made consistent, the values that
-/// moved furthest from the plant's (relative to their size).
-fn consistent_table(c: &lockstep::identify::consistent::ConsistentFit) -> String {
-    use std::fmt::Write;
-    let mut s = String::new();
-    writeln!(
-        s,
-        "physically consistent set ({} iterations): torque error {:.3} % (least squares {:.3} %); links {}",
-        c.iterations,
-        c.consistent_error,
-        c.unconstrained_error,
-        c.links.join(", ")
-    )
-    .ok();
-    for k in &c.skipped {
-        writeln!(s, "  {k}").ok();
-    }
-    // The rigid body's values (effects start from the plant's, often none).
-    let rigid = |n: &str| {
-        c.links
-            .iter()
-            .any(|l| n.ends_with(&format!("_{l}")) || n == format!("m_{l}"))
-    };
-    let mut moved: Vec<(usize, f64)> = (0..c.names.len())
-        .filter(|&i| rigid(&c.names[i]))
-        .map(|i| {
-            let d = (c.theta[i] - c.prior[i]).abs() / c.prior[i].abs().max(1e-9);
-            (i, d)
-        })
-        .collect();
-    moved.sort_by(|a, b| b.1.total_cmp(&a.1));
-    writeln!(
-        s,
-        "  rigid-body values furthest from the plant's (relative):"
-    )
-    .ok();
-    writeln!(
-        s,
-        "  {:<16} {:>12} {:>12}",
-        "parameter", "plant", "consistent"
-    )
-    .ok();
-    for &(i, _) in moved.iter().take(10) {
-        writeln!(
-            s,
-            "  {:<16} {:>12.6} {:>12.6}",
-            c.names[i], c.prior[i], c.theta[i]
-        )
-        .ok();
-    }
-    s
 }

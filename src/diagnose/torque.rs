@@ -493,11 +493,11 @@ pub fn apply_finding(
     records: &[Measurement],
     options: &IdimOptions,
 ) -> Result<TorqueRefit> {
-    if let Some(e) = finding.effect.filter(|e| !e.kind.is_linear()) {
+    if let Some(e) = finding.effect.filter(|e| !e.kind.in_torque_space()) {
         bail!(
-            "'{}' on {}: a {} is not linear in its parameters, and torque space refits only \
-             effects that are (coulomb, viscous, asymmetric_friction, offset); apply it in \
-             output space (position data), or add it with `effect add` and fixed values",
+            "'{}' on {}: torque space refits the effects linear in their parameters, springs \
+             and Stribeck friction, not a {}; apply it in output space (position data), or \
+             add it with `effect add` and fixed values",
             finding.name,
             finding.joint,
             e.kind
@@ -625,7 +625,7 @@ pub fn apply_all_significant(
                 LoopEnd::NoImprovement(declined.join(", "))
             };
         }
-        if top.effect.is_some_and(|e| !e.kind.is_linear()) {
+        if top.effect.is_some_and(|e| !e.kind.in_torque_space()) {
             break LoopEnd::NotLinear(format!("{} on {}", top.name, top.joint));
         }
         if steps.iter().filter(|(f, _)| f.is_some()).count() >= max_steps {

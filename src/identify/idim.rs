@@ -132,17 +132,43 @@ pub fn observation(
                 model.joints[e.joint]
             );
         }
-        if !e.kind.is_linear() {
+        if !e.kind.in_torque_space() {
             bail!(
-                "{}: effect '{}' on joint '{}' is not linear in its parameters, so the \
-                 inverse-model least squares (IDIM) cannot fit it; use output-error \
-                 identification or remove the effect",
+                "{}: effect '{}' on joint '{}' is not one the inverse model takes (it takes \
+                 the linear effects, spring and stribeck), so IDIM cannot fit it; use \
+                 output-error identification or remove the effect",
                 plant.name(),
                 e.kind,
                 model.joints[e.joint]
             );
         }
-        names.extend(e.parameter_names());
+        names.extend(
+            e.kind
+                .linear_symbols()
+                .iter()
+                .map(|s| format!("{s}_{}", e.joint)),
+        );
+    }
+    // The nonlinear values each effect's columns are built at (the plant's).
+    let nonlinear: Vec<Vec<f64>> = effects
+        .iter()
+        .map(|e| {
+            e.kind
+                .nonlinear_symbols()
+                .iter()
+                .map(|s| plant.value(&format!("{s}_{}", e.joint)))
+                .collect::<Result<Vec<f64>>>()
+        })
+        .collect::<Result<_>>()?;
+    for (e, nl) in effects.iter().zip(&nonlinear) {
+        if e.kind == crate::effects::EffectKind::Stribeck && !(nl[0] > 0.0 && nl[0].is_finite()) {
+            bail!(
+                "{}: stribeck on joint '{}' needs vs > 0, found {}",
+                plant.name(),
+                model.joints[e.joint],
+                nl[0]
+            );
+        }
     }
     // User-defined effects: one column per parameter, ∂u/∂θ (the effect linear in θ).
     let columns = expression_columns(plant, conf.free)?;
@@ -234,10 +260,10 @@ pub fn observation(
                     wr[a][c][r] = yk[a * np + j];
                     c += 1;
                 }
-                for e in &effects {
-                    let vals = match e.kind.regressor(qd[a][k], qdd[a][k]) {
+                for (e, nl) in effects.iter().zip(&nonlinear) {
+                    let vals = match e.kind.regressor_at(qf[e.joint][k], qd[a][k], qdd[a][k], nl) {
                         Some(v) if e.joint == conf.free[a] => v,
-                        _ => vec![0.0; e.kind.symbols().len()],
+                        _ => vec![0.0; e.kind.linear_symbols().len()],
                     };
                     for v in vals {
                         wr[a][c][r] = v;
@@ -643,6 +669,168 @@ pub fn least_squares_base(
     })
 }
 
+/// The nonlinear parameters of the plant's torque-space effects on the free joints of
+/// `config` (spring rest angles `qeq_j`, Stribeck speeds `vs_j`), by name.
+///
+/// # Errors
+/// Unknown configuration.
+pub fn nonlinear_parameters(plant: &Plant, config: &str) -> Result<Vec<String>> {
+    let conf = crate::util::configuration(plant.model, config)?;
+    Ok(plant
+        .effects
+        .iter()
+        .filter(|e| conf.free.contains(&e.joint))
+        .flat_map(|e| {
+            e.kind
+                .nonlinear_symbols()
+                .iter()
+                .map(move |s| format!("{s}_{}", e.joint))
+        })
+        .collect())
+}
+
+/// What [`separable_fit`] returns: the plant with its nonlinear values set, the
+/// observation built at them, the linear fit on it, and the nonlinear values found.
+pub struct SeparableFit {
+    /// The plant with the nonlinear values found (the linear ones not yet applied).
+    pub plant: Plant,
+    /// The observation at those values.
+    pub observation: Observation,
+    /// The linear least squares on it.
+    pub fit: Fit,
+    /// The nonlinear parameters and their values (empty when the plant has none).
+    pub nonlinear: Vec<(String, f64)>,
+}
+
+/// Variable projection (Golub & Pereyra, SIAM J. Numer. Anal. 10(2), 1973) for a plant whose
+/// torque-space effects are linear in all but a few parameters (a spring's rest angle, a
+/// Stribeck speed: [`nonlinear_parameters`]): for given nonlinear values ν the inverse model
+/// is linear, and `linear` (IDIM-LS on the base parameters, weighted or not) gives the best
+/// linear values α̂(ν); ν is then fitted by Levenberg–Marquardt on the projected residual
+/// y − W(ν) α̂(ν) (Stribeck speeds through their logarithm, so they stay positive), the
+/// Jacobian by differences. Without nonlinear parameters it is the linear fit alone.
+///
+/// # Errors
+/// As [`observation`] and `linear` at the plant's values; a trial point whose observation or
+/// fit fails is rejected (the step shrinks).
+pub fn separable_fit(
+    plant: &Plant,
+    config: &str,
+    records: &[Measurement],
+    opts: &IdimOptions,
+    linear: &dyn Fn(&Plant, &Observation) -> Result<Fit>,
+) -> Result<SeparableFit> {
+    let names = nonlinear_parameters(plant, config)?;
+    let log = |n: &str| n.starts_with("vs_");
+    // A rest angle far outside the motion turns the spring into a constant torque: keep it
+    // within two spans of the joint's range in the records.
+    let range = |n: &str| -> Option<(f64, f64)> {
+        let j: usize = n.strip_prefix("qeq_")?.parse().ok()?;
+        let (lo, hi) = records
+            .iter()
+            .flat_map(|r| r.q.get(j).into_iter().flatten())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            });
+        let span = (hi - lo).max(1e-3);
+        (lo.is_finite() && hi.is_finite()).then_some((lo - 2.0 * span, hi + 2.0 * span))
+    };
+    let clamp = |u: &mut [f64]| {
+        for (n, x) in names.iter().zip(u.iter_mut()) {
+            if let Some((lo, hi)) = range(n) {
+                *x = x.clamp(lo, hi);
+            }
+        }
+    };
+    let at = |u: &[f64]| -> Result<(Plant, Observation, Fit, DVector<f64>)> {
+        let mut p = plant.clone();
+        for (n, &x) in names.iter().zip(u) {
+            p.parameters
+                .insert(n.clone(), if log(n) { x.exp() } else { x });
+        }
+        let obs = observation(&p, config, records, opts)?;
+        let fit = linear(&p, &obs)?;
+        let th = DVector::from_column_slice(&fit.theta);
+        let r = &obs.y - &obs.w * th;
+        Ok((p, obs, fit, r))
+    };
+    let mut u: Vec<f64> = names
+        .iter()
+        .map(|n| {
+            let v = plant.value(n)?;
+            Ok(if log(n) { v.max(1e-12).ln() } else { v })
+        })
+        .collect::<Result<_>>()?;
+    let mut best = at(&u)?;
+    if names.is_empty() {
+        let (plant, observation, fit, _) = best;
+        return Ok(SeparableFit {
+            plant,
+            observation,
+            fit,
+            nonlinear: Vec::new(),
+        });
+    }
+    let mut cost = best.3.norm_squared();
+    let mut lambda = 1e-2;
+    for _ in 0..30 {
+        let n = u.len();
+        let rows = best.3.len();
+        let mut jac = DMatrix::zeros(rows, n);
+        for k in 0..n {
+            let h = 1e-4 * u[k].abs().max(1.0);
+            let mut up = u.clone();
+            up[k] += h;
+            let Ok((_, _, _, rp)) = at(&up) else {
+                continue;
+            };
+            jac.set_column(k, &((rp - &best.3) / h));
+        }
+        let jtj = jac.transpose() * &jac;
+        let g = jac.transpose() * &best.3;
+        let mut improved = false;
+        for _ in 0..12 {
+            let mut a = jtj.clone();
+            for k in 0..n {
+                a[(k, k)] += lambda * jtj[(k, k)].max(1e-300) + 1e-300;
+            }
+            let Some(step) = a.cholesky().map(|c| c.solve(&(-&g))) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut un: Vec<f64> = u.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
+            clamp(&mut un);
+            if let Ok(trial) = at(&un) {
+                let cn = trial.3.norm_squared();
+                if cn.is_finite() && cn < cost {
+                    improved = (cost - cn) / cost.max(1e-300) > 1e-10;
+                    u = un;
+                    best = trial;
+                    cost = cn;
+                    lambda = (lambda / 3.0).max(1e-9);
+                    break;
+                }
+            }
+            lambda *= 4.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    let nonlinear = names
+        .iter()
+        .zip(&u)
+        .map(|(n, &x)| (n.clone(), if log(n) { x.exp() } else { x }))
+        .collect();
+    let (plant, observation, fit, _) = best;
+    Ok(SeparableFit {
+        plant,
+        observation,
+        fit,
+        nonlinear,
+    })
+}
+
 /// The observation of `plant` on a record of random smooth motion (each joint a sum of three
 /// sines of random amplitude, frequency 0.2–3 Hz and phase, 4 s at 1 kHz; locked joints at
 /// `locked_at[0]`, or 0), with the same columns as the data's: what holds for every motion
@@ -871,7 +1059,7 @@ pub enum Weighting {
 pub const WLS_SCALE_RATIO: f64 = 10.0;
 
 /// The joints of an observation's rows and each joint's row indices, in joint order.
-pub(crate) fn rows_by_joint(obs: &Observation) -> Vec<(usize, Vec<usize>)> {
+pub fn rows_by_joint(obs: &Observation) -> Vec<(usize, Vec<usize>)> {
     let mut joints: Vec<usize> = obs.rows.iter().map(|r| r.joint).collect();
     joints.sort_unstable();
     joints.dedup();

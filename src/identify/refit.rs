@@ -326,8 +326,6 @@ fn refit_torque_of(
         .map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
     let yhat_before =
         predict(before, &obs_before).map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
-    let obs = observation(plant, conf_name, records, options)
-        .map_err(|e| anyhow!("refitting in torque space: {e:#}"))?;
     let values = plant.values_with_barycentric()?;
     let locked_at: Vec<Vec<f64>> = records
         .iter()
@@ -337,21 +335,37 @@ fn refit_torque_of(
                 .collect()
         })
         .collect();
-    let random =
-        crate::identify::idim::random_motion_observation(plant, conf_name, &locked_at, options)?;
-    let mut fit = match names {
-        None => least_squares_base(
-            &obs,
-            plant.model,
-            conf,
-            &locked_at,
-            &|n| values.get(n).copied(),
-            Some(&random),
-        ),
-        Some(names) => held_least_squares(&obs, &values, names, conf_name),
-    }
-    .map_err(|e| anyhow!("refitting in torque space: {e:#}"))?;
-    let mut fitted = plant.clone();
+    let (obs, mut fit, mut fitted) = match names {
+        None => {
+            // Every parameter: the linear ones by least squares on the base parameters, a
+            // spring's rest angle or a Stribeck speed by variable projection around them.
+            let linear = |p: &Plant, obs: &crate::identify::idim::Observation| {
+                let random = crate::identify::idim::random_motion_observation(
+                    p, conf_name, &locked_at, options,
+                )?;
+                let values = p.values_with_barycentric()?;
+                least_squares_base(
+                    obs,
+                    p.model,
+                    conf,
+                    &locked_at,
+                    &|n| values.get(n).copied(),
+                    Some(&random),
+                )
+            };
+            let s =
+                crate::identify::idim::separable_fit(plant, conf_name, records, options, &linear)
+                    .map_err(|e| anyhow!("refitting in torque space: {e:#}"))?;
+            (s.observation, s.fit, s.plant)
+        }
+        Some(names) => {
+            let obs = observation(plant, conf_name, records, options)
+                .map_err(|e| anyhow!("refitting in torque space: {e:#}"))?;
+            let fit = held_least_squares(&obs, &values, names, conf_name)
+                .map_err(|e| anyhow!("refitting in torque space: {e:#}"))?;
+            (obs, fit, plant.clone())
+        }
+    };
     fit.apply(&mut fitted)?;
     let yhat = predict(&fitted, &obs)?;
     // The fit's own figure is of the torque left to the fitted columns; report the whole.
