@@ -59,6 +59,11 @@ fn truth() -> Plant {
 /// The record: q(t) a sum of three sines per joint about the middle of its range, τ from the
 /// generated inverse dynamics and the effects' laws written out here, noise on both.
 fn record(truth: &Plant) -> Measurement {
+    record_with(truth, None)
+}
+
+/// [`record`] with joint `frozen` held at its centre.
+fn record_with(truth: &Plant, frozen: Option<usize>) -> Measurement {
     let m = truth.model;
     let conf = m.configuration("full").unwrap();
     let p = truth.barycentric(None).unwrap();
@@ -88,6 +93,9 @@ fn record(truth: &Plant) -> Measurement {
         let mut qddk = [0.0; NJ];
         for j in 0..NJ {
             qk[j] = centre[j];
+            if frozen == Some(j) {
+                continue;
+            }
             for &(a, f, ph) in &waves[j] {
                 let w = std::f64::consts::TAU * f;
                 let x = w * t[k] + ph;
@@ -113,7 +121,9 @@ fn record(truth: &Plant) -> Measurement {
             if j == 0 {
                 tk[j] += v("Ks_0") * (qk[0] - v("qeq_0"));
             }
-            q[j][k] = qk[j] + 1e-6 * gauss(&mut rng);
+            // A still joint reads a constant (its encoder's quantum is larger than the noise).
+            let noise = 1e-6 * gauss(&mut rng);
+            q[j][k] = qk[j] + if frozen == Some(j) { 0.0 } else { noise };
             tau[j][k] = tk[j] + TORQUE_NOISE * gauss(&mut rng);
         }
     }
@@ -292,4 +302,20 @@ fn the_hidden_spring_is_named_added_and_refitted_in_torque_space() {
         rms <= 1.02 * floor,
         "residual RMS {rms}, the truth's {floor}"
     );
+}
+
+#[test]
+fn a_joint_the_record_does_not_move_is_named_with_its_excitation() {
+    // q6 held still (its encoder reads a constant): the columns that only its motion
+    // separates are dependent in these data but not structurally; IDIM says which, and
+    // that q6 does not move.
+    let truth = truth();
+    let records = vec![record_with(&truth, Some(5))];
+    let e = match separable_fit(&truth, "full", &records, &options(), &linear(&records)) {
+        Ok(_) => panic!("a record without q6's motion was fitted"),
+        Err(e) => format!("{e:#}"),
+    };
+    assert!(e.contains("rank-deficient"), "{e}");
+    assert!(e.contains("separable for other motions"), "{e}");
+    assert!(e.contains("joint q6: RMS velocity 0"), "{e}");
 }

@@ -249,13 +249,7 @@ pub fn columns<'a>(
         let with = c.plant(plant)?;
         match crate::identify::idim::observation(&with, config, records, options) {
             Ok(obs) => {
-                let cols: Vec<Vec<f64>> = c
-                    .spec
-                    .parameters
-                    .iter()
-                    .filter_map(|p| obs.names.iter().position(|x| x == p))
-                    .map(|k| obs.w.column(k).iter().copied().collect())
-                    .collect();
+                let cols = parameter_columns(c, &obs);
                 if cols.len() == c.spec.parameters.len() && !cols.is_empty() {
                     out.push((c, cols));
                 } else {
@@ -366,14 +360,19 @@ pub fn columns_together<'a>(
     Ok(kept
         .into_iter()
         .filter_map(|c| {
-            let cols: Vec<Vec<f64>> = c
-                .spec
-                .parameters
-                .iter()
-                .filter_map(|p| obs.names.iter().position(|x| x == p))
-                .map(|k| obs.w.column(k).iter().copied().collect())
-                .collect();
+            let cols = parameter_columns(c, &obs);
             (cols.len() == c.spec.parameters.len()).then_some((c, cols))
         })
         .collect())
+}
+
+/// The observation's columns of a candidate's parameters, in the candidate's order (those
+/// the observation has).
+fn parameter_columns(c: &UserCandidate, obs: &crate::identify::idim::Observation) -> Vec<Vec<f64>> {
+    c.spec
+        .parameters
+        .iter()
+        .filter_map(|p| obs.names.iter().position(|x| x == p))
+        .map(|k| obs.w.column(k).iter().copied().collect())
+        .collect()
 }

@@ -237,8 +237,8 @@ pub const STRUCTURE_MARGIN: f64 = 10.0;
 /// friction, armature and coupled-motor inertia, quadratic drag, load-dependent and
 /// coupled-motor friction, backlash (by the estimate's name, with or without its joint
 /// suffix).
-const NOT_NEGATIVE: [&str; 9] = [
-    "Fc", "Fv", "Ia", "cd_", "mu_", "Fm_", "Fvm_", "Jm_", "backlash",
+const NOT_NEGATIVE: [&str; 10] = [
+    "Fc", "Fv", "Ia", "cd_", "mu_", "Fm_", "Fvm_", "Jm_", "Ks_", "backlash",
 ];
 
 /// A finding whose estimate of such a size is negative ([`NOT_NEGATIVE`]) is not

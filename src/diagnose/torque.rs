@@ -355,6 +355,22 @@ pub fn diagnosis_with(
                 Some(EffectKind::InputCoupling) => Some(vec![-x[0]]),
                 _ => None,
             };
+            // A spring whose rest angle lies outside the motion acts here as an offset plus a
+            // stiffness: the data cannot say it is a spring (it is listed, not proposed).
+            if let (Some(EffectKind::Spring), Some(v)) = (kind, &values) {
+                let (lo, hi) = q
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                        (a.min(x), b.max(x))
+                    });
+                if !(lo..=hi).contains(&v[1]) {
+                    f.significant = false;
+                    f.meaning = format!(
+                        "{}; its rest angle {:.4} lies outside the motion [{lo:.4}, {hi:.4}], so these data see an offset plus a stiffness, not a spring",
+                        f.meaning, v[1]
+                    );
+                }
+            }
             if let (Some(e), Some(v)) = (effect, values) {
                 f.values = e.parameter_names().into_iter().zip(v).collect();
                 f.bounds = f
@@ -611,20 +627,21 @@ pub fn apply_all_significant(
             (f.effect.is_some() || (f.expression.is_some() && !f.structure))
                 && !declined.contains(&key(f))
         };
-        let Some(top) = d.findings.iter().find(edit).cloned() else {
+        // The leading significant edit (a listed but unproposed finding — a spring whose
+        // rest angle lies outside the motion — does not stop the search).
+        let Some(top) = d
+            .findings
+            .iter()
+            .filter(edit)
+            .find(|f| f.significant)
+            .cloned()
+        else {
             break if declined.is_empty() {
                 nothing(&d)
             } else {
                 LoopEnd::NoImprovement(declined.join(", "))
             };
         };
-        if !top.significant {
-            break if declined.is_empty() {
-                nothing(&d)
-            } else {
-                LoopEnd::NoImprovement(declined.join(", "))
-            };
-        }
         if top.effect.is_some_and(|e| !e.kind.in_torque_space()) {
             break LoopEnd::NotLinear(format!("{} on {}", top.name, top.joint));
         }

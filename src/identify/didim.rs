@@ -358,6 +358,22 @@ pub fn didim(
     }
     let m = plant.model;
     let conf = crate::util::configuration(m, &c.configuration)?;
+    // DIDIM's Gauss–Newton is IDIM-LS on the simulated states: the effects linear in their
+    // parameters. A rest angle or a Stribeck speed would be held where the plant puts it.
+    if let Some(e) = plant
+        .effects
+        .iter()
+        .find(|e| conf.free.contains(&e.joint) && !e.kind.is_linear())
+    {
+        bail!(
+            "{}: effect '{}' on joint '{}' is not linear in its parameters, and DIDIM fits \
+             only effects that are; fit it by `identify idim` (variable projection) or in \
+             output space, or remove it",
+            plant.name(),
+            e.kind,
+            m.joints[e.joint]
+        );
+    }
     let mut current = plant.clone();
     let columns = |p: &Plant| -> Result<Vec<String>> {
         let first = observation(

@@ -1014,9 +1014,23 @@ fn explain_deficiency(
     let mut joints: Vec<usize> = Vec::new();
     for n in &names {
         let c = obs.names.iter().position(|x| x == n).unwrap_or(0);
+        let before = joints.len();
         for (i, r) in obs.rows.iter().enumerate() {
             if obs.w[(i, c)] != 0.0 && !joints.contains(&r.joint) {
                 joints.push(r.joint);
+            }
+        }
+        // A column that is zero in these data: an effect parameter names its joint (`Fc_5`).
+        if joints.len() == before {
+            if let Some(j) = n
+                .rsplit('_')
+                .next()
+                .and_then(|d| d.parse::<usize>().ok())
+                .filter(|&j| j < model.joints.len())
+            {
+                if !joints.contains(&j) {
+                    joints.push(j);
+                }
             }
         }
     }
