@@ -253,8 +253,8 @@ fn the_loop_in_torque_space_on_the_command_line_emps() {
     assert!((h.fitted["Fc_0"] - 20.37).abs() < 0.5, "{h:?}");
     let rel: f64 = out
         .lines()
-        .filter_map(|l| l.strip_prefix("relative error "))
-        .last()
+        .rev()
+        .find_map(|l| l.strip_prefix("relative error "))
         .and_then(|l| l.split(" → ").nth(1))
         .and_then(|l| l.split_whitespace().next())
         .unwrap_or_else(|| panic!("no relative error in\n{out}"))
