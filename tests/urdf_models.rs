@@ -71,3 +71,100 @@ fn a_plant_of_a_urdf_model_takes_the_urdf_values_as_defaults() {
     let b = p.barycentric(None).unwrap();
     assert!((b[j] - 9.0 * 0.28).abs() < 1e-12, "{}", b[j]);
 }
+
+#[test]
+fn plant_new_starts_from_the_model_and_identifies_to_a_consistent_plant() {
+    // A starting plant for the TX40 from its URDF model: 60 inertial values and four
+    // effects per joint; IDIM with --consistent writes a plant whose links are all bodies.
+    let d = tempfile::tempdir().unwrap();
+    let start = d.path().join("start.toml");
+    let out = ok(&lockstep(&[
+        "plant",
+        "new",
+        "--model",
+        "tx40",
+        "--effects",
+        "armature,viscous,coulomb,offset",
+        "--out",
+        start.to_str().unwrap(),
+    ]));
+    assert!(
+        out.contains("60 inertial value(s) from the model file, 24 effect(s)"),
+        "{out}"
+    );
+    let p = lockstep::plant::Plant::load(&start).unwrap();
+    assert_eq!(p.value("m_link_2").unwrap(), 3.6);
+    assert_eq!(p.value("Fv_3").unwrap(), 0.0);
+    let fitted = d.path().join("fitted.toml");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = ok(&lockstep(&[
+        "identify",
+        "idim",
+        "--plant",
+        start.to_str().unwrap(),
+        "--data",
+        root.join("data/staubli_tx40/tx40_joint_5kHz.csv")
+            .to_str()
+            .unwrap(),
+        "--window",
+        "0.1:5.5",
+        "--cutoff",
+        "20",
+        "--decimate",
+        "100",
+        "--min-speed",
+        "1%",
+        "--consistent",
+        "--out",
+        fitted.to_str().unwrap(),
+    ]));
+    assert!(out.contains("physically consistent set"), "{out}");
+    let check = ok(&lockstep(&["check", "--plant", fitted.to_str().unwrap()]));
+    assert!(
+        check.contains("every link is physically consistent"),
+        "{check}"
+    );
+    // Bad input: an unknown kind, a pairwise kind, an unknown joint.
+    fails(
+        &lockstep(&[
+            "plant",
+            "new",
+            "--model",
+            "tx40",
+            "--effects",
+            "glue",
+            "--out",
+            "x.toml",
+        ]),
+        &["unknown effect 'glue'"],
+    );
+    fails(
+        &lockstep(&[
+            "plant",
+            "new",
+            "--model",
+            "tx40",
+            "--effects",
+            "input_coupling",
+            "--out",
+            "x.toml",
+        ]),
+        &["acts between two joints"],
+    );
+    fails(
+        &lockstep(&[
+            "plant",
+            "new",
+            "--model",
+            "tx40",
+            "--joints",
+            "q9",
+            "--effects",
+            "viscous",
+            "--out",
+            "x.toml",
+        ]),
+        &["unknown joint 'q9'"],
+    );
+    assert!(!std::path::Path::new("x.toml").exists());
+}

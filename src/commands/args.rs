@@ -47,6 +47,28 @@ pub enum EffectAction {
     },
 }
 
+/// `lockstep plant …`.
+#[derive(Debug, Subcommand)]
+pub enum PlantAction {
+    /// Write a complete starting plant for a model: every inertial symbol at the model
+    /// file's value (its `[defaults]`, a URDF's `<inertial>` numbers), and the effects asked
+    /// for on the joints asked for, at neutral values (no effect: levels 0).
+    New {
+        /// Model name (see `lockstep models`).
+        #[arg(long)]
+        model: String,
+        /// Effects on each joint, e.g. viscous,coulomb,offset,armature (default: none).
+        #[arg(long, value_delimiter = ',')]
+        effects: Vec<String>,
+        /// The joints they act on (default: every joint).
+        #[arg(long, value_delimiter = ',')]
+        joints: Vec<String>,
+        /// Plant file to write.
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+}
+
 /// Where compare, diagnose and refit work, and the output-space settings.
 #[derive(Debug, Clone, Args)]
 pub struct SpaceArgs {

@@ -136,6 +136,11 @@ pub enum Command {
         #[arg(long)]
         controller: Option<PathBuf>,
     },
+    /// Start a plant: `plant new --model M --effects viscous,coulomb --out P.toml`.
+    Plant {
+        #[command(subcommand)]
+        action: PlantAction,
+    },
     /// Edit a plant's effects: `effect add KIND --joint q3 --plant P` (or `--from q5 --to
     /// q4` for input_coupling).
     Effect {
@@ -501,6 +506,30 @@ fn run_command(cli: Cli) -> Result<()> {
             let change = change.unwrap_or_else(|| format!("refitted {}", params.join(", ")));
             refit_command(&plant, &inputs, &params, &change, &out)?;
             lockstep::outln!("wrote {}", out.display());
+        }
+        Command::Plant {
+            action:
+                PlantAction::New {
+                    model,
+                    effects,
+                    joints,
+                    out,
+                },
+        } => {
+            lockstep::files::check_writable(&[&out])?;
+            let p = lockstep::report::diagnosis::plant_new(&model, &effects, &joints)?;
+            p.save(&out)?;
+            let m = p.model;
+            lockstep::outln!(
+                "wrote {}: model {}, {} inertial value(s) from the model file, {} effect(s)",
+                out.display(),
+                m.name,
+                m.inertial_symbols
+                    .iter()
+                    .filter(|s| p.parameters.contains_key(**s))
+                    .count(),
+                p.effects.len()
+            );
         }
         Command::Effect {
             action:

@@ -184,8 +184,10 @@ fn log_cholesky_of(j: &Matrix4<f64>) -> Option<[f64; 10]> {
 
 /// How each column is parametrised.
 enum Block {
-    /// A link's ten barycentric columns (indices in the kind order m, mx, …, ZZ).
-    Link([usize; 10]),
+    /// A link's ten barycentric columns (indices in the kind order m, mx, …, ZZ) and the
+    /// margin ε added to Σ's diagonal (J = U Uᵀ + diag(ε, ε, ε, 0)): the centroidal
+    /// inertia's principal moments stay ≥ 2ε, clear of the consistency check's tolerance.
+    Link([usize; 10], f64),
     /// A non-negative value θ = x².
     Square(usize),
     /// A free value.
@@ -204,8 +206,28 @@ pub fn consistent_parameters(
     opts: &ConsistentOptions,
 ) -> Result<ConsistentFit> {
     let m = prior_plant.model;
-    let names = &obs.names;
-    let p = names.len();
+    let p = obs.names.len();
+    // The columns, then each link's barycentric parameters that enter no equation of this
+    // configuration (the first links of an arm): free in the body, held only by the prior.
+    let mut names = obs.names.clone();
+    for (l, _) in m.links.iter().enumerate() {
+        let of_link: Vec<usize> = (0..m.params.len())
+            .filter(|&j| m.param_link[j] == l)
+            .collect();
+        let present = of_link
+            .iter()
+            .filter(|&&j| names.iter().any(|n| n == m.params[j]))
+            .count();
+        if present > 0 && of_link.len() == 10 {
+            for &j in &of_link {
+                if !names.iter().any(|n| n == m.params[j]) {
+                    names.push(m.params[j].to_string());
+                }
+            }
+        }
+    }
+    let names = &names;
+    let pe = names.len();
     let (rows, _) = obs.w.shape();
     if rows <= p {
         bail!("{rows} rows for {p} parameters: too few for the consistent set");
@@ -215,6 +237,10 @@ pub fn consistent_parameters(
     let prior: Vec<f64> = names
         .iter()
         .map(|n| values.get(n).copied().unwrap_or(0.0))
+        .collect();
+    // The fit's values, and the prior for the values no column holds.
+    let fitted: Vec<f64> = (0..pe)
+        .map(|i| if i < p { fit.theta[i] } else { prior[i] })
         .collect();
     let resid = &obs.y - &obs.w * &theta_hat;
     let sigma = (resid.norm_squared() / (rows - p) as f64)
@@ -235,14 +261,14 @@ pub fn consistent_parameters(
             None => 1e-3,
         }
     };
-    let scale: Vec<f64> = (0..p)
-        .map(|i| prior[i].abs().max(fit.theta[i].abs()).max(floor(&names[i])))
+    let scale: Vec<f64> = (0..pe)
+        .map(|i| prior[i].abs().max(fitted[i].abs()).max(floor(&names[i])))
         .collect();
     // Blocks.
     let mut blocks = Vec::new();
     let mut links = Vec::new();
     let mut skipped = Vec::new();
-    let mut in_link = vec![false; p];
+    let mut in_link = vec![false; pe];
     for (l, lname) in m.links.iter().enumerate() {
         let mut idx = [usize::MAX; 10];
         for j in (0..m.params.len()).filter(|&j| m.param_link[j] == l) {
@@ -255,7 +281,9 @@ pub fn consistent_parameters(
             for &c in &idx {
                 in_link[c] = true;
             }
-            blocks.push(Block::Link(idx));
+            let bv: [f64; 10] = std::array::from_fn(|k| prior[idx[k]]);
+            let sigma = pseudo_inertia(&bv).fixed_view::<3, 3>(0, 0).trace();
+            blocks.push(Block::Link(idx, (1e-4 * sigma.abs() / 3.0).max(1e-9)));
             links.push(lname.to_string());
         } else if present > 0 {
             skipped.push(format!(
@@ -278,9 +306,12 @@ pub fn consistent_parameters(
     let mut x0: Vec<f64> = Vec::new();
     for b in &blocks {
         match b {
-            Block::Link(idx) => {
+            Block::Link(idx, eps_margin) => {
                 let bv: [f64; 10] = std::array::from_fn(|k| prior[idx[k]]);
                 let mut j = pseudo_inertia(&bv);
+                for k in 0..3 {
+                    j[(k, k)] -= eps_margin;
+                }
                 let mass = j[(3, 3)].abs().max(1e-3);
                 // A small sphere's second moment keeps a point mass or a rod positive definite.
                 let mut eps = 1e-6 * mass;
@@ -299,17 +330,21 @@ pub fn consistent_parameters(
                 };
                 x0.extend_from_slice(&x);
             }
-            Block::Square(i) => x0.push(fit.theta[*i].max(0.0).sqrt().max(1e-6)),
-            Block::Free(i) => x0.push(fit.theta[*i]),
+            Block::Square(i) => x0.push(fitted[*i].max(0.0).sqrt().max(1e-6)),
+            Block::Free(i) => x0.push(fitted[*i]),
         }
     }
     let theta_of = |x: &[f64]| -> DVector<f64> {
-        let mut th = DVector::zeros(p);
+        let mut th = DVector::zeros(pe);
         let mut at = 0;
         for b in &blocks {
             match b {
-                Block::Link(idx) => {
-                    let bv = barycentric_of(&pseudo_of_log_cholesky(&x[at..at + 10]));
+                Block::Link(idx, eps_margin) => {
+                    let mut j = pseudo_of_log_cholesky(&x[at..at + 10]);
+                    for k in 0..3 {
+                        j[(k, k)] += eps_margin;
+                    }
+                    let bv = barycentric_of(&j);
                     for k in 0..10 {
                         th[idx[k]] = bv[k];
                     }
@@ -330,10 +365,10 @@ pub fn consistent_parameters(
     let weight = opts.prior_weight.max(0.0).sqrt();
     let residuals = |x: &[f64]| -> DVector<f64> {
         let th = theta_of(x);
-        let data = &r * (&th - &theta_hat) / sigma;
-        let mut out = DVector::zeros(2 * p);
+        let data = &r * (th.rows(0, p) - &theta_hat) / sigma;
+        let mut out = DVector::zeros(p + pe);
         out.rows_mut(0, p).copy_from(&data);
-        for i in 0..p {
+        for i in 0..pe {
             out[p + i] = weight * (th[i] - prior[i]) / scale[i];
         }
         out
@@ -347,7 +382,7 @@ pub fn consistent_parameters(
     let mut iterations = 0;
     for it in 0..opts.max_iterations {
         iterations = it + 1;
-        let mut jac = DMatrix::zeros(2 * p, n);
+        let mut jac = DMatrix::zeros(p + pe, n);
         for k in 0..n {
             let h = 1e-7 * x[k].abs().max(1.0);
             let mut xp = x.clone();
@@ -386,11 +421,11 @@ pub fn consistent_parameters(
         }
     }
     let th = theta_of(x.as_slice());
-    let error = |t: &DVector<f64>| 100.0 * (&obs.y - &obs.w * t).norm() / obs.y.norm();
+    let error = |t: &DVector<f64>| 100.0 * (&obs.y - &obs.w * t.rows(0, p)).norm() / obs.y.norm();
     Ok(ConsistentFit {
         names: names.clone(),
         theta: th.iter().copied().collect(),
-        unconstrained_error: error(&theta_hat),
+        unconstrained_error: 100.0 * (&obs.y - &obs.w * &theta_hat).norm() / obs.y.norm(),
         consistent_error: error(&th),
         prior,
         links,

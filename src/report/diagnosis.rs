@@ -813,6 +813,63 @@ fn neutral(symbol: &str, existing: Option<f64>) -> f64 {
     }
 }
 
+/// `lockstep plant new`: a plant of `model` with every inertial symbol at the model file's
+/// value ([`Plant::new`] fills the defaults) and each effect kind of `effects` on each joint
+/// of `joints` (every joint when empty) at neutral values.
+///
+/// # Errors
+/// Unknown model, kind or joint; a pairwise kind (input_coupling needs `effect add
+/// --from --to`); conflicting effects (two friction laws on a joint).
+pub fn plant_new(model: &str, effects: &[String], joints: &[String]) -> Result<Plant> {
+    let mut p = Plant::new(model, Vec::new())?;
+    let m = p.model;
+    p.description = format!("starting plant of model {model}: the model file's values");
+    let js: Vec<usize> = if joints.is_empty() {
+        (0..m.joints.len()).collect()
+    } else {
+        joints
+            .iter()
+            .map(|j| {
+                m.joints.iter().position(|x| x == j).ok_or_else(|| {
+                    anyhow!(
+                        "--joints: unknown joint '{j}' (model '{}' has {})",
+                        m.name,
+                        m.joints.join(", ")
+                    )
+                })
+            })
+            .collect::<Result<_>>()?
+    };
+    for kind in effects {
+        let k: EffectKind = serde_json::from_value(serde_json::Value::String(
+            kind.replace('-', "_"),
+        ))
+        .map_err(|_| {
+            anyhow!(
+                "--effects: unknown effect '{kind}' (expected one of: {})",
+                EffectKind::ALL
+                    .iter()
+                    .map(|k| k.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
+        if k.is_pairwise() {
+            bail!(
+                "--effects: {k} acts between two joints: add it with `effect add {k} --from --to`"
+            );
+        }
+        for &j in &js {
+            let e = Effect::on(k, j);
+            p.add_effect(e)?;
+            for (n, sym) in e.parameter_names().iter().zip(k.symbols()) {
+                p.parameters.entry(n.clone()).or_insert(neutral(sym, None));
+            }
+        }
+    }
+    Ok(p)
+}
+
 /// `lockstep effect add`: add an effect of `kind` on `joint` (or a coupling `from` → `to`)
 /// with neutral values, then `set` (name → value) and `bounds` (name → [lo, hi]); save to
 /// `out`. Returns the new plant and the effect added.
