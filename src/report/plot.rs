@@ -79,12 +79,16 @@ fn range(vals: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo - pad, hi + pad)
 }
 
-fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, panels: &[Panel]) -> Result<()>
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    panels: &[Panel],
+    (rows, cols): (usize, usize),
+) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE).map_err(|e| anyhow!("{e:?}"))?;
-    let areas = root.split_evenly((panels.len(), 1));
+    let areas = root.split_evenly((rows, cols));
     for (panel, area) in panels.iter().zip(areas) {
         let (x0, x1) = range(panel.series.iter().flat_map(|s| s.x.iter().copied()));
         let (y0, y1) = range(panel.series.iter().flat_map(|s| s.y.iter().copied()));
@@ -198,28 +202,51 @@ fn thin(s: &Series, width: usize) -> Series {
     }
 }
 
-/// Write `<stem>.svg` and `<stem>.png` (width × 300 px per panel) and return both paths.
+/// Panels in one column of a figure at most: 5 × 300 px keeps a figure within 1600 px, a
+/// screen's height; more panels go into further columns.
+pub const MAX_ROWS: usize = 5;
+
+/// The grid of a figure of `n` panels, `(rows, columns)`, and each cell's width (px) for a
+/// one-column `width`: at most [`MAX_ROWS`] rows; two columns keep the width, more are
+/// narrowed to 2·width/columns (at least 500 px).
+pub fn grid(n: usize, width: u32) -> ((usize, usize), u32) {
+    let n = n.max(1);
+    let cols = n.div_ceil(MAX_ROWS);
+    let rows = n.div_ceil(cols);
+    let cell = if cols <= 2 {
+        width
+    } else {
+        (2 * width / cols as u32).max(500)
+    };
+    ((rows, cols), cell)
+}
+
+/// Write `<stem>.svg` and `<stem>.png` and return both paths: the panels in a grid of at
+/// most [`MAX_ROWS`] rows of 300 px ([`grid`]), each `width` wide (narrower beyond two
+/// columns).
 ///
 /// # Errors
 /// The directory cannot be created or a file cannot be written (named).
 pub fn figure(stem: &Path, panels: &[Panel], width: u32) -> Result<[PathBuf; 2]> {
     register_font();
+    let ((rows, cols), cell) = grid(panels.len(), width);
     // A long record draws no better than a few points per pixel; the file size stays
     // bounded (a 200 MB record once made a 138 MB SVG).
     let thinned: Vec<Panel> = panels
         .iter()
         .map(|p| Panel {
-            series: p.series.iter().map(|s| thin(s, width as usize)).collect(),
+            series: p.series.iter().map(|s| thin(s, cell as usize)).collect(),
             ..p.clone()
         })
         .collect();
     let panels = &thinned[..];
-    let height = 300 * panels.len().max(1) as u32;
+    let (width, height) = (cell * cols as u32, 300 * rows as u32);
     let svg_path = stem.with_extension("svg");
     let mut svg = String::new();
     draw(
         SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area(),
         panels,
+        (rows, cols),
     )
     .with_context(|| format!("drawing {}", svg_path.display()))?;
     crate::files::write_atomic(&svg_path, svg.as_bytes())?;
@@ -228,6 +255,7 @@ pub fn figure(stem: &Path, panels: &[Panel], width: u32) -> Result<[PathBuf; 2]>
     draw(
         BitMapBackend::new(png.tmp_path(), (width, height)).into_drawing_area(),
         panels,
+        (rows, cols),
     )
     .with_context(|| format!("drawing {}", png_path.display()))?;
     crate::files::commit(vec![png])?;
@@ -237,6 +265,21 @@ pub fn figure(stem: &Path, panels: &[Panel], width: u32) -> Result<[PathBuf; 2]>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn figures_stay_within_a_screens_height() {
+        // One joint's 19 compare panels: 4 columns of 5 rows, 1500 px tall, 2000 px wide.
+        assert_eq!(grid(19, 1000), ((5, 4), 500));
+        assert_eq!(grid(3, 1000), ((3, 1), 1000));
+        assert_eq!(grid(7, 1000), ((4, 2), 1000));
+        for n in 1..60 {
+            let ((rows, cols), _) = grid(n, 1000);
+            assert!(
+                rows * cols >= n && rows <= MAX_ROWS && 300 * rows <= 1600,
+                "{n}"
+            );
+        }
+    }
 
     #[test]
     fn thinning_keeps_a_lines_envelope_and_bounds_its_length() {
