@@ -319,3 +319,58 @@ fn a_joint_the_record_does_not_move_is_named_with_its_excitation() {
     assert!(e.contains("separable for other motions"), "{e}");
     assert!(e.contains("joint q6: RMS velocity 0"), "{e}");
 }
+
+#[test]
+fn a_seven_joint_report_fits_a_screen_and_three_megabytes() {
+    // The synthetic Panda record as a file, its plant identified, its report: every figure
+    // at most 1500 px tall, the self-contained HTML at most 3 MB.
+    let truth = truth();
+    let r = record(&truth);
+    let d = tempfile::tempdir().unwrap();
+    let csv = d.path().join("panda7.csv");
+    let mut text = String::from("t");
+    for j in 0..NJ {
+        text.push_str(&format!(",tau{j}"));
+    }
+    for j in 0..NJ {
+        text.push_str(&format!(",q{j}"));
+    }
+    text.push('\n');
+    for k in 0..r.t.len() {
+        text.push_str(&format!("{}", r.t[k]));
+        for j in 0..NJ {
+            text.push_str(&format!(",{}", r.tau[j][k]));
+        }
+        for j in 0..NJ {
+            text.push_str(&format!(",{}", r.q[j][k]));
+        }
+        text.push('\n');
+    }
+    std::fs::write(&csv, text).unwrap();
+    let plant = d.path().join("plant.toml");
+    truth.save(&plant).unwrap();
+    let out = d.path().join("rep");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_lockstep"))
+        .args(["report", "--plant"])
+        .arg(&plant)
+        .arg("--data")
+        .arg(&csv)
+        .args([
+            "--config", "full", "--space", "torque", "--cutoff", "10", "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let html = std::fs::metadata(out.join("report.html")).unwrap().len();
+    assert!(html <= 3_000_000, "report.html is {html} bytes");
+    for j in 1..=NJ {
+        let png = std::fs::read(out.join(format!("panda7_q{j}.png"))).unwrap();
+        let height = u32::from_be_bytes([png[20], png[21], png[22], png[23]]);
+        assert!(height <= 1600, "q{j}: {height} px tall");
+    }
+}

@@ -89,7 +89,7 @@ fn plant_new_starts_from_the_model_and_identifies_to_a_consistent_plant() {
         start.to_str().unwrap(),
     ]));
     assert!(
-        out.contains("60 inertial value(s) from the model file, 24 effect(s)"),
+        out.contains("60 inertial symbol(s) at the model file's values, 0 link(s) in numbers in the model file, 24 effect(s)"),
         "{out}"
     );
     let p = lockstep::plant::Plant::load(&start).unwrap();

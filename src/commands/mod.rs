@@ -520,14 +520,18 @@ fn run_command(cli: Cli) -> Result<()> {
             let p = lockstep::report::diagnosis::plant_new(&model, &effects, &joints)?;
             p.save(&out)?;
             let m = p.model;
+            let numeric = (0..m.links.len())
+                .filter(|&l| !m.symbol_link.contains(&l))
+                .count();
             lockstep::outln!(
-                "wrote {}: model {}, {} inertial value(s) from the model file, {} effect(s)",
+                "wrote {}: model {}, {} inertial symbol(s) at the model file's values, {} link(s) in numbers in the model file, {} effect(s)",
                 out.display(),
                 m.name,
                 m.inertial_symbols
                     .iter()
                     .filter(|s| p.parameters.contains_key(**s))
                     .count(),
+                numeric,
                 p.effects.len()
             );
         }
