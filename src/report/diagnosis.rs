@@ -813,6 +813,23 @@ fn neutral(symbol: &str, existing: Option<f64>) -> f64 {
     }
 }
 
+/// An effect kind by its plant-file name (`-` read as `_`).
+///
+/// # Errors
+/// An unknown name, with the kinds there are.
+fn effect_kind(kind: &str) -> Result<EffectKind> {
+    serde_json::from_value(serde_json::Value::String(kind.replace('-', "_"))).map_err(|_| {
+        anyhow!(
+            "unknown effect '{kind}' (expected one of: {})",
+            EffectKind::ALL
+                .iter()
+                .map(|k| k.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })
+}
+
 /// `lockstep plant new`: a plant of `model` with every inertial symbol at the model file's
 /// value ([`Plant::new`] fills the defaults) and each effect kind of `effects` on each joint
 /// of `joints` (every joint when empty) at neutral values.
@@ -841,19 +858,7 @@ pub fn plant_new(model: &str, effects: &[String], joints: &[String]) -> Result<P
             .collect::<Result<_>>()?
     };
     for kind in effects {
-        let k: EffectKind = serde_json::from_value(serde_json::Value::String(
-            kind.replace('-', "_"),
-        ))
-        .map_err(|_| {
-            anyhow!(
-                "--effects: unknown effect '{kind}' (expected one of: {})",
-                EffectKind::ALL
-                    .iter()
-                    .map(|k| k.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        })?;
+        let k = effect_kind(kind).map_err(|e| anyhow!("--effects: {e}"))?;
         if k.is_pairwise() {
             bail!(
                 "--effects: {k} acts between two joints: add it with `effect add {k} --from --to`"
@@ -886,17 +891,7 @@ pub fn effect_add(
     bounds: &[(String, f64, f64)],
     out: &Path,
 ) -> Result<(Plant, Effect)> {
-    let k: EffectKind = serde_json::from_value(serde_json::Value::String(kind.replace('-', "_")))
-        .map_err(|_| {
-        anyhow!(
-            "unknown effect '{kind}' (expected one of: {})",
-            EffectKind::ALL
-                .iter()
-                .map(|k| k.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    })?;
+    let k = effect_kind(kind)?;
     let m = plant.model;
     let index = |name: &str, opt: &str| -> Result<usize> {
         m.joints.iter().position(|j| *j == name).ok_or_else(|| {
