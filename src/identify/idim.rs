@@ -337,11 +337,7 @@ pub fn observation(
         if keep.is_empty() {
             bail!("the window {from} s to {to} s holds no sample of the records");
         }
-        y_all = keep.iter().map(|&i| y_all[i]).collect();
-        for c in w_cols.iter_mut() {
-            *c = keep.iter().map(|&i| c[i]).collect();
-        }
-        rows = keep.iter().map(|&i| rows[i]).collect();
+        keep_rows(&keep, &mut y_all, &mut w_cols, &mut rows);
     }
     if let Some(min) = opts.min_speed {
         let mut peak = vec![0.0f64; nj];
@@ -364,11 +360,7 @@ pub fn observation(
                 );
             }
         }
-        y_all = keep.iter().map(|&i| y_all[i]).collect();
-        for c in w_cols.iter_mut() {
-            *c = keep.iter().map(|&i| c[i]).collect();
-        }
-        rows = keep.iter().map(|&i| rows[i]).collect();
+        keep_rows(&keep, &mut y_all, &mut w_cols, &mut rows);
     }
     let r = y_all.len();
     let w = DMatrix::from_fn(r, ncol, |i, c| w_cols[c][i]);
@@ -378,6 +370,16 @@ pub fn observation(
         w,
         rows,
     })
+}
+
+/// Keep the observation rows `keep` (indices, ascending) of y, every column of W and the
+/// row descriptions.
+fn keep_rows(keep: &[usize], y: &mut Vec<f64>, w_cols: &mut [Vec<f64>], rows: &mut Vec<RowInfo>) {
+    *y = keep.iter().map(|&i| y[i]).collect();
+    for c in w_cols.iter_mut() {
+        *c = keep.iter().map(|&i| c[i]).collect();
+    }
+    *rows = keep.iter().map(|&i| rows[i]).collect();
 }
 
 /// The regressor column of one parameter of a user-defined effect: ∂u/∂θ, which reads no
@@ -723,22 +725,25 @@ pub fn separable_fit(
     let names = nonlinear_parameters(plant, config)?;
     let log = |n: &str| n.starts_with("vs_");
     // A rest angle far outside the motion turns the spring into a constant torque: keep it
-    // within two spans of the joint's range in the records.
-    let range = |n: &str| -> Option<(f64, f64)> {
-        let j: usize = n.strip_prefix("qeq_")?.parse().ok()?;
-        let (lo, hi) = records
-            .iter()
-            .flat_map(|r| r.q.get(j).into_iter().flatten())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                (a.min(x), b.max(x))
-            });
-        let span = (hi - lo).max(1e-3);
-        (lo.is_finite() && hi.is_finite()).then_some((lo - 2.0 * span, hi + 2.0 * span))
-    };
+    // within two spans of the joint's range in the records (found once, for every trial).
+    let bounds: Vec<Option<(f64, f64)>> = names
+        .iter()
+        .map(|n| {
+            let j: usize = n.strip_prefix("qeq_")?.parse().ok()?;
+            let (lo, hi) = records
+                .iter()
+                .flat_map(|r| r.q.get(j).into_iter().flatten())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                    (a.min(x), b.max(x))
+                });
+            let span = (hi - lo).max(1e-3);
+            (lo.is_finite() && hi.is_finite()).then_some((lo - 2.0 * span, hi + 2.0 * span))
+        })
+        .collect();
     let clamp = |u: &mut [f64]| {
-        for (n, x) in names.iter().zip(u.iter_mut()) {
-            if let Some((lo, hi)) = range(n) {
-                *x = x.clamp(lo, hi);
+        for (b, x) in bounds.iter().zip(u.iter_mut()) {
+            if let Some((lo, hi)) = b {
+                *x = x.clamp(*lo, *hi);
             }
         }
     };
