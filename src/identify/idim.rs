@@ -522,6 +522,26 @@ impl Fit {
     }
 }
 
+/// The least squares' regressor is rank-deficient at the data: `columns` are the columns of
+/// the dependency (the smallest singular value's right vector).
+#[derive(Debug, Clone)]
+pub struct RankDeficient {
+    /// The dependent columns' names.
+    pub columns: Vec<String>,
+}
+
+impl std::fmt::Display for RankDeficient {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the regressor is rank-deficient: {} are not separately identifiable from these data",
+            self.columns.join(", ")
+        )
+    }
+}
+
+impl std::error::Error for RankDeficient {}
+
 /// Ordinary least squares on an observation.
 ///
 /// # Errors
@@ -550,10 +570,7 @@ pub fn least_squares(obs: &Observation) -> Result<Fit> {
             .filter(|&c| v_t[(k, c)].abs() > 0.1)
             .map(|c| obs.names[c].clone())
             .collect();
-        bail!(
-            "the regressor is rank-deficient: {} are not separately identifiable from these data",
-            dep.join(", ")
-        );
+        return Err(RankDeficient { columns: dep }.into());
     }
     let sol = svd
         .solve(&obs.y, 0.0)
@@ -1006,16 +1023,11 @@ fn explain_deficiency(
     obs: &Observation,
     model: &generated::Model,
 ) -> anyhow::Error {
-    let msg = e.to_string();
-    if !msg.contains("rank-deficient") {
+    let Some(deficient) = e.downcast_ref::<RankDeficient>() else {
         return e;
-    }
-    let names: Vec<&str> = obs
-        .names
-        .iter()
-        .filter(|n| msg.contains(&format!(" {n},")) || msg.contains(&format!(" {n} ")))
-        .map(|s| s.as_str())
-        .collect();
+    };
+    let msg = deficient.to_string();
+    let names: Vec<&str> = deficient.columns.iter().map(|s| s.as_str()).collect();
     let mut joints: Vec<usize> = Vec::new();
     for n in &names {
         let c = obs.names.iter().position(|x| x == n).unwrap_or(0);
