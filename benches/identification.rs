@@ -137,8 +137,7 @@ fn sequence(dir: &Path, data: &Path) {
 fn real_arm(c: &mut Criterion) {
     use lockstep::identify::consistent::consistent_parameters;
     use lockstep::identify::idim::{
-        observation, random_motion_observation, weighted_least_squares_base, IdimOptions, MinSpeed,
-        Weighting,
+        base_fit, locked_positions, observation, IdimOptions, MinSpeed, Weighting,
     };
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let record = lockstep::measurement::Measurement::read(
@@ -154,22 +153,11 @@ fn real_arm(c: &mut Criterion) {
         window: Some((0.1, 5.5)),
         min_speed: Some(MinSpeed::FractionOfPeak(0.01)),
     };
-    let conf = plant.model.configuration("full").unwrap();
-    let locked_at = vec![record.q.iter().map(|q| q[0]).collect::<Vec<_>>()];
-    let values = plant.values_with_barycentric().unwrap();
+    let records = std::slice::from_ref(&record);
+    let locked_at = locked_positions(records);
     let idim = || {
-        let obs = observation(&plant, "full", std::slice::from_ref(&record), &opts).unwrap();
-        let random = random_motion_observation(&plant, "full", &locked_at, &opts).unwrap();
-        let (fit, _) = weighted_least_squares_base(
-            &obs,
-            plant.model,
-            conf,
-            &locked_at,
-            &|n| values.get(n).copied(),
-            Weighting::Ols,
-            Some(&random),
-        )
-        .unwrap();
+        let obs = observation(&plant, "full", records, &opts).unwrap();
+        let (fit, _) = base_fit(&plant, &obs, "full", &locked_at, &opts, Weighting::Ols).unwrap();
         (obs, fit)
     };
     let mut g = c.benchmark_group("tx40");

@@ -8,8 +8,7 @@
 use generated::inertia::Xorshift;
 use lockstep::effects::{Effect, EffectKind};
 use lockstep::identify::idim::{
-    observation, predict, relative_error, separable_fit, weighted_least_squares_base, IdimOptions,
-    Weighting,
+    observation, predict, relative_error, separable_fit, IdimOptions, Weighting,
 };
 use lockstep::measurement::Measurement;
 use lockstep::plant::Plant;
@@ -166,19 +165,14 @@ fn linear(
 ) -> anyhow::Result<lockstep::identify::idim::Fit>
        + '_ {
     move |p: &Plant, obs| {
-        let conf = p.model.configuration("full").unwrap();
-        let locked_at = vec![records[0].q.iter().map(|q| q[0]).collect::<Vec<_>>()];
-        let random =
-            lockstep::identify::idim::random_motion_observation(p, "full", &locked_at, &options())?;
-        let values = p.values_with_barycentric()?;
-        Ok(weighted_least_squares_base(
+        let locked_at = lockstep::identify::idim::locked_positions(records);
+        Ok(lockstep::identify::idim::base_fit(
+            p,
             obs,
-            p.model,
-            conf,
+            "full",
             &locked_at,
-            &|n| values.get(n).copied(),
+            &options(),
             Weighting::Ols,
-            Some(&random),
         )?
         .0)
     }

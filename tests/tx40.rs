@@ -13,8 +13,8 @@
 //! q̇6 on row 6).
 
 use lockstep::identify::idim::{
-    observation, predict, random_motion_observation, relative_error, weighted_least_squares_base,
-    Fit, IdimOptions, MinSpeed, Weighting,
+    base_fit, locked_positions, observation, predict, relative_error, Fit, IdimOptions, MinSpeed,
+    Weighting,
 };
 use lockstep::measurement::Measurement;
 use lockstep::plant::Plant;
@@ -40,21 +40,10 @@ fn fitted() -> (Fit, Plant, Measurement, f64) {
         .expect("the TX40 record reads");
     let mut plant = Plant::load(&root().join("model/plants/tx40_figaroh.toml")).unwrap();
     let opts = options((0.1, 5.5));
-    let obs = observation(&plant, "full", std::slice::from_ref(&record), &opts).unwrap();
-    let conf = plant.model.configuration("full").unwrap();
-    let locked_at = vec![record.q.iter().map(|q| q[0]).collect::<Vec<_>>()];
-    let random = random_motion_observation(&plant, "full", &locked_at, &opts).unwrap();
-    let values = plant.values_with_barycentric().unwrap();
-    let (fit, _) = weighted_least_squares_base(
-        &obs,
-        plant.model,
-        conf,
-        &locked_at,
-        &|n| values.get(n).copied(),
-        Weighting::Ols,
-        Some(&random),
-    )
-    .unwrap();
+    let records = std::slice::from_ref(&record);
+    let obs = observation(&plant, "full", records, &opts).unwrap();
+    let locked_at = locked_positions(records);
+    let (fit, _) = base_fit(&plant, &obs, "full", &locked_at, &opts, Weighting::Ols).unwrap();
     fit.apply(&mut plant).unwrap();
     let training = relative_error(&obs.y, &predict(&plant, &obs).unwrap());
     (fit, plant, record, training)

@@ -574,23 +574,16 @@ pub fn identify_idim(
     // grouped at the records' locked positions; the dependent ones keep the plant's values.
     // A spring's rest angle or a Stribeck speed is fitted around that by variable projection.
     let conf = lockstep::util::configuration(plant.model, config)?;
-    let locked_at: Vec<Vec<f64>> = records
-        .iter()
-        .map(|r| r.q.iter().map(|q| q[0]).collect())
-        .collect();
+    let locked_at = lockstep::identify::idim::locked_positions(&records);
     let sigma_of = std::sync::Mutex::new(Vec::new());
     let linear = |p: &Plant, obs: &lockstep::identify::idim::Observation| {
-        let random =
-            lockstep::identify::idim::random_motion_observation(p, config, &locked_at, &opts)?;
-        let values = p.values_with_barycentric()?;
-        let (fit, sigma) = lockstep::identify::idim::weighted_least_squares_base(
+        let (fit, sigma) = lockstep::identify::idim::base_fit(
+            p,
             obs,
-            p.model,
-            conf,
+            config,
             &locked_at,
-            &|n| values.get(n).copied(),
+            &opts,
             weighting.into(),
-            Some(&random),
         )?;
         *sigma_of.lock().unwrap_or_else(|e| e.into_inner()) = sigma;
         Ok(fit)

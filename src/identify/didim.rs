@@ -410,10 +410,7 @@ pub fn didim(
         } else {
             held_out(obs, &options.params, &|n| prior.get(n).copied())?
         };
-        let locked_at: Vec<Vec<f64>> = simulated
-            .iter()
-            .map(|r| r.q.iter().map(|q| q[0]).collect())
-            .collect();
+        let locked_at = crate::identify::idim::locked_positions(&simulated);
         let f = least_squares_base(&obs, m, conf, &locked_at, &|n| prior.get(n).copied(), None)?;
         f.apply(&mut current)?;
         let ((force, velocity), next) = evaluate(&current, c, records)?;

@@ -688,6 +688,50 @@ pub fn least_squares_base(
     })
 }
 
+/// Each record's first joint vector: the locked joints' positions the base-parameter
+/// grouping is found at ([`base_parameters_at`]).
+pub fn locked_positions(records: &[Measurement]) -> Vec<Vec<f64>> {
+    records
+        .iter()
+        .map(|r| {
+            r.q.iter()
+                .map(|q| q.first().copied().unwrap_or(0.0))
+                .collect()
+        })
+        .collect()
+}
+
+/// IDIM on the base parameters of `plant`'s observation `obs`, as `identify idim`, `refit`
+/// and `diagnose --apply` fit it: the rigid body grouped at the locked positions
+/// `locked_at` ([`locked_positions`]), the effect columns grouped against a random motion
+/// ([`random_motion_observation`]), the dependent parameters at the plant's values, the
+/// rows weighted by `weighting` ([`weighted_least_squares_base`]). Returns the fit and each
+/// weighted joint's σ. The linear step of [`separable_fit`].
+///
+/// # Errors
+/// As [`random_motion_observation`] and [`weighted_least_squares_base`].
+pub fn base_fit(
+    plant: &Plant,
+    obs: &Observation,
+    config: &str,
+    locked_at: &[Vec<f64>],
+    opts: &IdimOptions,
+    weighting: Weighting,
+) -> Result<(Fit, Vec<(usize, f64)>)> {
+    let conf = crate::util::configuration(plant.model, config)?;
+    let random = random_motion_observation(plant, config, locked_at, opts)?;
+    let values = plant.values_with_barycentric()?;
+    weighted_least_squares_base(
+        obs,
+        plant.model,
+        conf,
+        locked_at,
+        &|n| values.get(n).copied(),
+        weighting,
+        Some(&random),
+    )
+}
+
 /// The nonlinear parameters of the plant's torque-space effects on the free joints of
 /// `config` (spring rest angles `qeq_j`, Stribeck speeds `vs_j`), by name.
 ///

@@ -320,38 +320,29 @@ fn refit_torque_of(
     options: &crate::identify::idim::IdimOptions,
     names: Option<&[String]>,
 ) -> Result<TorqueRefit> {
-    use crate::identify::idim::{least_squares_base, observation, predict, relative_error};
-    let conf = crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
+    use crate::identify::idim::{observation, predict, relative_error};
+    // An unknown configuration is named before anything is read.
+    crate::util::configuration(plant.model, conf_name).map_err(|e| anyhow!("{e}"))?;
     let obs_before = observation(before, conf_name, records, options)
         .map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
     let yhat_before =
         predict(before, &obs_before).map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
     let values = plant.values_with_barycentric()?;
-    let locked_at: Vec<Vec<f64>> = records
-        .iter()
-        .map(|r| {
-            r.q.iter()
-                .map(|q| q.first().copied().unwrap_or(0.0))
-                .collect()
-        })
-        .collect();
+    let locked_at = crate::identify::idim::locked_positions(records);
     let (obs, mut fit, mut fitted) = match names {
         None => {
             // Every parameter: the linear ones by least squares on the base parameters, a
             // spring's rest angle or a Stribeck speed by variable projection around them.
             let linear = |p: &Plant, obs: &crate::identify::idim::Observation| {
-                let random = crate::identify::idim::random_motion_observation(
-                    p, conf_name, &locked_at, options,
-                )?;
-                let values = p.values_with_barycentric()?;
-                least_squares_base(
+                crate::identify::idim::base_fit(
+                    p,
                     obs,
-                    p.model,
-                    conf,
+                    conf_name,
                     &locked_at,
-                    &|n| values.get(n).copied(),
-                    Some(&random),
+                    options,
+                    crate::identify::idim::Weighting::Ols,
                 )
+                .map(|(fit, _)| fit)
             };
             let s =
                 crate::identify::idim::separable_fit(plant, conf_name, records, options, &linear)
