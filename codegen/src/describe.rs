@@ -149,7 +149,7 @@ pub fn describe(model: &Model) -> String {
     writeln!(s, "joints (the order of q):").ok();
     for (k, j) in model.joints.iter().enumerate() {
         let from = model.urdf.as_ref().and_then(|(_, js)| {
-            js.iter().find(|u| u.motion == *j).map(|u| {
+            js.iter().find(|u| u.variable.as_ref() == Some(j)).map(|u| {
                 let lim = u
                     .limits
                     .map(|(lo, hi)| format!(", limits [{lo}, {hi}]"))
@@ -163,7 +163,7 @@ pub fn describe(model: &Model) -> String {
         writeln!(s, "  q[{k}] = {j}{}", from.unwrap_or_default()).ok();
     }
     if let Some((_, js)) = &model.urdf {
-        for u in js.iter().filter(|u| !model.joints.contains(&u.motion)) {
+        for u in js.iter().filter(|u| u.variable.is_none()) {
             writeln!(
                 s,
                 "  URDF joint '{}' ({}, mimic) moves by {}",

@@ -54,7 +54,9 @@ pub struct UrdfJoint {
     pub name: String,
     /// `revolute`, `continuous` or `prismatic`.
     pub kind: String,
-    /// The joint variable it moves by (`q` or `multiplier·q + offset` for a mimic joint).
+    /// The joint variable it is (`None` for a mimic joint).
+    pub variable: Option<String>,
+    /// What it moves by: its variable, or `multiplier·q + offset` for a mimic joint.
     pub motion: String,
     /// Parent and child link names.
     pub parent: String,
@@ -646,8 +648,8 @@ pub fn read(
             .expect("a master joint");
         vars[k].clone()
     };
-    let motion_of = |k: usize| -> Result<(String, Vec<i64>, f64, f64), ModelError> {
-        // (master variable, -, multiplier, offset), following mimic chains.
+    let motion_of = |k: usize| -> Result<(String, f64, f64), ModelError> {
+        // (master joint, multiplier, offset), following mimic chains.
         let (mut name, mut mult, mut off) = (joints[k].name.clone(), 1.0, 0.0);
         let mut seen = vec![k];
         while let Some(j) = joints.iter().position(|j| j.name == name) {
@@ -672,7 +674,7 @@ pub fn read(
             mult *= m;
             name = of.clone();
         }
-        Ok((name, vec![], mult, off))
+        Ok((name, mult, off))
     };
 
     // Bodies: each link maps to (body link, pose of the link in the body frame).
@@ -693,7 +695,7 @@ pub fn read(
             );
             continue;
         }
-        let (master, _, mult, off) = motion_of(k)?;
+        let (master, mult, off) = motion_of(k)?;
         let item = format!("line {} joint '{}'", j.line, j.name);
         let qv = var(&master);
         let lin = |scale: f64| -> String {
@@ -774,6 +776,7 @@ pub fn read(
         urdf_joints.push(UrdfJoint {
             name: j.name.clone(),
             kind: j.kind.clone(),
+            variable: j.mimic.is_none().then(|| qv.clone()),
             motion: if j.mimic.is_some() {
                 format!("{mult}·{qv} + {off}")
             } else {
