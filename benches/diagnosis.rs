@@ -136,6 +136,7 @@ fn torque_space(truth: &lockstep::plant::Plant, dir: &std::path::Path) {
         decimation: 1,
         window: None,
         min_speed: None,
+        differentiator: lockstep::signal::Differentiator::Central,
     };
     let started = Instant::now();
     let obs = observation(&linear, "k5", std::slice::from_ref(&m), &options).unwrap();

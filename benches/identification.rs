@@ -152,6 +152,7 @@ fn real_arm(c: &mut Criterion) {
         decimation: 100,
         window: Some((0.1, 5.5)),
         min_speed: Some(MinSpeed::FractionOfPeak(0.01)),
+        differentiator: lockstep::signal::Differentiator::Central,
     };
     let records = std::slice::from_ref(&record);
     let locked_at = locked_positions(records);

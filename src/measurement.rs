@@ -93,6 +93,26 @@ pub struct SideFile {
     /// given; absent, `zoh`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hold: Option<crate::simulation::Hold>,
+    /// The torque-space preparation the record was published with (a benchmark's own
+    /// settings); the commands use it unless `--cutoff`/`--decimate` are given, and choose
+    /// from the data where it is absent ([`crate::identify::preparation`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preparation: Option<SidePreparation>,
+}
+
+/// `[preparation]` of a side file: the position filter's cut-off and the decimation.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SidePreparation {
+    /// Cut-off of the zero-phase Butterworth on positions (Hz).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cutoff_hz: Option<f64>,
+    /// Parallel decimation factor (1 = none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decimation: Option<usize>,
+    /// How the positions are differentiated: `central` or `bandlimited`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub differentiator: Option<crate::signal::Differentiator>,
 }
 
 /// Largest magnitude a measured value may have (any unit): beyond it a cell is corrupt, and

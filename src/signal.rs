@@ -285,6 +285,123 @@ pub fn decimation_indices(n: usize, r: usize) -> impl Iterator<Item = usize> {
     (nbeg - 1..n).step_by(r)
 }
 
+/// The modified Bessel function of the first kind, order 0: I0(z) = Σ_k ((z/2)^k / k!)²
+/// (to double precision for |z| ≤ 20; the Kaiser window's).
+pub fn bessel_i0(z: f64) -> f64 {
+    let (mut term, mut sum) = (1.0, 1.0);
+    for k in 1..80 {
+        term *= z / (2.0 * k as f64);
+        sum += term * term;
+    }
+    sum
+}
+
+/// How a sampled signal is differentiated.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Differentiator {
+    /// Central differences, applied twice for the second derivative (MATLAB's practice and
+    /// the EMPS benchmark's): accurate where the signal is slow against the sampling rate.
+    #[default]
+    Central,
+    /// The band-limited differentiators ([`bandlimited_derivatives`]): exact to 1e-6 up to
+    /// 0.4 of the sampling rate.
+    Bandlimited,
+}
+
+impl Differentiator {
+    /// First and second derivatives of `x` sampled every `dt`, both of `x`'s length.
+    pub fn derivatives(self, x: &[f64], dt: f64) -> (Vec<f64>, Vec<f64>) {
+        match self {
+            Differentiator::Central => {
+                let d1 = central_difference(x, dt);
+                let d2 = central_difference(&d1, dt);
+                (d1, d2)
+            }
+            Differentiator::Bandlimited => bandlimited_derivatives(x, dt),
+        }
+    }
+}
+
+impl std::str::FromStr for Differentiator {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "central" => Ok(Differentiator::Central),
+            "bandlimited" => Ok(Differentiator::Bandlimited),
+            _ => Err(format!("expected `central` or `bandlimited`, got `{s}`")),
+        }
+    }
+}
+
+impl std::fmt::Display for Differentiator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Differentiator::Central => "central differences",
+            Differentiator::Bandlimited => "band-limited differentiators",
+        })
+    }
+}
+
+/// Samples each side of the band-limited differentiators ([`bandlimited_derivatives`]).
+pub const DIFFERENTIATOR_TAPS: usize = 32;
+
+/// The Kaiser window's β of the band-limited differentiators.
+pub const DIFFERENTIATOR_BETA: f64 = 18.0;
+
+/// First and second derivatives of a signal sampled every `dt` below its Nyquist frequency:
+/// the derivatives of its band-limited (sinc) reconstruction at the samples, the ideal
+/// differentiators' kernels h₁[m] = (−1)^(m+1)/(m·dt), h₂[0] = −π²/(3 dt²),
+/// h₂[m] = 2 (−1)^(m+1)/(m² dt²) (m ≠ 0) windowed by a Kaiser window over
+/// ±[`DIFFERENTIATOR_TAPS`] samples (β = [`DIFFERENTIATOR_BETA`]), h₂[0] set so that the
+/// second's DC gain is 0.
+///
+/// Central differences (`d[k] = (x[k+1] − x[k−1]) / 2dt`, applied twice) have a gain of
+/// sinc(ωdt) and sinc²(ωdt) against the true derivatives: 6 % and 12 % low at a fifth of
+/// the sampling rate (a 60 Hz resonance sampled at 610 Hz). These stay within 1e-6 of the
+/// true derivatives up to 0.4 of the sampling rate (0.8 of Nyquist; 3e-7 measured, 4e-7
+/// in the design's frequency response; β = 8 left 3e-3 at low frequencies, the window's
+/// side lobes against a kernel whose response has a kink at Nyquist;
+/// `bandlimited_derivatives_are_exact_across_the_band`). Within [`DIFFERENTIATOR_TAPS`] of
+/// either end the kernels would reach past the record, so those samples take central
+/// differences. Both outputs have the input's length.
+pub fn bandlimited_derivatives(x: &[f64], dt: f64) -> (Vec<f64>, Vec<f64>) {
+    let n = x.len();
+    let l = DIFFERENTIATOR_TAPS;
+    let d1c = central_difference(x, dt);
+    let d2c = central_difference(&d1c, dt);
+    if n <= 2 * l + 1 {
+        return (d1c, d2c);
+    }
+    let window: Vec<f64> = (0..=l)
+        .map(|m| {
+            let r = m as f64 / (l + 1) as f64;
+            bessel_i0(DIFFERENTIATOR_BETA * (1.0 - r * r).sqrt()) / bessel_i0(DIFFERENTIATOR_BETA)
+        })
+        .collect();
+    let sign = |m: usize| if m % 2 == 1 { 1.0 } else { -1.0 };
+    let h1: Vec<f64> = (1..=l)
+        .map(|m| window[m] * sign(m) / (m as f64 * dt))
+        .collect();
+    let h2: Vec<f64> = (1..=l)
+        .map(|m| window[m] * 2.0 * sign(m) / ((m * m) as f64 * dt * dt))
+        .collect();
+    // The window moves the second kernel's DC gain off 0 (a constant would come out as a
+    // curvature): h₂[0] restores it.
+    let h20 = -2.0 * h2.iter().sum::<f64>();
+    let (mut d1, mut d2) = (d1c, d2c);
+    for k in l..n - l {
+        let (mut a, mut b) = (0.0, h20 * x[k]);
+        for m in 1..=l {
+            a += h1[m - 1] * (x[k + m] - x[k - m]);
+            b += h2[m - 1] * (x[k + m] + x[k - m]);
+        }
+        d1[k] = a;
+        d2[k] = b;
+    }
+    (d1, d2)
+}
+
 /// Central differences: `d[k] = (x[k+1] − x[k−1]) / (2·dt)` for interior samples; the end
 /// samples use one-sided differences so the output has the input's length.
 pub fn central_difference(x: &[f64], dt: f64) -> Vec<f64> {
@@ -334,6 +451,29 @@ mod tests {
         for (x, y) in a.iter().zip(b) {
             assert!((x - y).abs() <= tol * (1.0 + y.abs()), "{x} vs {y}");
         }
+    }
+
+    #[test]
+    fn bandlimited_derivatives_are_exact_across_the_band() {
+        // sin(ωt) sampled at 1, ω up to 0.4 of the sampling rate; interior samples.
+        let n = 400;
+        let mut worst = (0.0f64, 0.0f64, 0.0);
+        for i in 1..=40 {
+            let f = 0.01 * i as f64;
+            let w = 2.0 * std::f64::consts::PI * f;
+            let x: Vec<f64> = (0..n).map(|k| (w * k as f64 + 0.3).sin()).collect();
+            let (d1, d2) = bandlimited_derivatives(&x, 1.0);
+            for k in DIFFERENTIATOR_TAPS..n - DIFFERENTIATOR_TAPS {
+                let t = k as f64;
+                let e1 = (d1[k] - w * (w * t + 0.3).cos()).abs() / w;
+                let e2 = (d2[k] + w * w * (w * t + 0.3).sin()).abs() / (w * w);
+                if e1.max(e2) > worst.0.max(worst.1) {
+                    worst = (e1, e2, f);
+                }
+            }
+        }
+        eprintln!("worst relative error {worst:?}");
+        assert!(worst.0 < 1e-6 && worst.1 < 1e-6, "{worst:?}");
     }
 
     // Reference values: scipy.signal 1.x, `butter(4, 0.2)` and `cheby1(8, 0.05, 0.08)`.

@@ -416,6 +416,7 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
             .collect(),
         columns: BTreeMap::new(),
         hold: Some(hold),
+        preparation: None,
     };
     Ok(Simulated {
         measurement: Measurement {

@@ -153,6 +153,7 @@ fn options() -> IdimOptions {
         // The record starts and ends in motion: the zero-phase filter's edges are left out.
         window: Some((0.5, SECONDS - 0.5)),
         min_speed: None,
+        differentiator: lockstep::signal::Differentiator::Central,
     }
 }
 

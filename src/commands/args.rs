@@ -130,6 +130,7 @@ impl Common {
                 config: self.config.clone(),
                 space: space.space.clone(),
                 idim,
+                preparation: self.preparation(),
                 h: space.step,
                 integrator: space.integrator,
                 skip: space.skip,
@@ -252,18 +253,28 @@ pub struct Common {
     /// Configuration (set of free joints) of the data (default `full`).
     #[arg(long)]
     pub config: Option<String>,
-    /// Cut-off of the zero-phase Butterworth on positions (Hz).
-    #[arg(value_parser = parse_positive, long, default_value_t = 100.0)]
+    /// Cut-off of the zero-phase Butterworth on positions (Hz). Default: the side file's
+    /// [preparation], else twice the decimation's band, which is chosen from the data (3 ×
+    /// the band holding 99.9 % of the velocity's power); printed.
+    #[arg(value_parser = parse_positive, long)]
     #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
-    pub cutoff: f64,
+    pub cutoff: Option<f64>,
     /// Order of that Butterworth.
     #[arg(long, default_value_t = 4)]
     #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
     pub order: usize,
-    /// Parallel decimation factor.
-    #[arg(long, default_value_t = 10)]
+    /// Parallel decimation factor. Default: the side file's [preparation], else the
+    /// largest whose anti-aliasing filter passes the band (half the cut-off, or the one
+    /// chosen from the data).
+    #[arg(long)]
     #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
-    pub decimate: usize,
+    pub decimate: Option<usize>,
+    /// How q̇ and q̈ are taken from the positions: central (differences) or bandlimited
+    /// (exact up to 0.4 of the sampling rate). Default: the side file's [preparation], else
+    /// central where it is within 0.1 % across the band.
+    #[arg(long)]
+    #[arg(help_heading = "Torque space (IDIM-LS, and compare/diagnose in torque space)")]
+    pub differentiator: Option<lockstep::signal::Differentiator>,
     /// Only the samples from FROM to TO seconds (`0.1:5.5`) enter the fit or the
     /// comparison; the records are filtered whole first. Train on one window, validate on
     /// another.
@@ -322,21 +333,34 @@ impl Common {
         if self.order == 0 || self.order > 12 {
             bail!("--order: expected 1 to 12, got {}", self.order);
         }
-        if self.decimate == 0 {
+        if self.decimate == Some(0) {
             bail!("--decimate: expected 1 or more");
         }
+        let defaults = IdimOptions::default();
         Ok((
             plant,
             IdimOptions {
-                cutoff_hz: self.cutoff,
+                cutoff_hz: self.cutoff.unwrap_or(defaults.cutoff_hz),
                 filter_order: self.order,
-                decimation: self.decimate,
+                decimation: self.decimate.unwrap_or(defaults.decimation),
                 window: self.window,
                 min_speed: self.min_speed,
+                differentiator: defaults.differentiator,
             },
         ))
     }
 
+    /// The cut-off and decimation given on the command line.
+    pub fn preparation(&self) -> lockstep::identify::preparation::Requested {
+        lockstep::identify::preparation::Requested {
+            cutoff_hz: self.cutoff,
+            decimation: self.decimate,
+            differentiator: self.differentiator,
+        }
+    }
+
+    /// The plant, the torque-measured records and their preparation (the cut-off and
+    /// decimation resolved for the records and printed).
     pub fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
         let (plant, opts) = self.load_plant()?;
         let nj = plant.model.joints.len();
@@ -344,6 +368,12 @@ impl Common {
             &lockstep::measurement::expand_data_paths(&self.files.data)?,
             nj,
         )?;
+        let config = self.config.as_deref().unwrap_or("full");
+        let free = lockstep::util::configuration(plant.model, config)?
+            .free
+            .to_vec();
+        let (opts, said) = self.preparation().resolve(opts, &records, &free)?;
+        lockstep::errln!("preparation: {said}");
         Ok((plant, records, opts))
     }
 }

@@ -451,16 +451,18 @@ fn run_command(cli: Cli) -> Result<()> {
                 // Torque space diagnoses each record; a step is taken on all of them
                 // together, so with several records their joint diagnosis is printed too.
                 let joint = match &data {
-                    lockstep::report::diagnosis::Data::Torque { config, records }
-                        if records.len() > 1 =>
-                    {
-                        let obs = observation(&plant, config, records, &inputs.idim)?;
+                    lockstep::report::diagnosis::Data::Torque {
+                        config,
+                        records,
+                        idim,
+                    } if records.len() > 1 => {
+                        let obs = observation(&plant, config, records, idim)?;
                         let (user, _) = lockstep::diagnose::candidates::columns(
                             &inputs.candidates,
                             &plant,
                             config,
                             records,
-                            &inputs.idim,
+                            idim,
                         )?;
                         let d = lockstep::diagnose::torque::diagnosis_with(&plant, &obs, &user)?;
                         lockstep::outln!(

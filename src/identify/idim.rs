@@ -15,7 +15,7 @@
 use crate::identify::identifiability::{base_parameters_at, BaseParameter, BaseParameters};
 use crate::measurement::Measurement;
 use crate::plant::Plant;
-use crate::signal::{butter_lowpass, central_difference, decimate, decimation_indices};
+use crate::signal::{butter_lowpass, decimate, decimation_indices, Differentiator};
 use anyhow::{bail, Context, Result};
 use nalgebra::{DMatrix, DVector};
 
@@ -26,7 +26,8 @@ const EDGE: usize = 2;
 /// Data-preparation settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IdimOptions {
-    /// Cut-off of the zero-phase Butterworth on positions (Hz).
+    /// Cut-off of the zero-phase Butterworth on positions (Hz); `f64::INFINITY`: the
+    /// positions are not filtered (a motion that fills the band, [`super::preparation`]).
     pub cutoff_hz: f64,
     /// Order of that Butterworth.
     pub filter_order: usize,
@@ -40,6 +41,8 @@ pub struct IdimOptions {
     /// Coulomb friction: near q̇ = 0 the filtered velocity's sign and the presliding regime
     /// are not the model's sign(q̇)). `None`: every row.
     pub min_speed: Option<MinSpeed>,
+    /// How q̇ and q̈ are taken from the filtered positions.
+    pub differentiator: Differentiator,
 }
 
 /// The speed below which a joint's rows are left out of IDIM.
@@ -61,6 +64,7 @@ impl Default for IdimOptions {
             decimation: 10,
             window: None,
             min_speed: None,
+            differentiator: Differentiator::Central,
         }
     }
 }
@@ -190,7 +194,8 @@ pub fn observation(
         }
         let dt = m.dt();
         let fs = 1.0 / dt;
-        if !(opts.cutoff_hz > 0.0 && opts.cutoff_hz < fs / 2.0) {
+        if !(opts.cutoff_hz > 0.0 && (opts.cutoff_hz < fs / 2.0 || opts.cutoff_hz == f64::INFINITY))
+        {
             bail!(
                 "{}: filter cut-off {} Hz must lie between 0 and the Nyquist frequency {} Hz",
                 m.file.display(),
@@ -209,7 +214,10 @@ pub fn observation(
                 1.0 / span
             );
         }
-        let bw = butter_lowpass(opts.filter_order, opts.cutoff_hz / (fs / 2.0));
+        let bw = opts
+            .cutoff_hz
+            .is_finite()
+            .then(|| butter_lowpass(opts.filter_order, opts.cutoff_hz / (fs / 2.0)));
         let n = m.len();
         // Central differences drop EDGE samples at each end; filtfilt pads 3·order samples;
         // decimate's 8th-order Chebyshev pads 3·8 samples at the decimated rate.
@@ -226,14 +234,16 @@ pub fn observation(
         }
         // Filtered q of every joint (locked ones too: their positions enter the kernels).
         let qf: Vec<Vec<f64>> = (0..nj)
-            .map(|j| bw.filtfilt(&m.q[j]).ok_or_else(too_short))
+            .map(|j| match &bw {
+                Some(bw) => bw.filtfilt(&m.q[j]).ok_or_else(too_short),
+                None => Ok(m.q[j].clone()),
+            })
             .collect::<Result<_>>()?;
-        let qd: Vec<Vec<f64>> = conf
+        let (qd, qdd): (Vec<Vec<f64>>, Vec<Vec<f64>>) = conf
             .free
             .iter()
-            .map(|&j| central_difference(&qf[j], dt))
-            .collect();
-        let qdd: Vec<Vec<f64>> = qd.iter().map(|v| central_difference(v, dt)).collect();
+            .map(|&j| opts.differentiator.derivatives(&qf[j], dt))
+            .unzip();
         // Rows of this record: for each free joint a, interior sample k ∈ [2, n − 3] (where
         // both central differences are defined; the end values are one-sided).
         let interior: Vec<usize> = (EDGE..n - EDGE).collect();
@@ -957,6 +967,7 @@ pub fn random_motion_observation(
         decimation: 5,
         window: None,
         min_speed: None,
+        differentiator: Differentiator::Central,
     };
     observation(plant, config, std::slice::from_ref(&record), &opts)
 }

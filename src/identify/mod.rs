@@ -14,5 +14,6 @@ pub mod identifiability;
 pub mod idim;
 pub mod joint;
 pub mod output_error;
+pub mod preparation;
 pub mod refit;
 pub mod sequence;

@@ -22,7 +22,9 @@ pub struct RefitOptions {
     /// Hold of the measured torques for every record; `None`: each record's own (its
     /// side file's, else zero-order).
     pub hold: Option<Hold>,
-    /// Divergence bound on |q̇| (rad/s or m/s).
+    /// Divergence bound on |q̇| (rad/s or m/s): the larger of this and
+    /// [`crate::identify::output_error::DIVERGENCE_FACTOR`] × each record's fastest
+    /// measured speed.
     pub max_speed: f64,
     /// Samples skipped at the start of every file.
     pub skip: usize,

@@ -55,8 +55,12 @@ pub struct Inputs {
     pub config: Option<String>,
     /// Space requested (auto, torque, output).
     pub space: String,
-    /// Torque space: preparation of the records.
+    /// Torque space: preparation of the records (the filter order, window and speed
+    /// threshold; the cut-off and decimation are resolved for the records by
+    /// [`Inputs::load`] unless `preparation` fixes them).
     pub idim: IdimOptions,
+    /// Torque space: the cut-off and decimation the user fixed.
+    pub preparation: crate::identify::preparation::Requested,
     /// Output space: integration step (s).
     pub h: f64,
     /// Output space: integration scheme.
@@ -152,6 +156,9 @@ pub enum Data {
         config: String,
         /// Records.
         records: Vec<Measurement>,
+        /// Their preparation: the cut-off and decimation resolved for them
+        /// ([`crate::identify::preparation::Requested::resolve`]).
+        idim: IdimOptions,
     },
 }
 
@@ -168,9 +175,17 @@ impl Inputs {
             }
             Space::Torque => {
                 let nj = plant.model.joints.len();
+                let config = self.config.clone().unwrap_or_else(|| "full".into());
+                let records = read_noted(&crate::measurement::expand_data_paths(&self.data)?, nj)?;
+                let free = crate::util::configuration(plant.model, &config)?
+                    .free
+                    .to_vec();
+                let (idim, said) = self.preparation.resolve(self.idim, &records, &free)?;
+                crate::errln!("preparation: {said}");
                 Data::Torque {
-                    config: self.config.clone().unwrap_or_else(|| "full".into()),
-                    records: read_noted(&crate::measurement::expand_data_paths(&self.data)?, nj)?,
+                    config,
+                    records,
+                    idim,
                 }
             }
         })
@@ -227,13 +242,17 @@ fn comparisons(
             }
             c.comparisons
         }
-        Data::Torque { config, records } => {
+        Data::Torque {
+            config,
+            records,
+            idim,
+        } => {
             if announce {
                 crate::outln!("torque space (inverse model), configuration {config}");
             }
             let mut v = Vec::new();
             for m in records {
-                let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
+                let obs = observation(plant, config, std::slice::from_ref(m), idim)?;
                 v.extend(compare_observation(plant, &obs, &m.file)?);
             }
             v
@@ -423,27 +442,27 @@ pub fn diagnose(plant: &Plant, inputs: &Inputs, data: &Data) -> Result<Vec<Diagn
                 d.left(),
             )])
         }
-        Data::Torque { config, records } => records
+        Data::Torque {
+            config,
+            records,
+            idim,
+        } => records
             .iter()
             .enumerate()
             .map(|(k, m)| {
-                let obs = observation(plant, config, std::slice::from_ref(m), &inputs.idim)?;
+                let obs = observation(plant, config, std::slice::from_ref(m), idim)?;
                 let one = std::slice::from_ref(m);
                 let (mut user, left_out) = crate::diagnose::candidates::columns(
                     &inputs.candidates,
                     plant,
                     config,
                     one,
-                    &inputs.idim,
+                    idim,
                 )?;
                 let conf = crate::util::configuration(plant.model, config)?;
                 let builtin = crate::diagnose::candidates::coupled_motor_candidates(plant, conf);
                 user.extend(crate::diagnose::candidates::columns_together(
-                    &builtin,
-                    plant,
-                    config,
-                    one,
-                    &inputs.idim,
+                    &builtin, plant, config, one, idim,
                 )?);
                 if k == 0 {
                     for line in left_out
@@ -615,9 +634,12 @@ pub fn apply_finding(
             crate::out!("{}", refit_table(&r));
             r.plant
         }
-        Data::Torque { config, records } => {
-            let r =
-                crate::diagnose::torque::apply_finding(plant, f, config, records, &inputs.idim)?;
+        Data::Torque {
+            config,
+            records,
+            idim,
+        } => {
+            let r = crate::diagnose::torque::apply_finding(plant, f, config, records, idim)?;
             crate::outln!(
                 "applied finding {k} and refitted in torque space (IDIM-LS, every parameter):"
             );
@@ -670,12 +692,16 @@ pub fn apply_all_command(
 ) -> Result<(crate::diagnose::LoopEnd, usize, usize)> {
     let (config, records) = match data {
         Data::Output { config, records } => (config, records),
-        Data::Torque { config, records } => {
+        Data::Torque {
+            config,
+            records,
+            idim,
+        } => {
             let done = crate::diagnose::torque::apply_all_significant(
                 plant,
                 config,
                 records,
-                (&inputs.idim, &inputs.candidates),
+                (idim, &inputs.candidates),
                 crate::diagnose::apply::max_applied_steps(
                     crate::util::configuration(plant.model, config)?.free.len(),
                 ),
@@ -782,14 +808,13 @@ pub fn refit_command(
             crate::out!("{}", refit_table(&r));
             save_with_history(&r, change, &records, out)
         }
-        Data::Torque { config, records } => {
-            let r = crate::identify::refit::refit_torque_names(
-                plant,
-                &config,
-                &records,
-                &inputs.idim,
-                names,
-            )?;
+        Data::Torque {
+            config,
+            records,
+            idim,
+        } => {
+            let r =
+                crate::identify::refit::refit_torque_names(plant, &config, &records, &idim, names)?;
             crate::outln!("torque space (inverse model), configuration {config}:");
             crate::out!("{}", torque_refit_table(&r));
             let mut p = r.plant.clone();

@@ -98,15 +98,7 @@ pub struct InputSignal<'a> {
 fn bandlimited_kernel() -> &'static [f64] {
     static K: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
     K.get_or_init(|| {
-        // I0(z) = Σ_k ((z/2)^k / k!)², to double precision for z ≤ 10 in 40 terms.
-        let i0 = |z: f64| {
-            let (mut term, mut sum) = (1.0, 1.0);
-            for k in 1..60 {
-                term *= z / (2.0 * k as f64);
-                sum += term * term;
-            }
-            sum
-        };
+        let i0 = crate::signal::bessel_i0;
         let a = BANDLIMITED_TAPS as f64;
         (0..=BANDLIMITED_TAPS * KERNEL_RESOLUTION)
             .map(|i| {

@@ -137,6 +137,25 @@ pub struct Record {
     pub hold: Hold,
 }
 
+/// A simulation diverges when a speed exceeds this multiple of the fastest speed measured in
+/// its record (or [`OutputErrorOptions::max_speed`], whichever is larger): a real record
+/// faster than any fixed bound is simulated, and a divergence is still caught within a few
+/// steps of leaving the measured motion.
+pub const DIVERGENCE_FACTOR: f64 = 10.0;
+
+impl Record {
+    /// The fastest speed in the record (rad/s or m/s): the largest central difference of the
+    /// measured positions of any free joint.
+    pub fn peak_speed(&self) -> f64 {
+        let two_dt = 2.0 * self.dt;
+        self.q
+            .iter()
+            .flat_map(|q| q.windows(3).map(move |w| ((w[2] - w[0]) / two_dt).abs()))
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
+    }
+}
+
 /// A stage of a fit: multiple-shooting segments, or a growing horizon of the files.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub enum Stage {
@@ -622,7 +641,9 @@ impl Problem {
                 &input,
                 self.predictor.map(|omega| (omega, r.q.as_slice())),
                 &r.t,
-                self.options.max_speed,
+                self.options
+                    .max_speed
+                    .max(DIVERGENCE_FACTOR * r.peak_speed()),
             )
             .map_err(|d| {
                 let j = plant.model.joints[self.conf.free[d.joint]];

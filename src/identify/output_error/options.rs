@@ -56,7 +56,8 @@ pub struct OutputErrorOptions {
     /// Delay (s) between a torque's time stamp and its application to the joints (a
     /// transport delay; 0 for none).
     pub input_delay: f64,
-    /// Divergence bound on |q̇| (rad/s).
+    /// Divergence bound on |q̇| (rad/s or m/s): each record is simulated with the larger of
+    /// this and [`super::DIVERGENCE_FACTOR`] × its fastest measured speed.
     pub max_speed: f64,
     /// Stop when the relative step in the scaled parameters is below this (thesis: 2e-6).
     pub xtol: f64,
