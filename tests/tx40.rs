@@ -248,3 +248,91 @@ fn the_consistent_tx40_set_is_physical_and_keeps_the_fit() {
         2.0,
     );
 }
+
+/// Bad input on the real record, each one clear line, exit ≠ 0, nothing written: too few
+/// rows for the base parameters (a 0.2 s window), a joint that does not move (q6 held at
+/// its first sample: structurally separable, unexcited by these data), and a prior that is
+/// itself impossible (a negative mass) under `--consistent`.
+#[test]
+fn bad_input_on_the_tx40_is_one_line_and_writes_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let data = root().join("data/staubli_tx40/tx40_joint_5kHz.csv");
+    let plant = root().join("model/plants/tx40_figaroh.toml");
+    let out = d.path().join("fit.toml");
+    let run = |plant: &Path, data: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "identify",
+            "idim",
+            "--plant",
+            plant.to_str().unwrap(),
+            "--data",
+            data.to_str().unwrap(),
+            "--min-speed",
+            "1%",
+            "--weighting",
+            "ols",
+            "--allow-inconsistent",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_lockstep"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error")).collect();
+        assert_eq!(errors.len(), 1, "{err}");
+        assert!(!out.exists(), "{err}");
+        errors[0].to_string()
+    };
+    let e = run(&plant, &data, &["--window", "0.1:0.3"]);
+    assert!(
+        e.contains("observation rows")
+            && e.contains("for 61 parameters")
+            && e.contains("more data needed"),
+        "{e}"
+    );
+    // q6 (column q5) held still.
+    let text = std::fs::read_to_string(&data).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    let col = header.split(',').position(|c| c == "q5").unwrap();
+    let first: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
+    let mut still = String::from(header) + "\n";
+    for l in lines {
+        let mut v: Vec<&str> = l.split(',').collect();
+        v[col] = first[col];
+        still += &v.join(",");
+        still.push('\n');
+    }
+    let still_csv = d.path().join("still.csv");
+    std::fs::write(&still_csv, still).unwrap();
+    std::fs::copy(
+        root().join("data/staubli_tx40/tx40_joint_5kHz.toml"),
+        d.path().join("still.toml"),
+    )
+    .unwrap();
+    let e = run(&plant, &still_csv, &[]);
+    assert!(
+        e.contains("joint 'q6' does not move")
+            && e.contains("too little excitation")
+            && e.contains("Fv_5"),
+        "{e}"
+    );
+    // A negative mass in the prior.
+    let bad = d.path().join("bad_prior.toml");
+    std::fs::write(
+        &bad,
+        std::fs::read_to_string(&plant)
+            .unwrap()
+            .replace("[parameters]", "[parameters]\nm_link_3 = -1.0"),
+    )
+    .unwrap();
+    let e = run(&bad, &data, &["--consistent"]);
+    assert!(
+        e.contains("the prior is itself impossible") && e.contains("link 'link_3' has mass -1 kg"),
+        "{e}"
+    );
+}

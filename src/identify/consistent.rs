@@ -194,11 +194,73 @@ enum Block {
     Free(usize),
 }
 
+/// Refuse a prior that no body can have on a link the set includes: a negative mass, or an
+/// inertia about the centroid with a negative principal moment (a zero one, a point or a
+/// line as URDFs give for tool links, is the cone's edge and is accepted). The consistent
+/// set is the one nearest to the prior; from an impossible prior that distance measures
+/// nothing.
+fn refuse_impossible_prior(
+    plant: &Plant,
+    names: &[String],
+    values: &std::collections::BTreeMap<String, f64>,
+) -> Result<()> {
+    let m = plant.model;
+    for (l, link) in m.links.iter().enumerate() {
+        let params: Vec<usize> = (0..m.params.len())
+            .filter(|&j| m.param_link[j] == l)
+            .collect();
+        if !params
+            .iter()
+            .any(|&j| names.iter().any(|n| n == m.params[j]))
+        {
+            continue;
+        }
+        let mut b = [0.0; 10];
+        for &j in &params {
+            b[m.param_kind[j]] = values.get(m.params[j]).copied().unwrap_or(0.0);
+        }
+        let origin = if plant.file.is_some() {
+            plant.name()
+        } else {
+            "the prior".into()
+        };
+        if b[0] < 0.0 {
+            bail!(
+                "{origin}: the prior is itself impossible, so no nearest physical set can be \
+                 measured from it: link '{link}' has mass {} kg (correct it in the plant's \
+                 [parameters] or the model's [defaults], or leave out --consistent)",
+                b[0]
+            );
+        }
+        let Some(ci) = generated::inertia::CentroidalInertia::from_barycentric(&b) else {
+            continue;
+        };
+        let i = ci.i_c;
+        let moments = generated::inertia::symmetric_eigenvalues([
+            [i[0], i[1], i[2]],
+            [i[1], i[3], i[4]],
+            [i[2], i[4], i[5]],
+        ]);
+        let scale = moments.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        if let Some(neg) = moments.iter().find(|&&x| x < -1e-9 * scale.max(1e-12)) {
+            bail!(
+                "{origin}: the prior is itself impossible, so no nearest physical set can be \
+                 measured from it: link '{link}' has a principal moment of inertia {neg:.4e} \
+                 kg·m² about its centroid (correct it in the plant's [parameters] or the \
+                 model's [defaults], or leave out --consistent)"
+            );
+        }
+    }
+    Ok(())
+}
+
 /// The physically consistent standard set nearest to the fit `fit` of `obs` and to the
 /// prior `plant` (its values before the fit). See the module documentation.
 ///
 /// # Errors
-/// The observation has no rows or its regressor is not finite; a prior value is missing.
+/// The observation has no rows or its regressor is not finite; a prior value is missing; a
+/// prior that is itself impossible (a negative mass or principal moment on a link the set
+/// includes).
 pub fn consistent_parameters(
     obs: &Observation,
     prior_plant: &Plant,
@@ -234,6 +296,7 @@ pub fn consistent_parameters(
     }
     let theta_hat = DVector::from_column_slice(&fit.theta);
     let values = prior_plant.values_with_barycentric()?;
+    refuse_impossible_prior(prior_plant, names, &values)?;
     let prior: Vec<f64> = names
         .iter()
         .map(|n| values.get(n).copied().unwrap_or(0.0))

@@ -560,7 +560,11 @@ impl std::error::Error for RankDeficient {}
 pub fn least_squares(obs: &Observation) -> Result<Fit> {
     let (r, p) = obs.w.shape();
     if r <= p {
-        bail!("{r} observation rows for {p} parameters: more data needed");
+        bail!(
+            "{r} observation rows (after filtering, decimation, the window and the speed \
+             threshold) for {p} parameters to estimate: more data needed (a longer record or \
+             window, or less decimation)"
+        );
     }
     // Scale columns to unit norm for a meaningful rank test.
     let scale: Vec<f64> = (0..p)
@@ -719,7 +723,8 @@ pub fn locked_positions(records: &[Measurement]) -> Vec<Vec<f64>> {
 /// weighted joint's σ. The linear step of [`separable_fit`].
 ///
 /// # Errors
-/// As [`random_motion_observation`] and [`weighted_least_squares_base`].
+/// A free joint that does not move in the records ([`refuse_still_joints`]); as
+/// [`random_motion_observation`] and [`weighted_least_squares_base`].
 pub fn base_fit(
     plant: &Plant,
     obs: &Observation,
@@ -729,6 +734,7 @@ pub fn base_fit(
     weighting: Weighting,
 ) -> Result<(Fit, Vec<(usize, f64)>)> {
     let conf = crate::util::configuration(plant.model, config)?;
+    refuse_still_joints(obs, plant.model)?;
     let random = random_motion_observation(plant, config, locked_at, opts)?;
     let values = plant.values_with_barycentric()?;
     weighted_least_squares_base(
@@ -740,6 +746,68 @@ pub fn base_fit(
         weighting,
         Some(&random),
     )
+}
+
+/// A free joint whose filtered position spans less than this share of the widest joint's
+/// span over the observation's rows does not move for IDIM.
+pub const STILL_SHARE: f64 = 1e-4;
+
+/// Refuse an observation in which a free joint does not move: its velocity and acceleration
+/// columns are then zero or noise (sign(q̇) of a still joint is the sign of rounding), so
+/// the least squares would return numbers for what the data cannot separate. Structurally
+/// the columns are separable (a random motion separates them); the records give them no
+/// excitation.
+///
+/// # Errors
+/// The first still joint, its span against the widest one's, and the parameters of its
+/// own effects.
+pub fn refuse_still_joints(obs: &Observation, model: &generated::Model) -> Result<()> {
+    let mut spans: Vec<(usize, f64)> = Vec::new();
+    for r in &obs.rows {
+        match spans.iter_mut().find(|(j, _)| *j == r.joint) {
+            Some(_) => {}
+            None => spans.push((r.joint, 0.0)),
+        }
+    }
+    for (j, span) in spans.iter_mut() {
+        let (lo, hi) = obs
+            .rows
+            .iter()
+            .filter(|r| r.joint == *j)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+                (lo.min(r.q), hi.max(r.q))
+            });
+        *span = hi - lo;
+    }
+    let Some(&(widest, max)) = spans.iter().max_by(|a, b| a.1.total_cmp(&b.1)) else {
+        return Ok(());
+    };
+    if spans.len() < 2 || !(max > 0.0) {
+        return Ok(());
+    }
+    if let Some(&(j, span)) = spans.iter().find(|(_, s)| *s <= STILL_SHARE * max) {
+        let own: Vec<&str> = obs
+            .names
+            .iter()
+            .filter(|n| n.rsplit('_').next() == Some(&j.to_string()))
+            .filter(|n| !model.params.contains(&n.as_str()) && !n.starts_with("offset_"))
+            .map(String::as_str)
+            .collect();
+        bail!(
+            "joint '{}' does not move in these records (its filtered position spans {span:.3e} \
+             against {max:.3e} on '{}'): too little excitation on it to separate its \
+             velocity and acceleration terms ({}, and the inertia it moves); lock it (a \
+             configuration without it) or record motion of the joint",
+            model.joints[j],
+            model.joints[widest],
+            if own.is_empty() {
+                "the link inertias".to_string()
+            } else {
+                own.join(", ")
+            }
+        );
+    }
+    Ok(())
 }
 
 /// The nonlinear parameters of the plant's torque-space effects on the free joints of
