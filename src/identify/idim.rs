@@ -764,9 +764,8 @@ pub const STILL_SHARE: f64 = 1e-4;
 pub fn refuse_still_joints(obs: &Observation, model: &generated::Model) -> Result<()> {
     let mut spans: Vec<(usize, f64)> = Vec::new();
     for r in &obs.rows {
-        match spans.iter_mut().find(|(j, _)| *j == r.joint) {
-            Some(_) => {}
-            None => spans.push((r.joint, 0.0)),
+        if !spans.iter().any(|(j, _)| *j == r.joint) {
+            spans.push((r.joint, 0.0));
         }
     }
     for (j, span) in spans.iter_mut() {
@@ -782,7 +781,7 @@ pub fn refuse_still_joints(obs: &Observation, model: &generated::Model) -> Resul
     let Some(&(widest, max)) = spans.iter().max_by(|a, b| a.1.total_cmp(&b.1)) else {
         return Ok(());
     };
-    if spans.len() < 2 || !(max > 0.0) {
+    if spans.len() < 2 || max.is_nan() || max <= 0.0 {
         return Ok(());
     }
     if let Some(&(j, span)) = spans.iter().find(|(_, s)| *s <= STILL_SHARE * max) {
