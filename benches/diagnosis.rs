@@ -137,6 +137,7 @@ fn torque_space(truth: &lockstep::plant::Plant, dir: &std::path::Path) {
         window: None,
         min_speed: None,
         differentiator: lockstep::signal::Differentiator::Central,
+        trim_moving_edges: false,
     };
     let started = Instant::now();
     let obs = observation(&linear, "k5", std::slice::from_ref(&m), &options).unwrap();

@@ -153,6 +153,7 @@ fn real_arm(c: &mut Criterion) {
         window: Some((0.1, 5.5)),
         min_speed: Some(MinSpeed::FractionOfPeak(0.01)),
         differentiator: lockstep::signal::Differentiator::Central,
+        trim_moving_edges: false,
     };
     let records = std::slice::from_ref(&record);
     let locked_at = locked_positions(records);

@@ -137,12 +137,44 @@ impl EffectKind {
         )
     }
 
-    /// True when the inverse model (torque space) takes the kind: the linear ones, and the
-    /// spring and Stribeck friction, linear in their other parameters once the rest angle
-    /// qeq or the Stribeck speed vs is given (fitted by variable projection:
-    /// [`crate::identify::idim::separable_fit`]).
+    /// True when the inverse model (torque space) takes the kind: the linear ones, and
+    /// those linear in their other parameters once a few are given (fitted by variable
+    /// projection: [`crate::identify::idim::separable_fit`]): the spring (given qeq),
+    /// Stribeck friction (given vs), LuGre's static curve (given vs; its σ0 and σ1 shape only
+    /// the presliding transients, which the inverse model's steady-state curve does not
+    /// see), and the friction position bias (given FrictionBias and qeq, it scales the
+    /// joint's friction columns).
     pub fn in_torque_space(self) -> bool {
-        self.is_linear() || matches!(self, EffectKind::Spring | EffectKind::Stribeck)
+        self.is_linear()
+            || matches!(
+                self,
+                EffectKind::Spring
+                    | EffectKind::Stribeck
+                    | EffectKind::Lugre
+                    | EffectKind::FrictionBias
+            )
+    }
+
+    /// True for the kinds a friction position bias scales (the simulator's F_i: viscous,
+    /// Coulomb, asymmetric, Stribeck and LuGre friction).
+    pub fn is_biased_friction(self) -> bool {
+        matches!(
+            self,
+            EffectKind::Viscous
+                | EffectKind::Coulomb
+                | EffectKind::AsymmetricFriction
+                | EffectKind::Stribeck
+                | EffectKind::Lugre
+        )
+    }
+
+    /// The symbols of the kind torque space does not determine (LuGre's σ0, σ1): they keep
+    /// the plant's values.
+    pub fn undetermined_in_torque_space(self) -> &'static [&'static str] {
+        match self {
+            EffectKind::Lugre => &["sigma0", "sigma1"],
+            _ => &[],
+        }
     }
 
     /// The symbols the torque is linear in, given [`EffectKind::nonlinear_symbols`]: the
@@ -151,6 +183,7 @@ impl EffectKind {
         match self {
             EffectKind::Spring => &["Ks"],
             EffectKind::Stribeck => &["Fc", "Fs"],
+            EffectKind::Lugre => &["sigma2", "Fc", "Fs"],
             k if k.is_linear() => k.symbols(),
             _ => &[],
         }
@@ -161,7 +194,8 @@ impl EffectKind {
     pub fn nonlinear_symbols(self) -> &'static [&'static str] {
         match self {
             EffectKind::Spring => &["qeq"],
-            EffectKind::Stribeck => &["vs"],
+            EffectKind::Stribeck | EffectKind::Lugre => &["vs"],
+            EffectKind::FrictionBias => &["FrictionBias", "qeq"],
             _ => &[],
         }
     }
@@ -180,6 +214,13 @@ impl EffectKind {
                 let s = sign(qd);
                 Some(vec![s * (1.0 - e), s * e])
             }
+            EffectKind::Lugre => {
+                let vs = nonlinear[0];
+                let e = (-(qd / vs).powi(2)).exp();
+                let s = sign(qd);
+                Some(vec![qd, s * (1.0 - e), s * e])
+            }
+            EffectKind::FrictionBias => Some(Vec::new()),
             _ => self.regressor(qd, qdd),
         }
     }

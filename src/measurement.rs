@@ -98,6 +98,41 @@ pub struct SideFile {
     /// from the data where it is absent ([`crate::identify::preparation`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preparation: Option<SidePreparation>,
+    /// What the `tau` columns are: `measured` (joint torques from a sensor or the drives'
+    /// currents: the inverse model compares them, torque space) or `commanded` (the inputs
+    /// of an open-loop record whose measurement is the positions: output space). Absent:
+    /// `commanded` when the side file declares a `hold` (how commands were applied between
+    /// samples), else `measured`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub torque: Option<TorqueKind>,
+}
+
+/// What a record's torque columns are ([`SideFile::torque`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TorqueKind {
+    /// Joint torques measured (sensor, drive currents): torque space.
+    Measured,
+    /// Commands applied to the joints, positions measured: output space.
+    Commanded,
+}
+
+impl SideFile {
+    /// What the record's torques are, and why: the declared `torque`, else `commanded` where
+    /// a `hold` is declared, else `measured`.
+    pub fn torque_kind(&self) -> (TorqueKind, &'static str) {
+        match (self.torque, self.hold) {
+            (Some(k), _) => (k, "declared in the side file"),
+            (None, Some(_)) => (
+                TorqueKind::Commanded,
+                "the side file declares how the commands were held between samples",
+            ),
+            (None, None) => (
+                TorqueKind::Measured,
+                "the side file declares no hold of commands",
+            ),
+        }
+    }
 }
 
 /// `[preparation]` of a side file: the position filter's cut-off and the decimation.
@@ -113,6 +148,10 @@ pub struct SidePreparation {
     /// How the positions are differentiated: `central` or `bandlimited`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub differentiator: Option<crate::signal::Differentiator>,
+    /// Leave out the rows a record's moving ends spoil (default true; false keeps every row,
+    /// as a benchmark's published processing may).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trim_edges: Option<bool>,
 }
 
 /// Largest magnitude a measured value may have (any unit): beyond it a cell is corrupt, and

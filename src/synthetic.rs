@@ -417,6 +417,7 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
         columns: BTreeMap::new(),
         hold: Some(hold),
         preparation: None,
+        torque: Some(crate::measurement::TorqueKind::Commanded),
     };
     Ok(Simulated {
         measurement: Measurement {

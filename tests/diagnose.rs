@@ -24,6 +24,7 @@ fn opts() -> IdimOptions {
         window: None,
         min_speed: None,
         differentiator: lockstep::signal::Differentiator::Central,
+        trim_moving_edges: false,
     }
 }
 
@@ -621,6 +622,7 @@ fn a_six_joint_torque_diagnosis_has_finite_figures_k5() {
         window: None,
         min_speed: None,
         differentiator: lockstep::signal::Differentiator::Central,
+        trim_moving_edges: false,
     };
     let diagnose = |p: &Plant| {
         let obs = observation(p, "k5", std::slice::from_ref(&m), &options).unwrap();

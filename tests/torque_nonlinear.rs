@@ -154,6 +154,7 @@ fn options() -> IdimOptions {
         window: Some((0.5, SECONDS - 0.5)),
         min_speed: None,
         differentiator: lockstep::signal::Differentiator::Central,
+        trim_moving_edges: false,
     }
 }
 

@@ -72,8 +72,9 @@ pub enum PlantAction {
 /// Where compare, diagnose and refit work, and the output-space settings.
 #[derive(Debug, Clone, Args)]
 pub struct SpaceArgs {
-    /// auto (torque space for a plant whose effects are all linear in their parameters,
-    /// output space otherwise), torque or output.
+    /// auto (by the data: torque space where the records' torques are measured, output
+    /// space where they are commands — the side file's `torque`, else `commanded` where it
+    /// declares a `hold`), torque or output. Printed.
     #[arg(long, default_value = "auto")]
     pub space: String,
     /// Output space: integration step (s); fractions such as 1/6000 accepted.
@@ -346,6 +347,7 @@ impl Common {
                 window: self.window,
                 min_speed: self.min_speed,
                 differentiator: defaults.differentiator,
+                trim_moving_edges: false,
             },
         ))
     }
@@ -372,7 +374,9 @@ impl Common {
         let free = lockstep::util::configuration(plant.model, config)?
             .free
             .to_vec();
-        let (opts, said) = self.preparation().resolve(opts, &records, &free)?;
+        let (opts, said) =
+            self.preparation()
+                .resolve(opts, &records, &free, Some((&plant, config)))?;
         lockstep::errln!("preparation: {said}");
         Ok((plant, records, opts))
     }

@@ -615,6 +615,21 @@ pub fn identify_idim(
             "{n:<16} {v:>11.6}   (nonlinear: variable projection around the least squares)"
         );
     }
+    for e in plant
+        .effects
+        .iter()
+        .filter(|e| conf.free.contains(&e.joint))
+    {
+        for sym in e.kind.undetermined_in_torque_space() {
+            let n = format!("{sym}_{}", e.joint);
+            if let Ok(v) = plant.value(&n) {
+                lockstep::outln!(
+                    "{n:<16} {v:>11.6}   (kept: not determined in torque space; the presliding \
+                     transients do not show in the steady-state curve)"
+                );
+            }
+        }
+    }
     let consistent_set = if consistent {
         let c = lockstep::identify::consistent::consistent_parameters(
             &obs,

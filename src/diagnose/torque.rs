@@ -178,6 +178,8 @@ pub fn diagnosis_with(
         let has = |k: EffectKind| plant.has_effect(j, k);
         // (name, kind, from, symbols, columns)
         let mut cands: Vec<Candidate> = Vec::new();
+        // The rest angle of the friction-bias candidate, from its grid.
+        let mut bias_qeq: Option<f64> = None;
         if plant.friction_law(j).is_none() {
             cands.push((
                 "coulomb".into(),
@@ -281,6 +283,7 @@ pub fn diagnosis_with(
                 }
             }
             if let Some((qeq, cols, _)) = best {
+                bias_qeq = Some(qeq);
                 cands.push((
                     format!("friction_bias (qeq = {qeq:.4})"),
                     Some(EffectKind::FrictionBias),
@@ -353,6 +356,24 @@ pub fn diagnosis_with(
                 ) => Some(vec![x[0]]),
                 Some(EffectKind::Spring) if x[0].abs() > 0.0 => Some(vec![x[0], -x[1] / x[0]]),
                 Some(EffectKind::InputCoupling) => Some(vec![-x[0]]),
+                // The extra friction below qeq as a factor on the joint's own: FrictionBias =
+                // 1 + ΔFc/Fc (or ΔFv/Fv without Coulomb friction), qeq from the grid; the
+                // refit then fits both by variable projection.
+                Some(EffectKind::FrictionBias) => bias_qeq.and_then(|qeq| {
+                    let own = |s: &str| {
+                        plant
+                            .parameters
+                            .get(&format!("{s}_{j}"))
+                            .copied()
+                            .filter(|v| *v > 0.0)
+                    };
+                    let b = match (own("Fc"), own("Fv")) {
+                        (Some(fc), _) => 1.0 + x[0] / fc,
+                        (None, Some(fv)) => 1.0 + x[1] / fv,
+                        _ => return None,
+                    };
+                    (b > 0.0).then_some(vec![b, qeq])
+                }),
                 _ => None,
             };
             // A spring whose rest angle lies outside the motion acts here as an offset plus a
@@ -511,9 +532,9 @@ pub fn apply_finding(
 ) -> Result<TorqueRefit> {
     if let Some(e) = finding.effect.filter(|e| !e.kind.in_torque_space()) {
         bail!(
-            "'{}' on {}: torque space refits the effects linear in their parameters, springs \
-             and Stribeck friction, not a {}; apply it in output space (position data), or \
-             add it with `effect add` and fixed values",
+            "'{}' on {}: torque space refits the effects linear in their parameters, springs, \
+             Stribeck and LuGre friction and the friction bias, not a {}; apply it in output \
+             space (position data), or add it with `effect add` and fixed values",
             finding.name,
             finding.joint,
             e.kind

@@ -43,6 +43,11 @@ pub struct IdimOptions {
     pub min_speed: Option<MinSpeed>,
     /// How q̇ and q̈ are taken from the filtered positions.
     pub differentiator: Differentiator,
+    /// Leave out the rows at a record's ends that start or end in motion, where the
+    /// filters' start-up spoils them ([`moving_edges`]); off in the EMPS benchmark's own
+    /// processing (its records start and end moving, and its published figures keep every
+    /// row).
+    pub trim_moving_edges: bool,
 }
 
 /// The speed below which a joint's rows are left out of IDIM.
@@ -65,6 +70,7 @@ impl Default for IdimOptions {
             window: None,
             min_speed: None,
             differentiator: Differentiator::Central,
+            trim_moving_edges: false,
         }
     }
 }
@@ -139,8 +145,9 @@ pub fn observation(
         if !e.kind.in_torque_space() {
             bail!(
                 "{}: effect '{}' on joint '{}' is not one the inverse model takes (it takes \
-                 the linear effects, spring and stribeck), so IDIM cannot fit it; use \
-                 output-error identification or remove the effect",
+                 the linear effects, spring, stribeck, lugre's static curve and the friction \
+                 bias), so IDIM cannot fit it; use output-error identification or remove the \
+                 effect",
                 plant.name(),
                 e.kind,
                 model.joints[e.joint]
@@ -165,15 +172,37 @@ pub fn observation(
         })
         .collect::<Result<_>>()?;
     for (e, nl) in effects.iter().zip(&nonlinear) {
-        if e.kind == crate::effects::EffectKind::Stribeck && !(nl[0] > 0.0 && nl[0].is_finite()) {
-            bail!(
-                "{}: stribeck on joint '{}' needs vs > 0, found {}",
-                plant.name(),
-                model.joints[e.joint],
-                nl[0]
-            );
+        use crate::effects::EffectKind;
+        let positive = match e.kind {
+            EffectKind::Stribeck | EffectKind::Lugre => Some("vs"),
+            EffectKind::FrictionBias => Some("FrictionBias"),
+            _ => None,
+        };
+        if let Some(what) = positive {
+            if !(nl[0] > 0.0 && nl[0].is_finite()) {
+                bail!(
+                    "{}: {} on joint '{}' needs {what} > 0, found {}",
+                    plant.name(),
+                    e.kind,
+                    model.joints[e.joint],
+                    nl[0]
+                );
+            }
         }
     }
+    // Per free joint, its friction position bias (FrictionBias, qeq): the factor on its
+    // friction columns below qeq (thesis 4.3.5, as the simulator applies it).
+    let bias: Vec<Option<(f64, f64)>> = conf
+        .free
+        .iter()
+        .map(|&j| {
+            effects
+                .iter()
+                .zip(&nonlinear)
+                .find(|(e, _)| e.kind == crate::effects::EffectKind::FrictionBias && e.joint == j)
+                .map(|(_, nl)| (nl[0], nl[1]))
+        })
+        .collect();
     // User-defined effects: one column per parameter, ∂u/∂θ (the effect linear in θ).
     let columns = expression_columns(plant, conf.free)?;
     for c in &columns {
@@ -183,6 +212,8 @@ pub fn observation(
     let mut y_all: Vec<f64> = Vec::new();
     let mut w_cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
     let mut rows = Vec::new();
+    // Per record, the spans at its ends the filters' start-up spoils: (from, to) in s.
+    let mut spoiled: Vec<Vec<(f64, f64)>> = Vec::new();
     for (ri, m) in records.iter().enumerate() {
         if m.q.len() < nj {
             bail!(
@@ -270,13 +301,22 @@ pub fn observation(
                     wr[a][c][r] = yk[a * np + j];
                     c += 1;
                 }
+                let below = bias[a].map_or(
+                    1.0,
+                    |(b, qeq)| if qf[conf.free[a]][k] < qeq { b } else { 1.0 },
+                );
                 for (e, nl) in effects.iter().zip(&nonlinear) {
                     let vals = match e.kind.regressor_at(qf[e.joint][k], qd[a][k], qdd[a][k], nl) {
                         Some(v) if e.joint == conf.free[a] => v,
                         _ => vec![0.0; e.kind.linear_symbols().len()],
                     };
+                    let factor = if e.kind.is_biased_friction() {
+                        below
+                    } else {
+                        1.0
+                    };
                     for v in vals {
-                        wr[a][c][r] = v;
+                        wr[a][c][r] = v * factor;
                         c += 1;
                     }
                 }
@@ -317,6 +357,11 @@ pub fn observation(
                 );
             }
         }
+        spoiled.push(if opts.trim_moving_edges {
+            moving_edges(m, (&qd, dt), opts)
+        } else {
+            Vec::new()
+        });
         // Parallel decimation.
         let idx: Vec<usize> = decimation_indices(ni, opts.decimation.max(1))
             .map(|i| interior[i])
@@ -339,6 +384,15 @@ pub fn observation(
                 });
             }
         }
+    }
+    if spoiled.iter().any(|s| !s.is_empty()) {
+        let keep: Vec<usize> = (0..rows.len())
+            .filter(|&i| {
+                let r = &rows[i];
+                !spoiled[r.record].iter().any(|&(a, b)| r.t >= a && r.t <= b)
+            })
+            .collect();
+        keep_rows(&keep, &mut y_all, &mut w_cols, &mut rows);
     }
     if let Some((from, to)) = opts.window {
         let keep: Vec<usize> = (0..rows.len())
@@ -380,6 +434,54 @@ pub fn observation(
         w,
         rows,
     })
+}
+
+/// A record's end is in motion when some free joint's speed there exceeds this share of its
+/// peak speed in the record.
+const MOVING_EDGE: f64 = 0.01;
+
+/// The spans (s) at the ends of record `m` that the zero-phase filters' start-up spoils:
+/// where the record starts or ends in motion, the first or last 3 periods of the lowest
+/// frequency the preparation passes (the position filter's cut-off, the decimation's band;
+/// the band-limited differentiators' reach without either). The filters pad a record by
+/// reflecting it about its end, which continues a constant velocity but reverses the
+/// acceleration: a record that ends at rest loses nothing; one cut mid-motion put 900 N
+/// of error on its last row.
+fn moving_edges(
+    m: &Measurement,
+    (qd, dt): (&[Vec<f64>], f64),
+    opts: &IdimOptions,
+) -> Vec<(f64, f64)> {
+    let n = m.len();
+    let moving = |k: usize| {
+        qd.iter().any(|v| {
+            let peak = v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            peak > 0.0 && v[k].abs() > MOVING_EDGE * peak
+        })
+    };
+    let fs = 1.0 / dt;
+    let mut lowest = f64::INFINITY;
+    if opts.cutoff_hz.is_finite() {
+        lowest = lowest.min(opts.cutoff_hz);
+    }
+    if opts.decimation > 1 {
+        lowest = lowest.min(0.8 * fs / 2.0 / opts.decimation as f64);
+    }
+    let span = if lowest.is_finite() {
+        3.0 / lowest
+    } else {
+        2.0 * crate::signal::DIFFERENTIATOR_TAPS as f64 * dt
+    };
+    let mut out = Vec::new();
+    if n > 2 * EDGE + 1 {
+        if moving(EDGE) {
+            out.push((m.t[0], m.t[0] + span));
+        }
+        if moving(n - 1 - EDGE) {
+            out.push((m.t[n - 1] - span, m.t[n - 1]));
+        }
+    }
+    out
 }
 
 /// Keep the observation rows `keep` (indices, ascending) of y, every column of W and the
@@ -810,7 +912,8 @@ pub fn refuse_still_joints(obs: &Observation, model: &generated::Model) -> Resul
 }
 
 /// The nonlinear parameters of the plant's torque-space effects on the free joints of
-/// `config` (spring rest angles `qeq_j`, Stribeck speeds `vs_j`), by name.
+/// `config` (spring and friction-bias rest angles `qeq_j`, once per joint; Stribeck and
+/// LuGre speeds `vs_j`; friction bias factors `FrictionBias_j`), by name.
 ///
 /// # Errors
 /// Unknown configuration.
@@ -826,7 +929,13 @@ pub fn nonlinear_parameters(plant: &Plant, config: &str) -> Result<Vec<String>> 
                 .iter()
                 .map(move |s| format!("{s}_{}", e.joint))
         })
-        .collect())
+        .fold(Vec::new(), |mut names: Vec<String>, n| {
+            // A spring and a friction bias on one joint share its qeq.
+            if !names.contains(&n) {
+                names.push(n);
+            }
+            names
+        }))
 }
 
 /// What [`separable_fit`] returns: the plant with its nonlinear values set, the
@@ -860,8 +969,24 @@ pub fn separable_fit(
     opts: &IdimOptions,
     linear: &dyn Fn(&Plant, &Observation) -> Result<Fit>,
 ) -> Result<SeparableFit> {
+    separable_fit_rows(plant, config, records, opts, linear, &|obs| obs)
+}
+
+/// [`separable_fit`] on the rows `rows` keeps of each observation built (the training rows
+/// of a cross-validation, [`crate::identify::preparation::split`]).
+///
+/// # Errors
+/// As [`separable_fit`].
+pub fn separable_fit_rows(
+    plant: &Plant,
+    config: &str,
+    records: &[Measurement],
+    opts: &IdimOptions,
+    linear: &dyn Fn(&Plant, &Observation) -> Result<Fit>,
+    rows: &dyn Fn(Observation) -> Observation,
+) -> Result<SeparableFit> {
     let names = nonlinear_parameters(plant, config)?;
-    let log = |n: &str| n.starts_with("vs_");
+    let log = |n: &str| n.starts_with("vs_") || n.starts_with("FrictionBias_");
     // A rest angle far outside the motion turns the spring into a constant torque: keep it
     // within two spans of the joint's range in the records (found once, for every trial).
     let bounds: Vec<Option<(f64, f64)>> = names
@@ -891,7 +1016,7 @@ pub fn separable_fit(
             p.parameters
                 .insert(n.clone(), if log(n) { x.exp() } else { x });
         }
-        let obs = observation(&p, config, records, opts)?;
+        let obs = rows(observation(&p, config, records, opts)?);
         let fit = linear(&p, &obs)?;
         let th = DVector::from_column_slice(&fit.theta);
         let r = &obs.y - &obs.w * th;
@@ -914,51 +1039,126 @@ pub fn separable_fit(
             nonlinear: Vec::new(),
         });
     }
-    let mut cost = best.3.norm_squared();
-    let mut lambda = 1e-2;
-    for _ in 0..30 {
-        let n = u.len();
-        let rows = best.3.len();
-        let mut jac = DMatrix::zeros(rows, n);
-        for k in 0..n {
-            let h = 1e-4 * u[k].abs().max(1.0);
-            let mut up = u.clone();
-            up[k] += h;
-            let Ok((_, _, _, rp)) = at(&up) else {
-                continue;
+    // The rest angle of a friction bias on a joint without a spring is a switch: the
+    // projected residual is flat between samples and jumps across them, so it is profiled
+    // on a grid of the joint's measured positions (coarse, then between the best point's
+    // neighbours) and held in the Levenberg–Marquardt steps; two rounds.
+    let switch: Vec<Option<Vec<f64>>> = names
+        .iter()
+        .map(|n| {
+            let j: usize = n.strip_prefix("qeq_")?.parse().ok()?;
+            let has = |k: crate::effects::EffectKind| {
+                plant.effects.iter().any(|e| e.kind == k && e.joint == j)
             };
-            jac.set_column(k, &((rp - &best.3) / h));
-        }
-        let jtj = jac.transpose() * &jac;
-        let g = jac.transpose() * &best.3;
-        let mut improved = false;
-        for _ in 0..12 {
-            let mut a = jtj.clone();
-            for k in 0..n {
-                a[(k, k)] += lambda * jtj[(k, k)].max(1e-300) + 1e-300;
+            if !has(crate::effects::EffectKind::FrictionBias)
+                || has(crate::effects::EffectKind::Spring)
+            {
+                return None;
             }
-            let Some(step) = a.cholesky().map(|c| c.solve(&(-&g))) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let mut un: Vec<f64> = u.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
-            clamp(&mut un);
-            if let Ok(trial) = at(&un) {
-                let cn = trial.3.norm_squared();
-                if cn.is_finite() && cn < cost {
-                    improved = (cost - cn) / cost.max(1e-300) > 1e-10;
-                    u = un;
-                    best = trial;
-                    cost = cn;
-                    lambda = (lambda / 3.0).max(1e-9);
+            let mut q: Vec<f64> = records
+                .iter()
+                .flat_map(|r| r.q.get(j).into_iter().flatten().copied())
+                .filter(|x| x.is_finite())
+                .collect();
+            q.sort_by(f64::total_cmp);
+            (!q.is_empty()).then(|| {
+                (1..40)
+                    .map(|i| q[((q.len() - 1) as f64 * i as f64 / 40.0) as usize])
+                    .collect()
+            })
+        })
+        .collect();
+    let mut cost = best.3.norm_squared();
+    let profile =
+        |u: &mut Vec<f64>, best: &mut (Plant, Observation, Fit, DVector<f64>), cost: &mut f64| {
+            for (k, grid) in switch.iter().enumerate() {
+                let Some(grid) = grid else { continue };
+                let mut try_at = |x: f64, u: &mut Vec<f64>| {
+                    let mut un = u.clone();
+                    un[k] = x;
+                    if let Ok(trial) = at(&un) {
+                        let c = trial.3.norm_squared();
+                        if c.is_finite() && c < *cost {
+                            *cost = c;
+                            *best = trial;
+                            *u = un;
+                        }
+                    }
+                };
+                for &x in grid {
+                    try_at(x, u);
+                }
+                let i = grid
+                    .iter()
+                    .position(|&g| g >= u[k])
+                    .unwrap_or(grid.len() - 1);
+                let (lo, hi) = (grid[i.saturating_sub(1)], grid[(i + 1).min(grid.len() - 1)]);
+                for f in 1..20 {
+                    try_at(lo + (hi - lo) * f as f64 / 20.0, u);
+                }
+            }
+        };
+    let lm =
+        |u: &mut Vec<f64>, best: &mut (Plant, Observation, Fit, DVector<f64>), cost: &mut f64| {
+            let mut lambda = 1e-2;
+            for _ in 0..30 {
+                let n = u.len();
+                let rows = best.3.len();
+                let mut jac = DMatrix::zeros(rows, n);
+                for k in (0..n).filter(|&k| switch[k].is_none()) {
+                    let h = 1e-4 * u[k].abs().max(1.0);
+                    let mut up = u.clone();
+                    up[k] += h;
+                    let Ok((_, _, _, rp)) = at(&up) else {
+                        continue;
+                    };
+                    jac.set_column(k, &((rp - &best.3) / h));
+                }
+                let jtj = jac.transpose() * &jac;
+                let g = jac.transpose() * &best.3;
+                let mut improved = false;
+                for _ in 0..12 {
+                    let mut a = jtj.clone();
+                    for k in 0..n {
+                        a[(k, k)] += lambda * jtj[(k, k)].max(1e-300) + 1e-300;
+                    }
+                    let Some(step) = a.cholesky().map(|c| c.solve(&(-&g))) else {
+                        lambda *= 10.0;
+                        continue;
+                    };
+                    let mut un: Vec<f64> = u
+                        .iter()
+                        .zip(step.iter())
+                        .zip(&switch)
+                        .map(|((a, b), s)| if s.is_some() { *a } else { a + b })
+                        .collect();
+                    clamp(&mut un);
+                    if let Ok(trial) = at(&un) {
+                        let cn = trial.3.norm_squared();
+                        if cn.is_finite() && cn < *cost {
+                            improved = (*cost - cn) / cost.max(1e-300) > 1e-10;
+                            *u = un;
+                            *best = trial;
+                            *cost = cn;
+                            lambda = (lambda / 3.0).max(1e-9);
+                            break;
+                        }
+                    }
+                    lambda *= 4.0;
+                }
+                if !improved {
                     break;
                 }
             }
-            lambda *= 4.0;
-        }
-        if !improved {
-            break;
-        }
+        };
+    let rounds = if switch.iter().any(Option::is_some) {
+        2
+    } else {
+        1
+    };
+    for _ in 0..rounds {
+        profile(&mut u, &mut best, &mut cost);
+        lm(&mut u, &mut best, &mut cost);
     }
     let nonlinear = names
         .iter()
@@ -1035,6 +1235,7 @@ pub fn random_motion_observation(
         window: None,
         min_speed: None,
         differentiator: Differentiator::Central,
+        trim_moving_edges: false,
     };
     observation(plant, config, std::slice::from_ref(&record), &opts)
 }

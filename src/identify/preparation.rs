@@ -38,8 +38,9 @@
 //! band-limited differentiators (EMPS's side file keeps the benchmark's own 100 Hz, ×10 and
 //! central differences).
 
-use crate::identify::idim::IdimOptions;
+use crate::identify::idim::{IdimOptions, Observation};
 use crate::measurement::{Measurement, SidePreparation};
+use crate::plant::Plant;
 use crate::signal::{butter_lowpass, Differentiator};
 use anyhow::{bail, Result};
 
@@ -164,6 +165,157 @@ impl Preparation {
     }
 }
 
+impl Preparation {
+    /// The preparation for fit band `band_hz` on these records: the decimation whose
+    /// anti-aliasing filter passes it ([`decimation_for`]), the position filter at
+    /// [`FILTER_FACTOR`] × the decimation's band (none where no decimation is possible), the
+    /// differentiator accurate across it; the band actually fitted (the decimation's).
+    pub fn for_band(&self, band_hz: f64, base: IdimOptions) -> (IdimOptions, f64) {
+        let nyquist = self.sample_rate_hz / 2.0;
+        let band_hz = band_hz.min(DECIMATE_PASSBAND * nyquist);
+        let r = decimation_for(band_hz, nyquist);
+        let passed = DECIMATE_PASSBAND * nyquist / r as f64;
+        let mut opts = base;
+        opts.trim_moving_edges = true;
+        opts.decimation = r;
+        opts.cutoff_hz = if r > 1 {
+            FILTER_FACTOR * passed
+        } else {
+            f64::INFINITY
+        };
+        let band = if r > 1 { passed } else { band_hz };
+        opts.differentiator = differentiator_for(band, self.sample_rate_hz);
+        (opts, band)
+    }
+}
+
+/// The fit bands tried by [`cross_validated`], as multiples of the motion band.
+pub const CANDIDATE_FACTORS: [f64; 5] = [3.0, 6.0, 12.0, 24.0, 48.0];
+
+/// Blocks each record is cut into for [`cross_validated`]: the even ones train, the odd
+/// ones test.
+const BLOCKS: usize = 8;
+
+/// Share of each record's span left out at either end of [`split`].
+const SPLIT_MARGIN: f64 = 0.05;
+
+/// A wider band is taken only where its held-out error is lower by more than this share
+/// (narrower bands keep less noise and less unmodelled vibration in the fit).
+const WIDER_GAIN: f64 = 0.01;
+
+/// One band tried by [`cross_validated`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BandTrial {
+    /// The fit band (Hz).
+    pub band_hz: f64,
+    /// Its preparation.
+    pub options: IdimOptions,
+    /// Relative torque error (%) of the fit on the training blocks, on the held-out blocks
+    /// in the narrowest band; `None` when the fit failed.
+    pub held_out_error: Option<f64>,
+}
+
+/// The fit band chosen by cross-validation (issue 57: the band depends on the record).
+/// Every record is cut into [`BLOCKS`] blocks; for each candidate band ([`CANDIDATE_FACTORS`]
+/// × the motion band, up to where no decimation is possible) the inverse model is fitted
+/// (`fit`: the commands' least squares on the base parameters) on the even blocks, and its
+/// torque prediction is compared with the measured torque on the odd blocks in the
+/// narrowest band (where the motion is). A wider band adds rows and the broadband content
+/// of friction's sign changes, and lowers that error while its rows are as trustworthy as
+/// the narrow band's; it raises it once the twice-differentiated position noise (errors in
+/// the regressor) or vibration the model lacks dominate. The widest band whose error is
+/// lower than every narrower one's by more than [`WIDER_GAIN`] is chosen. The plant's
+/// nonlinear values (rest angles, Stribeck speeds) are held.
+///
+/// # Errors
+/// None of the bands gives a fit (the first failure returned).
+pub fn cross_validated(
+    prep: &Preparation,
+    base: IdimOptions,
+    held_out_error: &dyn Fn(&IdimOptions, &IdimOptions) -> Result<f64>,
+) -> Result<(usize, Vec<BandTrial>)> {
+    let motion = prep.band_hz / BAND_FACTOR;
+    let mut trials: Vec<BandTrial> = Vec::new();
+    for f in CANDIDATE_FACTORS {
+        let (options, band_hz) = prep.for_band(f * motion, base);
+        if trials
+            .iter()
+            .any(|t| t.options.decimation == options.decimation)
+        {
+            break;
+        }
+        trials.push(BandTrial {
+            band_hz,
+            options,
+            held_out_error: None,
+        });
+        if options.decimation == 1 {
+            break;
+        }
+    }
+    let reference = trials[0].options;
+    let mut first_error: Option<anyhow::Error> = None;
+    for t in &mut trials {
+        match held_out_error(&t.options, &reference) {
+            Ok(e) if e.is_finite() => t.held_out_error = Some(e),
+            Ok(_) => {}
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    let mut chosen: Option<(usize, f64)> = None;
+    for (i, t) in trials.iter().enumerate() {
+        let Some(e) = t.held_out_error else { continue };
+        if chosen.is_none_or(|(_, best)| e < (1.0 - WIDER_GAIN) * best) {
+            chosen = Some((i, e));
+        }
+    }
+    match chosen {
+        Some((i, _)) => Ok((i, trials)),
+        None => Err(first_error.unwrap_or_else(|| anyhow::anyhow!("no band gave a fit"))),
+    }
+}
+
+/// The observation's rows split into the even and the odd of [`BLOCKS`] blocks of each
+/// record's time span (the training and the held-out rows of [`cross_validated`]), the
+/// rows within [`SPLIT_MARGIN`] of the span's ends in neither: there the filters' start-up
+/// differs from band to band (a record that ends in motion put 900 N on its last row at
+/// one cut-off and 100 N at another).
+pub fn split(obs: &Observation) -> (Observation, Observation) {
+    let mut spans: std::collections::BTreeMap<usize, (f64, f64)> = Default::default();
+    for r in &obs.rows {
+        let e = spans.entry(r.record).or_insert((r.t, r.t));
+        e.0 = e.0.min(r.t);
+        e.1 = e.1.max(r.t);
+    }
+    let (mut even, mut odd) = (Vec::new(), Vec::new());
+    for (i, r) in obs.rows.iter().enumerate() {
+        let (a, b) = spans[&r.record];
+        let x = (r.t - a) / (b - a).max(f64::MIN_POSITIVE);
+        if !(SPLIT_MARGIN..=1.0 - SPLIT_MARGIN).contains(&x) {
+            continue;
+        }
+        let block = (x * BLOCKS as f64) as usize;
+        if block.min(BLOCKS - 1).is_multiple_of(2) {
+            even.push(i);
+        } else {
+            odd.push(i);
+        }
+    }
+    (subset(obs, &even), subset(obs, &odd))
+}
+
+/// The rows `keep` of an observation.
+fn subset(obs: &Observation, keep: &[usize]) -> Observation {
+    Observation {
+        names: obs.names.clone(),
+        y: nalgebra::DVector::from_iterator(keep.len(), keep.iter().map(|&i| obs.y[i])),
+        w: obs.w.select_rows(keep),
+        rows: keep.iter().map(|&i| obs.rows[i]).collect(),
+    }
+}
+
 /// Central differences where their q̈ is within [`CENTRAL_TOLERANCE`] across `band_hz` at
 /// sampling rate `fs`, else the band-limited differentiators.
 pub fn differentiator_for(band_hz: f64, fs: f64) -> Differentiator {
@@ -265,6 +417,7 @@ impl Requested {
         base: IdimOptions,
         records: &[Measurement],
         free: &[usize],
+        plant: Option<(&Plant, &str)>,
     ) -> Result<(IdimOptions, String)> {
         const SIDE: &str = "the side file's [preparation]";
         let side = side_preparation(records)?.unwrap_or_default();
@@ -343,12 +496,25 @@ impl Requested {
                         };
                         (c, "twice the decimation's band".into(), r, wr.to_string())
                     }
-                    _ => (
-                        p.cutoff_hz,
-                        "from the data".into(),
-                        p.decimation,
-                        "from the data".into(),
-                    ),
+                    _ => match plant {
+                        Some((plant, config)) => {
+                            let (opts, said) =
+                                band_by_cross_validation(plant, config, records, base, &p)?;
+                            data_said = format!("; the motion's band {motion:.4} Hz{said}");
+                            (
+                                opts.cutoff_hz,
+                                "cross-validated".into(),
+                                opts.decimation,
+                                "cross-validated".into(),
+                            )
+                        }
+                        None => (
+                            p.cutoff_hz,
+                            "from the data".into(),
+                            p.decimation,
+                            "from the data".into(),
+                        ),
+                    },
                 }
             }
         };
@@ -366,6 +532,7 @@ impl Requested {
         opts.cutoff_hz = cutoff_hz;
         opts.decimation = r;
         opts.differentiator = differentiator;
+        opts.trim_moving_edges = side.trim_edges.unwrap_or(true);
         let filtered = if cutoff_hz.is_finite() {
             format!("positions filtered at {cutoff_hz:.4} Hz ({why_c})")
         } else {
@@ -384,6 +551,51 @@ impl Requested {
             format!("{filtered}, {decimated}, {differentiator} ({why_d}){data_said}"),
         ))
     }
+}
+
+/// [`cross_validated`] with the commands' least squares on the base parameters of `plant`
+/// (IDIM-LS, [`crate::identify::idim::base_fit`]), and what it found, for the printed line.
+fn band_by_cross_validation(
+    plant: &Plant,
+    config: &str,
+    records: &[Measurement],
+    base: IdimOptions,
+    prep: &Preparation,
+) -> Result<(IdimOptions, String)> {
+    use crate::identify::idim;
+    let locked_at = idim::locked_positions(records);
+    // Fitted on the even blocks (the nonlinear values by variable projection on those rows
+    // too), compared on the odd blocks in the reference band, its columns built at the
+    // fitted nonlinear values.
+    let held_out_error = |o: &IdimOptions, reference: &IdimOptions| -> Result<f64> {
+        let linear = |p: &Plant, obs: &Observation| {
+            Ok(idim::base_fit(p, obs, config, &locked_at, o, idim::Weighting::Ols)?.0)
+        };
+        let training = |obs: Observation| split(&obs).0;
+        let fitted = idim::separable_fit_rows(plant, config, records, o, &linear, &training)?;
+        let mut p = fitted.plant.clone();
+        fitted.fit.apply(&mut p)?;
+        let (_, test) = split(&idim::observation(&p, config, records, reference)?);
+        Ok(idim::relative_error(&test.y, &idim::predict(&p, &test)?))
+    };
+    let (i, trials) = cross_validated(prep, base, &held_out_error)?;
+    let table: Vec<String> = trials
+        .iter()
+        .map(|t| match t.held_out_error {
+            Some(e) => format!("{:.4} Hz {e:.3} %", t.band_hz),
+            None => format!("{:.4} Hz (no fit)", t.band_hz),
+        })
+        .collect();
+    Ok((
+        trials[i].options,
+        format!(
+            "; fit band {:.4} Hz chosen by cross-validation (held-out torque error in the \
+             {:.4} Hz band, trained on alternate blocks: {})",
+            trials[i].band_hz,
+            trials[0].band_hz,
+            table.join(", ")
+        ),
+    ))
 }
 
 /// The `[preparation]` the records' side files declare: `None` when none does.

@@ -27,22 +27,58 @@ pub enum Space {
 }
 
 impl Space {
-    /// `torque`, `output`, or `auto`: torque space when every effect of the plant is linear
-    /// in its parameters (an IDIM plant), output space otherwise.
+    /// `torque`, `output`, or `auto`: chosen by the data, not by the plant (adding an
+    /// effect never moves the loop to the other space): torque space where the records'
+    /// torques are measured, output space where they are commands and the positions the
+    /// measurement ([`crate::measurement::SideFile::torque_kind`]). Returns the space and
+    /// why.
     ///
     /// # Errors
-    /// Another word.
-    pub fn choose(requested: &str, plant: &Plant) -> Result<Space> {
+    /// Another word; records of both kinds; an unreadable side file.
+    pub fn choose(requested: &str, data: &[PathBuf]) -> Result<(Space, String)> {
         match requested {
-            "torque" => Ok(Space::Torque),
-            "output" => Ok(Space::Output),
-            "auto" => Ok(if plant.is_linear() {
-                Space::Torque
-            } else {
-                Space::Output
-            }),
+            "torque" => Ok((Space::Torque, "given".into())),
+            "output" => Ok((Space::Output, "given".into())),
+            "auto" => {
+                use crate::measurement::TorqueKind;
+                let files = crate::measurement::expand_data_paths(data)?;
+                let mut seen: Option<(TorqueKind, &'static str, &Path)> = None;
+                for f in &files {
+                    let (k, why) = crate::measurement::read_side_file(f)?.torque_kind();
+                    match seen {
+                        None => seen = Some((k, why, f)),
+                        Some((k0, _, f0)) if k0 != k => bail!(
+                            "{} has {} torques and {} {}: compare them separately, or give \
+                             --space",
+                            f0.display(),
+                            kind_word(k0),
+                            f.display(),
+                            kind_word(k)
+                        ),
+                        _ => {}
+                    }
+                }
+                Ok(match seen {
+                    Some((TorqueKind::Commanded, why, _)) => (
+                        Space::Output,
+                        format!("the records' torques are commands ({why})"),
+                    ),
+                    Some((TorqueKind::Measured, why, _)) => (
+                        Space::Torque,
+                        format!("the records' torques are measured ({why})"),
+                    ),
+                    None => (Space::Torque, "no records".into()),
+                })
+            }
             other => bail!("--space: expected auto, torque or output, got '{other}'"),
         }
+    }
+}
+
+fn kind_word(k: crate::measurement::TorqueKind) -> &'static str {
+    match k {
+        crate::measurement::TorqueKind::Measured => "measured",
+        crate::measurement::TorqueKind::Commanded => "commanded",
     }
 }
 
@@ -168,7 +204,15 @@ impl Inputs {
     /// # Errors
     /// As [`output_records`], or an unreadable torque-measured file (file, row, column).
     pub fn load(&self, plant: &Plant) -> Result<Data> {
-        Ok(match Space::choose(&self.space, plant)? {
+        let (space, why) = Space::choose(&self.space, &self.data)?;
+        crate::errln!(
+            "space: {} ({why})",
+            match space {
+                Space::Torque => "torque (inverse model)",
+                Space::Output => "output (simulated positions)",
+            }
+        );
+        Ok(match space {
             Space::Output => {
                 let (config, records) = output_records(plant, self)?;
                 Data::Output { config, records }
@@ -180,7 +224,9 @@ impl Inputs {
                 let free = crate::util::configuration(plant.model, &config)?
                     .free
                     .to_vec();
-                let (idim, said) = self.preparation.resolve(self.idim, &records, &free)?;
+                let (idim, said) =
+                    self.preparation
+                        .resolve(self.idim, &records, &free, Some((plant, &config)))?;
                 crate::errln!("preparation: {said}");
                 Data::Torque {
                     config,
