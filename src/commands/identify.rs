@@ -1057,7 +1057,7 @@ mod method_tests {
             a.oe.options(a.preset)
         };
         let o = parse(&["coupled", "--profile", p]).unwrap();
-        assert_eq!((o.h, o.max_speed), (1e-4, 300.0));
+        assert_eq!((o.h, o.max_speed), (1e-4, Some(300.0)));
         assert_eq!(o.horizons, vec![0.5, 1.0]);
         assert_eq!(o.predictor, OutputErrorOptions::coupled().predictor);
         let o = parse(&["coupled", "--profile", p, "--horizons", "1"]).unwrap();
@@ -1092,7 +1092,7 @@ mod method_tests {
             "integrator=etdrk4",
         ])
         .unwrap();
-        assert_eq!((o.h, o.max_speed), (1e-4, 250.0));
+        assert_eq!((o.h, o.max_speed), (1e-4, Some(250.0)));
         assert_eq!(o.horizons, vec![0.5, 1.0]);
         assert_eq!(o.integrator, Integrator::Etdrk4);
         let e = parse(&["coupled", "--step", "1e-4", "--set", "h=2e-4"])

@@ -216,23 +216,22 @@ pub struct BandTrial {
 }
 
 /// The fit band chosen by cross-validation (issue 57: the band depends on the record).
-/// Every record is cut into [`BLOCKS`] blocks; for each candidate band ([`CANDIDATE_FACTORS`]
-/// × the motion band, up to where no decimation is possible) the inverse model is fitted
-/// (`fit`: the commands' least squares on the base parameters) on the even blocks, and its
-/// torque prediction is compared with the measured torque on the odd blocks in the
-/// narrowest band (where the motion is). A wider band adds rows and the broadband content
-/// of friction's sign changes, and lowers that error while its rows are as trustworthy as
-/// the narrow band's; it raises it once the twice-differentiated position noise (errors in
-/// the regressor) or vibration the model lacks dominate. The widest band whose error is
-/// lower than every narrower one's by more than [`WIDER_GAIN`] is chosen. The plant's
-/// nonlinear values (rest angles, Stribeck speeds) are held.
+/// For each candidate band ([`CANDIDATE_FACTORS`] × the motion band, up to where no
+/// decimation is possible) `held_out_error(band's options, narrowest band's options)` fits
+/// the plant on the training rows and returns its relative torque error (%) on the held-out
+/// rows in the narrowest band ([`split`]: the even and odd eighths of every record); the
+/// candidates run in parallel. A wider band adds rows and the broadband content of
+/// friction's sign changes, and lowers that error while its rows are as trustworthy as the
+/// narrow band's; it raises it once the twice-differentiated position noise (errors in the
+/// regressor) or vibration the model lacks dominate. The band whose error is lower than
+/// every narrower one's by more than [`WIDER_GAIN`] is chosen, the widest such.
 ///
 /// # Errors
 /// None of the bands gives a fit (the first failure returned).
 pub fn cross_validated(
     prep: &Preparation,
     base: IdimOptions,
-    held_out_error: &dyn Fn(&IdimOptions, &IdimOptions) -> Result<f64>,
+    held_out_error: &(dyn Fn(&IdimOptions, &IdimOptions) -> Result<f64> + Sync),
 ) -> Result<(usize, Vec<BandTrial>)> {
     let motion = prep.band_hz / BAND_FACTOR;
     let mut trials: Vec<BandTrial> = Vec::new();
@@ -254,9 +253,15 @@ pub fn cross_validated(
         }
     }
     let reference = trials[0].options;
+    // The candidates are independent fits: in parallel.
+    use rayon::prelude::*;
+    let results: Vec<Result<f64>> = trials
+        .par_iter()
+        .map(|t| held_out_error(&t.options, &reference))
+        .collect();
     let mut first_error: Option<anyhow::Error> = None;
-    for t in &mut trials {
-        match held_out_error(&t.options, &reference) {
+    for (t, r) in trials.iter_mut().zip(results) {
+        match r {
             Ok(e) if e.is_finite() => t.held_out_error = Some(e),
             Ok(_) => {}
             Err(e) => {

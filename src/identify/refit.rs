@@ -22,10 +22,9 @@ pub struct RefitOptions {
     /// Hold of the measured torques for every record; `None`: each record's own (its
     /// side file's, else zero-order).
     pub hold: Option<Hold>,
-    /// Divergence bound on |q̇| (rad/s or m/s): the larger of this and
-    /// [`crate::identify::output_error::DIVERGENCE_FACTOR`] × each record's fastest
-    /// measured speed.
-    pub max_speed: f64,
+    /// Divergence bound on |q̇| (rad/s or m/s); `None`: from each record
+    /// ([`crate::identify::output_error::OutputErrorOptions::max_speed`]).
+    pub max_speed: Option<f64>,
     /// Samples skipped at the start of every file.
     pub skip: usize,
     /// Most Levenberg–Marquardt iterations.
@@ -51,7 +50,7 @@ impl Default for RefitOptions {
             h: 1.0 / 6000.0,
             integrator: Integrator::Rk4,
             hold: None,
-            max_speed: 100.0,
+            max_speed: None,
             skip: 0,
             max_iter: 50,
             starts: 1,

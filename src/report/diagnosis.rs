@@ -205,7 +205,8 @@ impl Inputs {
     /// As [`output_records`], or an unreadable torque-measured file (file, row, column).
     pub fn load(&self, plant: &Plant) -> Result<Data> {
         let (space, why) = Space::choose(&self.space, &self.data)?;
-        crate::errln!(
+        // Said once the data are read (an unreadable file is then the only line).
+        let said_space = format!(
             "space: {} ({why})",
             match space {
                 Space::Torque => "torque (inverse model)",
@@ -215,6 +216,7 @@ impl Inputs {
         Ok(match space {
             Space::Output => {
                 let (config, records) = output_records(plant, self)?;
+                crate::outln!("{said_space}");
                 Data::Output { config, records }
             }
             Space::Torque => {
@@ -227,7 +229,8 @@ impl Inputs {
                 let (idim, said) =
                     self.preparation
                         .resolve(self.idim, &records, &free, Some((plant, &config)))?;
-                crate::errln!("preparation: {said}");
+                crate::outln!("{said_space}");
+                crate::outln!("preparation: {said}");
                 Data::Torque {
                     config,
                     records,

@@ -137,11 +137,14 @@ pub struct Record {
     pub hold: Hold,
 }
 
-/// A simulation diverges when a speed exceeds this multiple of the fastest speed measured in
-/// its record (or [`OutputErrorOptions::max_speed`], whichever is larger): a real record
-/// faster than any fixed bound is simulated, and a divergence is still caught within a few
-/// steps of leaving the measured motion.
+/// Unless [`OutputErrorOptions::max_speed`] is given, a simulation diverges when a speed
+/// exceeds this multiple of the fastest speed measured in its record (at least
+/// [`DEFAULT_MAX_SPEED`]): a real record faster than any fixed bound is simulated, and a
+/// divergence is still caught soon after leaving the measured motion.
 pub const DIVERGENCE_FACTOR: f64 = 10.0;
+
+/// The least divergence bound (rad/s or m/s) taken from the data.
+pub const DEFAULT_MAX_SPEED: f64 = 100.0;
 
 impl Record {
     /// The fastest speed in the record (rad/s or m/s): the largest central difference of the
@@ -643,7 +646,7 @@ impl Problem {
                 &r.t,
                 self.options
                     .max_speed
-                    .max(DIVERGENCE_FACTOR * r.peak_speed()),
+                    .unwrap_or_else(|| DEFAULT_MAX_SPEED.max(DIVERGENCE_FACTOR * r.peak_speed())),
             )
             .map_err(|d| {
                 let j = plant.model.joints[self.conf.free[d.joint]];

@@ -56,9 +56,11 @@ pub struct OutputErrorOptions {
     /// Delay (s) between a torque's time stamp and its application to the joints (a
     /// transport delay; 0 for none).
     pub input_delay: f64,
-    /// Divergence bound on |q̇| (rad/s or m/s): each record is simulated with the larger of
-    /// this and [`super::DIVERGENCE_FACTOR`] × its fastest measured speed.
-    pub max_speed: f64,
+    /// Divergence bound on |q̇| (rad/s or m/s); `None`: from each record, the larger of
+    /// [`super::DEFAULT_MAX_SPEED`] and [`super::DIVERGENCE_FACTOR`] × its fastest measured
+    /// speed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_speed: Option<f64>,
     /// Stop when the relative step in the scaled parameters is below this (thesis: 2e-6).
     pub xtol: f64,
     /// Stop when the relative cost decrease of a step is below this.
@@ -254,7 +256,7 @@ impl OutputErrorOptions {
             integrator: Integrator::Rk4,
             hold: None,
             input_delay: 0.0,
-            max_speed: 100.0,
+            max_speed: None,
             xtol: 2e-6,
             ftol: 1e-6,
             max_iter: 100,
