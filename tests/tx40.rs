@@ -298,7 +298,11 @@ fn bad_input_on_the_tx40_is_one_line_and_writes_nothing() {
         assert!(!out.exists(), "{err}");
         errors[0].to_string()
     };
-    let e = run(&plant, &data, &["--window", "0.1:0.3"]);
+    let e = run(
+        &plant,
+        &data,
+        &["--window", "0.1:0.3", "--cutoff", "20", "--decimate", "100"],
+    );
     assert!(
         e.contains("observation rows")
             && e.contains("for 61 parameters")

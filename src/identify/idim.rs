@@ -1152,6 +1152,14 @@ pub fn separable_fit_rows(
                 }
             }
         };
+    // A neutral bias (1) makes its rest angle invisible to the profile: the bias moves first.
+    let neutral = names
+        .iter()
+        .zip(&u)
+        .any(|(n, &x)| n.starts_with("FrictionBias_") && x.abs() < 1e-12);
+    if neutral {
+        lm(&mut u, &mut best, &mut cost);
+    }
     profile(&mut u, &mut best, &mut cost);
     lm(&mut u, &mut best, &mut cost);
     let nonlinear = names

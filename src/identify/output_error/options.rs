@@ -59,7 +59,7 @@ pub struct OutputErrorOptions {
     /// Divergence bound on |q̇| (rad/s or m/s); `None`: from each record, the larger of
     /// [`super::DEFAULT_MAX_SPEED`] and [`super::DIVERGENCE_FACTOR`] × its fastest measured
     /// speed.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(default)]
     pub max_speed: Option<f64>,
     /// Stop when the relative step in the scaled parameters is below this (thesis: 2e-6).
     pub xtol: f64,
