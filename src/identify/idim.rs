@@ -366,11 +366,32 @@ pub fn observation(
         let idx: Vec<usize> = decimation_indices(ni, opts.decimation.max(1))
             .map(|i| interior[i])
             .collect();
+        // Every (joint, column) pair in parallel; a column that is zero on a joint's rows
+        // (another joint's effect, a link beyond it) decimates to zeros.
+        let decimated: Vec<Option<Vec<f64>>> = {
+            use rayon::prelude::*;
+            let nout = idx.len();
+            (0..nf * (ncol + 1))
+                .into_par_iter()
+                .map(|i| {
+                    let (a, c) = (i / (ncol + 1), i % (ncol + 1));
+                    let x = if c == ncol { &yr[a] } else { &wr[a][c] };
+                    if x.iter().all(|v| *v == 0.0) {
+                        Some(vec![0.0; nout])
+                    } else {
+                        decimate(x, opts.decimation)
+                    }
+                })
+                .collect()
+        };
+        let mut decimated = decimated.into_iter();
         for a in 0..nf {
-            let yd = decimate(&yr[a], opts.decimation).ok_or_else(too_short)?;
+            let mut of_joint: Vec<Vec<f64>> = (0..=ncol)
+                .map(|_| decimated.next().flatten().ok_or_else(too_short))
+                .collect::<Result<_>>()?;
+            let yd = of_joint.pop().ok_or_else(too_short)?;
             y_all.extend_from_slice(&yd);
-            for c in 0..ncol {
-                let wd = decimate(&wr[a][c], opts.decimation).ok_or_else(too_short)?;
+            for (c, wd) in of_joint.into_iter().enumerate() {
                 w_cols[c].extend_from_slice(&wd);
             }
             for &k in &idx {
