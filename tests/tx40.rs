@@ -142,11 +142,10 @@ fn reaches_figaroh(options: &dyn Fn((f64, f64)) -> IdimOptions) {
     );
 }
 
-/// Measured (2026-11-28): 14 steps, 4.743 % against the full model's 4.858 %, 264 s — the
+/// Measured (2026-11-28): 14 steps, 4.743 % against the full model's 4.858 %, 157 s — the
 /// friction bias on q5 the loop now applies in torque space costs a grid of refits at every
 /// later step (each grid point rebuilds the 45 000-sample observation).
 #[test]
-#[ignore = "slow end-to-end diagnosis (4.5 min); cargo test --release -- --ignored"]
 fn the_loop_on_the_tx40_names_the_friction_and_the_coupled_motor() {
     // A plant without friction (rigid body from the URDF, rotor inertias, offsets): the
     // torque-space loop adds what is significant and lowers the error, step by step, to
