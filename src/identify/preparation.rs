@@ -20,8 +20,9 @@
 //! 2. **Motion band** f_v per joint: the band holding 99.9 % of the power of the velocity of
 //!    the positions filtered at their noise limit (the lowest cut-off whose filter leaves at
 //!    most 0.1 % of the velocity's variance; bisected between grid points).
-//! 3. **Fit band** f_b = 3 × the largest f_v: the 8th-order Chebyshev of the decimation
-//!    passes it flat (0.05 dB), and what lies above it is noise and unmodelled vibration.
+//! 3. **Fit band**: chosen by cross-validation among 3, 6, 12, 24, 48 × the largest f_v
+//!    ([`cross_validated`]) where the plant is known; 3 × f_v without it
+//!    ([`Preparation::from_data`]).
 //! 4. **Decimation** r = ⌊0.8 f_N / f_b⌋ (MATLAB's `decimate` passes 0.8 f_s / 2r); the
 //!    **position filter** at twice the decimation's band, so that the regressor is not
 //!    attenuated where the torque is not (4th-order zero-phase Butterworth: gain
@@ -33,10 +34,8 @@
 //!    ([`crate::signal::bandlimited_derivatives`]) beyond (at a fifth of the sampling rate
 //!    central differences put q̈ 12 % low).
 //!
-//! Measured: the Stäubli TX40 (5 kHz) has motion bands of 4.1–5.5 Hz, fit band 16.5 Hz,
-//! ×120, filter 33 Hz, central differences; EMPS (1 kHz) 6.5 Hz, 19.6 Hz, ×20, 40 Hz,
-//! band-limited differentiators (EMPS's side file keeps the benchmark's own 100 Hz, ×10 and
-//! central differences).
+//! What it chooses on the TX40, EMPS, a 610 Hz oscillator and a friction-dominated axis:
+//! `docs/src/record/preparation.md`.
 
 use crate::identify::idim::{IdimOptions, Observation};
 use crate::measurement::{Measurement, SidePreparation};
@@ -67,7 +66,9 @@ pub struct Preparation {
     pub cutoff_hz: f64,
     /// Parallel decimation factor (1 = none).
     pub decimation: usize,
-    /// The fit band (Hz): [`BAND_FACTOR`] × the largest motion band.
+    /// The largest of the joints' motion bands (Hz).
+    pub motion_hz: f64,
+    /// The fit band (Hz): [`BAND_FACTOR`] × the motion band, at most 0.8 f_N.
     pub band_hz: f64,
     /// How the positions are differentiated.
     pub differentiator: Differentiator,
@@ -114,23 +115,15 @@ impl Preparation {
     /// Returns `None` when no record has usable positions (fewer than [`MIN_SAMPLES`], or a
     /// non-positive sampling period) or no joint moves.
     pub fn from_data(records: &[Measurement], free: &[usize]) -> Option<Preparation> {
-        let fs = records
-            .iter()
-            .filter(|r| r.len() >= MIN_SAMPLES)
-            .map(|r| 1.0 / r.dt())
-            .filter(|f| f.is_finite() && *f > 0.0)
-            .fold(f64::INFINITY, f64::min);
-        if !fs.is_finite() {
-            return None;
-        }
+        let usable: Vec<&Measurement> = records.iter().filter(|r| r.len() >= MIN_SAMPLES).collect();
+        let fs = sample_rate(usable.iter().copied())?;
         let nyquist = fs / 2.0;
         let grid = candidates(nyquist);
         let joints: Vec<JointCutoff> = free
             .iter()
             .map(|&j| {
-                let columns: Vec<&[f64]> = records
+                let columns: Vec<&[f64]> = usable
                     .iter()
-                    .filter(|r| r.len() >= MIN_SAMPLES)
                     .filter_map(|r| r.q.get(j).map(Vec::as_slice))
                     .collect();
                 let (noise_limit_hz, noise_sigma) = residual_cutoff(&columns, &grid, nyquist);
@@ -143,29 +136,23 @@ impl Preparation {
                 }
             })
             .collect();
-        let motion = joints
+        let motion_hz = joints
             .iter()
             .filter_map(|c| c.motion_band_hz)
             .reduce(f64::max)?;
-        let band_hz = (BAND_FACTOR * motion).min(DECIMATE_PASSBAND * nyquist);
+        let band_hz = (BAND_FACTOR * motion_hz).min(DECIMATE_PASSBAND * nyquist);
         let decimation = decimation_for(band_hz, nyquist);
-        let cutoff_hz = if decimation > 1 {
-            FILTER_FACTOR * DECIMATE_PASSBAND * nyquist / decimation as f64
-        } else {
-            f64::INFINITY
-        };
         Some(Preparation {
-            cutoff_hz,
+            cutoff_hz: cutoff_for(decimation, nyquist),
             decimation,
+            motion_hz,
             band_hz,
             differentiator: differentiator_for(band_hz, fs),
             sample_rate_hz: fs,
             joints,
         })
     }
-}
 
-impl Preparation {
     /// The preparation for fit band `band_hz` on these records: the decimation whose
     /// anti-aliasing filter passes it ([`decimation_for`]), the position filter at
     /// [`FILTER_FACTOR`] × the decimation's band (none where no decimation is possible), the
@@ -174,16 +161,15 @@ impl Preparation {
         let nyquist = self.sample_rate_hz / 2.0;
         let band_hz = band_hz.min(DECIMATE_PASSBAND * nyquist);
         let r = decimation_for(band_hz, nyquist);
-        let passed = DECIMATE_PASSBAND * nyquist / r as f64;
         let mut opts = base;
         opts.trim_moving_edges = true;
         opts.decimation = r;
-        opts.cutoff_hz = if r > 1 {
-            FILTER_FACTOR * passed
+        opts.cutoff_hz = cutoff_for(r, nyquist);
+        let band = if r > 1 {
+            decimation_band(r, nyquist)
         } else {
-            f64::INFINITY
+            band_hz
         };
-        let band = if r > 1 { passed } else { band_hz };
         opts.differentiator = differentiator_for(band, self.sample_rate_hz);
         (opts, band)
     }
@@ -233,10 +219,9 @@ pub fn cross_validated(
     base: IdimOptions,
     held_out_error: &(dyn Fn(&IdimOptions, &IdimOptions) -> Result<f64> + Sync),
 ) -> Result<(usize, Vec<BandTrial>)> {
-    let motion = prep.band_hz / BAND_FACTOR;
     let mut trials: Vec<BandTrial> = Vec::new();
     for f in CANDIDATE_FACTORS {
-        let (options, band_hz) = prep.for_band(f * motion, base);
+        let (options, band_hz) = prep.for_band(f * prep.motion_hz, base);
         if trials
             .iter()
             .any(|t| t.options.decimation == options.decimation)
@@ -342,10 +327,6 @@ fn motion_band(columns: &[&[f64]], grid: &[f64], nyquist: f64, limit_hz: f64) ->
         .filter_map(|c| smooth.filtfilt(c))
         .map(|f| f.windows(3).map(|w| w[2] - w[0]).collect())
         .collect();
-    let inner = |v: &[f64]| {
-        let m = (MARGIN * v.len() as f64) as usize;
-        m..v.len() - m
-    };
     let n: usize = velocities.iter().map(|v| inner(v).len()).sum();
     if n == 0 {
         return None;
@@ -426,11 +407,7 @@ impl Requested {
     ) -> Result<(IdimOptions, String)> {
         const SIDE: &str = "the side file's [preparation]";
         let side = side_preparation(records)?.unwrap_or_default();
-        let fs = records
-            .iter()
-            .map(|r| 1.0 / r.dt())
-            .filter(|f| f.is_finite() && *f > 0.0)
-            .fold(f64::INFINITY, f64::min);
+        let fs = sample_rate(records).unwrap_or(f64::INFINITY);
         let nyquist = fs / 2.0;
         if side.decimation == Some(0) {
             bail!(
@@ -447,18 +424,13 @@ impl Requested {
                 );
             }
         }
-        let pick = |given: Option<f64>, declared: Option<f64>| {
+        fn pick<T>(given: Option<T>, declared: Option<T>) -> Option<(T, &'static str)> {
             given
                 .map(|v| (v, "given"))
                 .or_else(|| declared.map(|v| (v, SIDE)))
-        };
+        }
         let cutoff = pick(self.cutoff_hz, side.cutoff_hz);
-        let decimation = pick(
-            self.decimation.map(|d| d as f64),
-            side.decimation.map(|d| d as f64),
-        )
-        .map(|(d, why)| (d as usize, why));
-        let band_of = |r: usize| DECIMATE_PASSBAND * nyquist / r as f64;
+        let decimation = pick(self.decimation, side.decimation);
         let mut data_said = String::new();
         let (cutoff_hz, why_c, r, why_r) = match (cutoff, decimation) {
             (Some((c, wc)), Some((r, wr))) => (c, wc.to_string(), r, wr.to_string()),
@@ -486,21 +458,19 @@ impl Requested {
                          from them: give --cutoff (Hz) and --decimate"
                     );
                 };
-                let motion = p.band_hz / BAND_FACTOR;
+                let motion = p.motion_hz;
                 data_said = format!(
                     "; the motion's band {motion:.4} Hz (99.9 % of the fastest joint's velocity \
                      power), fitted up to {:.4} Hz",
                     p.band_hz
                 );
                 match (cutoff, decimation) {
-                    (_, Some((r, wr))) => {
-                        let c = if r > 1 {
-                            FILTER_FACTOR * band_of(r)
-                        } else {
-                            f64::INFINITY
-                        };
-                        (c, "twice the decimation's band".into(), r, wr.to_string())
-                    }
+                    (_, Some((r, wr))) => (
+                        cutoff_for(r, nyquist),
+                        "twice the decimation's band".into(),
+                        r,
+                        wr.to_string(),
+                    ),
                     _ => match plant {
                         Some((plant, config)) => {
                             let (opts, said) =
@@ -524,7 +494,7 @@ impl Requested {
             }
         };
         let band = if r > 1 {
-            band_of(r).min(cutoff_hz)
+            decimation_band(r, nyquist).min(cutoff_hz)
         } else {
             cutoff_hz.min(DECIMATE_PASSBAND * nyquist)
         };
@@ -546,7 +516,7 @@ impl Requested {
         let decimated = if r > 1 {
             format!(
                 "decimated ×{r} ({why_r}; anti-aliasing at {:.4} Hz)",
-                band_of(r)
+                decimation_band(r, nyquist)
             )
         } else {
             format!("not decimated ({why_r})")
@@ -646,7 +616,41 @@ fn side_name(records: &[Measurement]) -> String {
 /// The largest decimation factor whose anti-aliasing filter passes `cutoff_hz` at Nyquist
 /// frequency `nyquist` (Hz): ⌊0.8 f_N / fc⌋, at least 1.
 pub fn decimation_for(cutoff_hz: f64, nyquist: f64) -> usize {
-    ((DECIMATE_PASSBAND * nyquist / cutoff_hz).floor() as usize).max(1)
+    (decimation_band(1, nyquist) / cutoff_hz).floor().max(1.0) as usize
+}
+
+/// The samples of a record's column that enter the residual analysis: all but [`MARGIN`] of
+/// them at each end (the filter's start-up).
+fn inner(c: &[f64]) -> std::ops::Range<usize> {
+    let m = (MARGIN * c.len() as f64) as usize;
+    m..c.len() - m
+}
+
+/// The records' sampling rate (Hz; the lowest where they differ), `None` without a positive
+/// finite one.
+fn sample_rate<'a>(records: impl IntoIterator<Item = &'a Measurement>) -> Option<f64> {
+    let fs = records
+        .into_iter()
+        .map(|r| 1.0 / r.dt())
+        .filter(|f| f.is_finite() && *f > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    fs.is_finite().then_some(fs)
+}
+
+/// The band (Hz) the anti-aliasing filter of decimation ×`r` passes at Nyquist frequency
+/// `nyquist`: 0.8 f_N / r.
+fn decimation_band(r: usize, nyquist: f64) -> f64 {
+    DECIMATE_PASSBAND * nyquist / r as f64
+}
+
+/// The position filter's cut-off (Hz) for decimation ×`r`: [`FILTER_FACTOR`] × its band;
+/// `f64::INFINITY` (no filter) without decimation.
+fn cutoff_for(r: usize, nyquist: f64) -> f64 {
+    if r > 1 {
+        FILTER_FACTOR * decimation_band(r, nyquist)
+    } else {
+        f64::INFINITY
+    }
 }
 
 /// Candidate cut-offs (Hz): 1, 1.5, 2, 3, 5, 7 per decade from 0.5 Hz to 0.8 f_N (and
@@ -674,10 +678,6 @@ fn candidates(nyquist: f64) -> Vec<f64> {
 /// none does or the positions show no noise.
 fn residual_cutoff(columns: &[&[f64]], grid: &[f64], nyquist: f64) -> (f64, f64) {
     let last = grid[grid.len() - 1];
-    let inner = |c: &[f64]| {
-        let m = (MARGIN * c.len() as f64) as usize;
-        m..c.len() - m
-    };
     let n: usize = columns.iter().map(|c| inner(c).len()).sum();
     if n == 0 {
         return (last, 0.0);
