@@ -365,18 +365,13 @@ impl Common {
     /// decimation resolved for the records and printed).
     pub fn load(&self) -> Result<(Plant, Vec<Measurement>, IdimOptions)> {
         let (plant, opts) = self.load_plant()?;
-        let nj = plant.model.joints.len();
-        let records = lockstep::report::diagnosis::read_noted(
-            &lockstep::measurement::expand_data_paths(&self.files.data)?,
-            nj,
+        let (records, opts, said) = lockstep::report::diagnosis::torque_records(
+            &plant,
+            &self.files.data,
+            self.config.as_deref().unwrap_or("full"),
+            opts,
+            &self.preparation(),
         )?;
-        let config = self.config.as_deref().unwrap_or("full");
-        let free = lockstep::util::configuration(plant.model, config)?
-            .free
-            .to_vec();
-        let (opts, said) =
-            self.preparation()
-                .resolve(opts, &records, &free, Some((&plant, config)))?;
         lockstep::outln!("preparation: {said}");
         Ok((plant, records, opts))
     }

@@ -220,15 +220,9 @@ impl Inputs {
                 Data::Output { config, records }
             }
             Space::Torque => {
-                let nj = plant.model.joints.len();
                 let config = self.config.clone().unwrap_or_else(|| "full".into());
-                let records = read_noted(&crate::measurement::expand_data_paths(&self.data)?, nj)?;
-                let free = crate::util::configuration(plant.model, &config)?
-                    .free
-                    .to_vec();
-                let (idim, said) =
-                    self.preparation
-                        .resolve(self.idim, &records, &free, Some((plant, &config)))?;
+                let (records, idim, said) =
+                    torque_records(plant, &self.data, &config, self.idim, &self.preparation)?;
                 crate::outln!("{said_space}");
                 crate::outln!("preparation: {said}");
                 Data::Torque {
@@ -239,6 +233,31 @@ impl Inputs {
             }
         })
     }
+}
+
+/// The torque-measured records of `data` (files or directories; [`read_noted`]) and their
+/// preparation for configuration `config`: `base` with the cut-off, decimation and
+/// differentiator `requested` fixes or the records choose
+/// ([`crate::identify::preparation::Requested::resolve`]), and the line saying which.
+///
+/// # Errors
+/// As [`read_noted`]; an unknown configuration; as `resolve`.
+pub fn torque_records(
+    plant: &Plant,
+    data: &[PathBuf],
+    config: &str,
+    base: IdimOptions,
+    requested: &crate::identify::preparation::Requested,
+) -> Result<(Vec<Measurement>, IdimOptions, String)> {
+    let records = read_noted(
+        &crate::measurement::expand_data_paths(data)?,
+        plant.model.joints.len(),
+    )?;
+    let free = crate::util::configuration(plant.model, config)?
+        .free
+        .to_vec();
+    let (idim, said) = requested.resolve(base, &records, &free, Some((plant, config)))?;
+    Ok((records, idim, said))
 }
 
 /// The torque-measured records in `paths` ([`Measurement::read`], `nj` joints), what
