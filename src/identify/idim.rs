@@ -885,22 +885,17 @@ pub const STILL_SHARE: f64 = 1e-4;
 /// The first still joint, its span against the widest one's, and the parameters of its
 /// own effects.
 pub fn refuse_still_joints(obs: &Observation, model: &generated::Model) -> Result<()> {
-    let mut spans: Vec<(usize, f64)> = Vec::new();
-    for r in &obs.rows {
-        if !spans.iter().any(|(j, _)| *j == r.joint) {
-            spans.push((r.joint, 0.0));
-        }
-    }
-    for (j, span) in spans.iter_mut() {
-        let (lo, hi) = obs
-            .rows
-            .iter()
-            .filter(|r| r.joint == *j)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
-                (lo.min(r.q), hi.max(r.q))
-            });
-        *span = hi - lo;
-    }
+    let spans: Vec<(usize, f64)> = rows_by_joint(obs)
+        .into_iter()
+        .map(|(j, idx)| {
+            let (lo, hi) = idx
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &i| {
+                    (lo.min(obs.rows[i].q), hi.max(obs.rows[i].q))
+                });
+            (j, hi - lo)
+        })
+        .collect();
     let Some(&(widest, max)) = spans.iter().max_by(|a, b| a.1.total_cmp(&b.1)) else {
         return Ok(());
     };
