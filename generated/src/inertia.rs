@@ -91,6 +91,13 @@ impl CentroidalInertia {
         self.check().into_iter().map(|f| f.message).collect()
     }
 
+    /// The principal moments of the inertia about the centroid (kg·m²), the eigenvalues of
+    /// `i_c` ([`symmetric_eigenvalues`]).
+    pub fn principal_moments(&self) -> [f64; 3] {
+        let i = self.i_c;
+        symmetric_eigenvalues([[i[0], i[1], i[2]], [i[1], i[3], i[4]], [i[2], i[4], i[5]]])
+    }
+
     /// [`CentroidalInertia::consistency`] with the kind of each finding.
     pub fn check(&self) -> Vec<Inconsistency> {
         let mut out = Vec::new();
@@ -101,8 +108,7 @@ impl CentroidalInertia {
             });
         }
         let i = self.i_c;
-        let mat = [[i[0], i[1], i[2]], [i[1], i[3], i[4]], [i[2], i[4], i[5]]];
-        let ev = symmetric_eigenvalues(mat);
+        let ev = self.principal_moments();
         let tr = (i[0] + i[3] + i[5]).abs().max(1e-300);
         let tol = 1e-12 * tr;
         if ev.iter().any(|&l| l <= tol) {

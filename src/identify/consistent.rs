@@ -235,12 +235,7 @@ fn refuse_impossible_prior(
         let Some(ci) = generated::inertia::CentroidalInertia::from_barycentric(&b) else {
             continue;
         };
-        let i = ci.i_c;
-        let moments = generated::inertia::symmetric_eigenvalues([
-            [i[0], i[1], i[2]],
-            [i[1], i[3], i[4]],
-            [i[2], i[4], i[5]],
-        ]);
+        let moments = ci.principal_moments();
         let scale = moments.iter().fold(0.0f64, |a, x| a.max(x.abs()));
         if let Some(neg) = moments.iter().find(|&&x| x < -1e-9 * scale.max(1e-12)) {
             bail!(
