@@ -102,6 +102,24 @@ fn value(out: &str, name: &str) -> f64 {
         .unwrap_or_else(|| panic!("{name} not in {out}"))
 }
 
+/// `identify idim` of `plant` on `data`, the fit written to `out`: its standard output (its
+/// errors shown if it failed).
+fn identify(plant: &Path, data: &Path, out: &Path) -> String {
+    let o = lockstep(&[
+        "identify",
+        "idim",
+        "--plant",
+        plant.to_str().unwrap(),
+        "--data",
+        data.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let printed = ok(&o);
+    eprintln!("{}{printed}", String::from_utf8_lossy(&o.stderr));
+    printed
+}
+
 fn within(what: &str, x: f64, want: f64, pct: f64) {
     assert!(
         (x - want).abs() <= pct / 100.0 * want.abs(),
@@ -114,19 +132,7 @@ fn lugre_static_curve_and_friction_bias_are_fitted_in_torque_space() {
     let d = tempfile::tempdir().unwrap();
     let data = record(d.path());
     let start = plant(d.path(), "start.toml", true);
-    let fitted = d.path().join("fitted.toml");
-    let o = lockstep(&[
-        "identify",
-        "idim",
-        "--plant",
-        start.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-        "--out",
-        fitted.to_str().unwrap(),
-    ]);
-    let out = ok(&o);
-    eprintln!("{}{out}", String::from_utf8_lossy(&o.stderr));
+    let out = identify(&start, &data, &d.path().join("fitted.toml"));
     within("M", value(&out, "M"), M, 1.0);
     within("Fc_0", value(&out, "Fc_0"), FC, 2.0);
     within("Fs_0", value(&out, "Fs_0"), FS, 2.0);
@@ -153,16 +159,7 @@ fn a_hidden_friction_bias_is_named_added_and_refitted_in_torque_space() {
     // The right friction law, the bias missing; its values fitted first.
     let start = plant(d.path(), "start.toml", false);
     let fitted = d.path().join("without_bias.toml");
-    ok(&lockstep(&[
-        "identify",
-        "idim",
-        "--plant",
-        start.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-        "--out",
-        fitted.to_str().unwrap(),
-    ]));
+    identify(&start, &data, &fitted);
     let applied = d.path().join("applied.toml");
     let o = lockstep(&[
         "diagnose",
