@@ -120,13 +120,13 @@ fn output_space(truth: &lockstep::plant::Plant, dir: &std::path::Path) {
 /// The torque-space detector on six joints.
 fn torque_space(truth: &lockstep::plant::Plant, dir: &std::path::Path) {
     let file = common::table_4_7_file(truth, dir, dir, "k5");
-    let m = Measurement::read(&file, truth.model.joints.len()).unwrap();
+    let m = Measurement::read(&file, truth.model.joints).unwrap();
     let mut linear = truth.clone();
     linear.effects.clear();
     for j in 0..truth.model.joints.len() {
         for kind in [EffectKind::Viscous, EffectKind::Coulomb] {
             linear.add_effect(Effect::on(kind, j)).unwrap();
-            let name = format!("{}_{j}", kind.symbols()[0]);
+            let name = Effect::on(kind, j).parameter_names(truth.model.joints)[0].clone();
             linear.parameters.entry(name).or_insert(0.0);
         }
     }

@@ -140,12 +140,12 @@ fn real_arm(c: &mut Criterion) {
         base_fit, locked_positions, observation, IdimOptions, MinSpeed, Weighting,
     };
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let plant = Plant::load(&root.join("model/plants/tx40_figaroh.toml")).unwrap();
     let record = lockstep::measurement::Measurement::read(
         &root.join("data/staubli_tx40/tx40_joint_5kHz.csv"),
-        6,
+        plant.model.joints,
     )
     .unwrap();
-    let plant = Plant::load(&root.join("model/plants/tx40_figaroh.toml")).unwrap();
     let opts = IdimOptions {
         cutoff_hz: 20.0,
         filter_order: 4,

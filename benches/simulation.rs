@@ -78,8 +78,8 @@ fn springs_by_hand(plant: &lockstep::plant::Plant) -> lockstep::plant::Plant {
         )
         .unwrap();
         let (v, q) = (
-            plant.parameters[&format!("Ks_{j}")],
-            plant.parameters[&format!("qeq_{j}")],
+            plant.parameters[&format!("Ks_q{j}")],
+            plant.parameters[&format!("qeq_q{j}")],
         );
         p.parameters.insert(ks, v);
         p.parameters.insert(qe, q);

@@ -479,7 +479,8 @@ pub fn compare_observation(
         let qd = column(j, &|i| obs.rows[i].qd);
         let mut inputs = vec![("qd".to_string(), qd.clone())];
         for &k in joints.iter().filter(|&&k| k != j) {
-            inputs.push((format!("tau{k}"), column(k, &|i| obs.y[i])));
+            let name = crate::names::column("tau", plant.model.joints[k]);
+            inputs.push((name, column(k, &|i| obs.y[i])));
         }
         let dt = if t.len() > 1 { t[1] - t[0] } else { 1.0 };
         out.push(comparison(
@@ -638,7 +639,12 @@ pub fn compare_output(
             .free
             .iter()
             .zip(&r.tau)
-            .map(|(k, u)| (format!("tau{k}"), u.clone()))
+            .map(|(&k, u)| {
+                (
+                    crate::names::column("tau", plant.model.joints[k]),
+                    u.clone(),
+                )
+            })
             .collect();
         for (a, &j) in conf.free.iter().enumerate() {
             for (x, y) in r.q[a][skip..].iter().zip(&traj.q[a][skip..]) {

@@ -114,8 +114,9 @@ pub fn run(data_dir: &Path, out: &Path) -> Result<DemoResult> {
             .progress_chars("=> "),
     );
     bar.set_message("reading the EMPS records");
-    let train = Measurement::read(&data_dir.join("emps_train.csv"), 1)?;
-    let pulses = Measurement::read(&data_dir.join("emps_test_pulses.csv"), 1)?;
+    let joints = crate::util::model("emps")?.joints;
+    let train = Measurement::read(&data_dir.join("emps_train.csv"), joints)?;
+    let pulses = Measurement::read(&data_dir.join("emps_test_pulses.csv"), joints)?;
     bar.inc(1);
     let mut text = String::new();
     writeln!(text, "EMPS (Janot, Gautier, Brunot 2019): one prismatic axis, {} samples at {:.0} Hz per record.", train.len(), 1.0 / train.dt())?;

@@ -2,11 +2,13 @@
 //! torque of one joint, τ_i = [D q̈ + C q̇ + φ]_i + Σ effects_i.
 //!
 //! Each effect is listed in a plant file (see [`crate::plant`]) with the joints it acts on;
-//! its parameters get names `<symbol>_<joint index>` (thesis Appendix D style, e.g. `Fv_0`).
+//! its parameters get names `<symbol>_<joint>` with the model's joint name (`Fv_q0`;
+//! [`crate::names`]: the numbered `Fv_0` of earlier versions is still read).
 //! Effects that are linear in their parameters contribute regressor columns for
 //! inverse-dynamic identification (IDIM-LS); the others (plant gain, Stribeck, LuGre, spring,
 //! friction bias, input coupling) act in the simulator (`crate::simulation`).
 
+use crate::names;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -42,7 +44,7 @@ pub enum EffectKind {
     FrictionBias,
     /// Tendon input coupling (thesis 4.5–4.6): the command of joint `from` reaches this joint,
     /// `τ'_to = τ_to + G·τ_from`. The thesis's τ'_4 = τ_4 − G54 τ_5, τ'_5 = τ_5 + G45 τ_4 are
-    /// two of these: `G_5to4 = −G54`, `G_4to5 = G45`.
+    /// two of these: `G_q5_to_q4 = −G54`, `G_q4_to_q5 = G45`.
     InputCoupling,
     /// Armature (rotor) inertia reflected through the gearing, `Ia·q̈` (kg·m² or kg; Ia =
     /// J_rotor·N² for a gear ratio N): it adds Ia to the joint's diagonal entry of the
@@ -327,16 +329,28 @@ impl Effect {
         free.contains(&self.joint) && self.from.is_none_or(|f| free.contains(&f))
     }
 
-    /// Parameter names, e.g. `["Fv_0"]`; an input coupling from 5 to 4 has `["G_5to4"]`.
-    pub fn parameter_names(&self) -> Vec<String> {
+    /// Parameter names with the model's joint names `joints` ([`crate::names`]): viscous
+    /// friction on joint `q1` has `["Fv_q1"]`; an input coupling from `q6` to `q5` has
+    /// `["G_q6_to_q5"]`.
+    pub fn parameter_names(&self, joints: &[&str]) -> Vec<String> {
+        let name = |k: usize| joints.get(k).copied().unwrap_or("?");
         match self.from {
-            Some(from) => vec![format!("G_{from}to{}", self.joint)],
+            Some(from) => vec![names::coupling_gain(name(from), name(self.joint))],
             None => self
                 .kind
                 .symbols()
                 .iter()
-                .map(|s| format!("{s}_{}", self.joint))
+                .map(|s| names::parameter(s, name(self.joint)))
                 .collect(),
+        }
+    }
+
+    /// The name of this effect's parameter `symbol` (one of [`EffectKind::symbols`]).
+    pub fn parameter_name(&self, symbol: &str, joints: &[&str]) -> String {
+        let name = |k: usize| joints.get(k).copied().unwrap_or("?");
+        match self.from {
+            Some(from) => names::coupling_gain(name(from), name(self.joint)),
+            None => names::parameter(symbol, name(self.joint)),
         }
     }
 }
@@ -344,6 +358,8 @@ impl Effect {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const JOINTS: [&str; 6] = ["q1", "q2", "q3", "q4", "q5", "q6"];
 
     #[test]
     fn regressor_rows_match_the_friction_laws() {
@@ -366,9 +382,12 @@ mod tests {
         assert_eq!(tau(0.5), 2.0 * 0.5 + 3.0);
         assert_eq!(tau(-0.5), 5.0 * -0.5 - 7.0);
         assert_eq!(
-            Effect::on(EffectKind::AsymmetricFriction, 3).parameter_names(),
-            vec!["Fv_pos_3", "Fc_pos_3", "Fv_neg_3", "Fc_neg_3"]
+            Effect::on(EffectKind::AsymmetricFriction, 3).parameter_names(&JOINTS),
+            vec!["Fv_pos_q4", "Fc_pos_q4", "Fv_neg_q4", "Fc_neg_q4"]
         );
-        assert_eq!(Effect::coupling(5, 4).parameter_names(), vec!["G_5to4"]);
+        assert_eq!(
+            Effect::coupling(5, 4).parameter_names(&JOINTS),
+            vec!["G_q6_to_q5"]
+        );
     }
 }

@@ -3,16 +3,18 @@
 //! without a rebuild (issue 54 item 1).
 //!
 //! ```text
-//! K3*(q3 - qeq3)^3            cubic stiffness about qeq3
-//! A*sin(6*q2 + phi)           cogging, six periods per turn
-//! c*qd1*abs(qd1)              quadratic (aerodynamic) drag
-//! Fm*tanh((qd4 + qd5)/0.01)   friction of a motor that drives the sum of two joints
+//! K3*(q_q3 - qeq3)^3               cubic stiffness about qeq3
+//! A*sin(6*q_q2 + phi)              cogging, six periods per turn
+//! c*qd_q1*abs(qd_q1)               quadratic (aerodynamic) drag
+//! Fm*tanh((qd_q5 + qd_q6)/0.01)    friction of a motor that drives the sum of two joints
 //! ```
 //!
-//! Symbols, for the joint of index k of the model (the joint named `qk`): `qk` position
-//! (rad or m), `qdk` velocity, `qddk` acceleration (the simulator takes an effect linear in
-//! them into the inertia matrix, [`Expression::acceleration_coefficients`]), `tauk` commanded
-//! torque (N·m or N), `zk` LuGre bristle deflection (simulator only; 0 without LuGre);
+//! Symbols, for the model's joint named J ([`crate::names`]): `q_J` position (rad or m),
+//! `qd_J` velocity, `qdd_J` acceleration (the simulator takes an effect linear in them into
+//! the inertia matrix, [`Expression::acceleration_coefficients`]), `tau_J` commanded torque
+//! (N·m or N), `z_J` LuGre bristle deflection (simulator only; 0 without LuGre); the form
+//! of earlier versions, numbered from 0 (`q2`, `qd2`, … for the model's third joint), is
+//! still read;
 //! `t` the time (s; the records' time column); the constant `pi`; any other name must be one of the expression's declared parameters.
 //! Operators `+ - * / ^` (`^` binds tighter than unary minus: `-x^2 = -(x^2)`), functions
 //! `sin cos tan exp ln sqrt abs sign tanh atan sinh cosh` of one argument and `min max` of
@@ -245,33 +247,25 @@ fn tokens(text: &str) -> Result<Vec<(Token, usize)>, ExpressionError> {
     Ok(out)
 }
 
-/// The state-variable symbol a name stands for (`q3`, `qd3`, `qdd3`, `tau3`, `z3`), with
-/// the joint index unchecked.
-fn state_symbol(name: &str) -> Option<Symbol> {
-    for (prefix, make) in [
-        ("qdd", Symbol::Qdd as fn(usize) -> Symbol),
-        ("qd", Symbol::Qd),
-        ("q", Symbol::Q),
-        ("tau", Symbol::Tau),
-        ("z", Symbol::Z),
-    ] {
-        if let Some(rest) = name.strip_prefix(prefix) {
-            if !rest.is_empty() && rest.chars().all(|c| c.is_ascii_digit()) {
-                if rest.len() > 1 && rest.starts_with('0') {
-                    return None;
-                }
-                return rest.parse().ok().map(make);
-            }
-        }
-    }
-    None
+/// The state-variable symbol a name stands for: by the joint's name (`q_q3`, `qd_q3`,
+/// `qdd_q3`, `tau_q3`, `z_q3`) or numbered from 0 as in earlier versions (`q2`, `qd2`, …),
+/// the index unchecked ([`crate::names::state_variable`]).
+fn state_symbol(joints: &[&str], name: &str) -> Option<Symbol> {
+    let (signal, k) = crate::names::state_variable(joints, name)?;
+    Some(match signal {
+        "qdd" => Symbol::Qdd(k),
+        "qd" => Symbol::Qd(k),
+        "q" => Symbol::Q(k),
+        "tau" => Symbol::Tau(k),
+        _ => Symbol::Z(k),
+    })
 }
 
 struct Parser<'a> {
     toks: Vec<(Token, usize)>,
     at: usize,
     end: usize,
-    joints: usize,
+    joints: &'a [&'a str],
     parameters: &'a [String],
     used: Vec<bool>,
     divisors: Vec<(usize, usize)>,
@@ -427,14 +421,16 @@ impl Parser<'_> {
                     self.used[i] = true;
                     return Ok(Node::Var(Symbol::Param(i)));
                 }
-                if let Some(s) = state_symbol(&name) {
+                if let Some(s) = state_symbol(self.joints, &name) {
                     let k = joint_of(s).unwrap_or(0);
-                    if k >= self.joints {
+                    if k >= self.joints.len() {
                         return Err(ExpressionError {
                             column: col,
                             message: format!(
-                                "'{name}' names joint {k}, the model has joints 0 to {}",
-                                self.joints.saturating_sub(1)
+                                "'{name}' numbers joint {k} (from 0), the model has {} joints ({}); write the joint by name, e.g. 'q_{}'",
+                                self.joints.len(),
+                                self.joints.join(", "),
+                                self.joints.last().copied().unwrap_or("q1")
                             ),
                         });
                     }
@@ -443,8 +439,8 @@ impl Parser<'_> {
                 Err(ExpressionError {
                     column: col,
                     message: format!(
-                        "unknown symbol '{name}': not a state variable (qk, qdk, qddk, tauk, zk for joint k = 0..{}; t, the time) nor a declared parameter ({})",
-                        self.joints.saturating_sub(1),
+                        "unknown symbol '{name}': not a state variable (q_J, qd_J, qdd_J, tau_J, z_J for a joint J of {}; t, the time) nor a declared parameter ({})",
+                        self.joints.join(", "),
                         if self.parameters.is_empty() {
                             "none declared".to_string()
                         } else {
@@ -492,10 +488,10 @@ fn symbols_of(n: &Node, out: &mut Vec<Symbol>) {
     }
 }
 
-/// True when `name` reads as a state variable (`q3`, `qd0`, …), a function or a constant:
-/// it cannot name a parameter.
-pub fn is_reserved(name: &str) -> bool {
-    state_symbol(name).is_some()
+/// True when `name` reads as a state variable of a model with joints `joints` (`q_q3`,
+/// `qd0`, …), a function or a constant: it cannot name a parameter.
+pub fn is_reserved(joints: &[&str], name: &str) -> bool {
+    state_symbol(joints, name).is_some()
         || name == "pi"
         || name == "t"
         || name == "min"
@@ -504,7 +500,8 @@ pub fn is_reserved(name: &str) -> bool {
 }
 
 impl Expression {
-    /// Parse `text` for a model of `joints` joints with the declared `parameters`.
+    /// Parse `text` for a model whose joints are named `joints` with the declared
+    /// `parameters`.
     ///
     /// # Errors
     /// A syntax error, an unknown symbol or function, a function with the wrong number of
@@ -513,7 +510,7 @@ impl Expression {
     /// (a declaration error has column 0).
     pub fn parse(
         text: &str,
-        joints: usize,
+        joints: &[&str],
         parameters: &[String],
     ) -> Result<Expression, ExpressionError> {
         for (i, p) in parameters.iter().enumerate() {
@@ -527,7 +524,7 @@ impl Expression {
             {
                 return bad(format!("parameter '{p}': expected a name (a letter or '_', then letters, digits or '_')"));
             }
-            if is_reserved(p) {
+            if is_reserved(joints, p) {
                 return bad(format!(
                     "parameter '{p}': the name is a state variable, function or constant"
                 ));
@@ -962,7 +959,7 @@ mod tests {
 
     fn parse(text: &str, params: &[&str]) -> Result<Expression, ExpressionError> {
         let p: Vec<String> = params.iter().map(|s| s.to_string()).collect();
-        Expression::parse(text, 6, &p)
+        Expression::parse(text, &["q0", "q1", "q2", "q3", "q4", "q5"], &p)
     }
 
     fn value(e: &Expression, at: &dyn Fn(Symbol) -> f64) -> f64 {
@@ -1061,7 +1058,14 @@ mod tests {
             "column 11: expected ')', found the end"
         );
         assert!(err("K3*q3 + K33", &["K3"]).starts_with("column 9: unknown symbol 'K33'"));
-        assert!(err("K3*q9", &["K3"]).starts_with("column 4: 'q9' names joint 9"));
+        assert!(err("K3*q9", &["K3"]).starts_with(
+            "column 4: 'q9' numbers joint 9 (from 0), the model has 6 joints (q0, q1, q2, q3, q4, q5); write the joint by name, e.g. 'q_q5'"
+        ));
+        // By name: the joint must be the model's.
+        assert!(err("K3*q_q9", &["K3"]).starts_with("column 4: unknown symbol 'q_q9'"));
+        let named = parse("K3*(q_q3 - qd_q3) + qdd_q2 + tau_q1*z_q0", &["K3"]).unwrap();
+        let numbered = parse("K3*(q3 - qd3) + qdd2 + tau1*z0", &["K3"]).unwrap();
+        assert_eq!(named.root.to_string(), numbered.root.to_string());
         assert_eq!(
             err("K3*sin(q3, q2)", &["K3"]),
             "column 4: 'sin' takes 1 argument, found 2"

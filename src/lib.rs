@@ -16,6 +16,7 @@ pub mod expression;
 pub mod files;
 pub mod identify;
 pub mod measurement;
+pub mod names;
 pub mod plant;
 pub mod report;
 pub mod signal;

@@ -266,6 +266,71 @@ impl Table {
         })
     }
 
+    /// Column `signal` (`q`, `qd`, `tau`, `qref`, …) of joint `j` of a model whose joints
+    /// are named `joints`: by the joint's name (`tau_q3`) or numbered from 0 as earlier
+    /// versions wrote it (`tau2`; [`crate::names`]); `None` when neither is present.
+    ///
+    /// # Errors
+    /// Both forms present ([`DataError::Record`], naming both columns); as [`Table::get`].
+    pub fn joint_column(
+        &self,
+        joints: &[&str],
+        signal: &str,
+        j: usize,
+    ) -> Result<Option<Vec<f64>>, DataError> {
+        let named = crate::names::column(signal, joints[j]);
+        let numbered = crate::names::numbered_column(signal, j);
+        let has = |n: &str| self.names.iter().any(|x| x == n);
+        match (has(&named), has(&numbered)) {
+            (true, true) => Err(DataError::Record {
+                file: self.file.clone(),
+                reason: format!(
+                    "columns '{}' and '{}' both give {signal} of joint '{}' ('{numbered}' numbers the joints from 0); keep one",
+                    self.own_name(&named),
+                    self.own_name(&numbered),
+                    joints[j]
+                ),
+            }),
+            (true, false) => self.get(&named),
+            _ => self.get(&numbered),
+        }
+    }
+
+    /// A required joint column ([`Table::joint_column`]).
+    ///
+    /// # Errors
+    /// [`DataError::MissingColumn`] naming the column in the current form and the columns
+    /// present; as [`Table::joint_column`].
+    pub fn need_joint(
+        &self,
+        joints: &[&str],
+        signal: &str,
+        j: usize,
+    ) -> Result<Vec<f64>, DataError> {
+        self.joint_column(joints, signal, j)?.ok_or_else(|| {
+            let named = crate::names::column(signal, joints[j]);
+            let numbered = crate::names::numbered_column(signal, j);
+            match self.need(&named) {
+                Err(DataError::MissingColumn {
+                    file,
+                    column,
+                    available,
+                }) => DataError::MissingColumn {
+                    file,
+                    column,
+                    available: format!(
+                        "or '{numbered}', numbered from 0 as earlier versions wrote; {available}"
+                    ),
+                },
+                Err(e) => e,
+                Ok(_) => DataError::Record {
+                    file: self.file.clone(),
+                    reason: format!("column '{named}' unreadable"),
+                },
+            }
+        })
+    }
+
     fn own_name(&self, std: &str) -> String {
         self.side
             .columns
@@ -524,26 +589,28 @@ impl Measurement {
     /// [`DataError`]: missing or unreadable file, malformed side file, missing column,
     /// non-numeric or non-finite cell, fewer than [`MIN_SAMPLES`] rows, time not strictly
     /// increasing or not evenly spaced (relative deviation of a step above 1e-3).
-    pub fn read(path: &Path, joints: usize) -> Result<Measurement, DataError> {
+    pub fn read(path: &Path, joints: &[&str]) -> Result<Measurement, DataError> {
         let table = Table::read(path)?;
         Measurement::from_table(&table, joints)
     }
 
-    /// A record from a table: `t`, `tau{j}` and `q{j}` required, `qd{j}`, `tauM{j}` optional.
+    /// A record from a table, for a model whose joints are named `joints`: `t`, and per
+    /// joint J `tau_J` and `q_J` required, `qd_J`, `tauM_J` optional (each also read in the
+    /// numbered form of earlier versions, `tau2`: [`Table::joint_column`]).
     ///
     /// # Errors
     /// As [`Measurement::read`].
-    pub fn from_table(table: &Table, joints: usize) -> Result<Measurement, DataError> {
+    pub fn from_table(table: &Table, joints: &[&str]) -> Result<Measurement, DataError> {
         let t = table.need("t")?;
         let mut tau = Vec::new();
         let mut q = Vec::new();
         let mut qd = Vec::new();
         let mut tau_m = Vec::new();
-        for j in 0..joints {
-            tau.push(table.need(&format!("tau{j}"))?);
-            q.push(table.need(&format!("q{j}"))?);
-            qd.push(table.get(&format!("qd{j}"))?);
-            tau_m.push(table.get(&format!("tauM{j}"))?);
+        for j in 0..joints.len() {
+            tau.push(table.need_joint(joints, "tau", j)?);
+            q.push(table.need_joint(joints, "q", j)?);
+            qd.push(table.joint_column(joints, "qd", j)?);
+            tau_m.push(table.joint_column(joints, "tauM", j)?);
         }
         let m = Measurement {
             file: table.file.clone(),
@@ -560,32 +627,42 @@ impl Measurement {
 
     /// Write the record as CSV, or as a MATLAB v7 MAT file for a `.mat` extension (one
     /// N×1 double variable per column), atomically: a temporary file renamed into place.
-    /// Columns: `t`, then per joint `tau{j}`, `q{j}`, and `qd{j}`, `tauM{j}` where present.
+    /// Columns: `t`, then per joint J (of `joints`, the model's joint names) `tau_J`, `q_J`,
+    /// and `qd_J`, `tauM_J` where present.
     ///
     /// # Errors
-    /// I/O errors, with the path.
-    pub fn write(&self, path: &Path) -> anyhow::Result<()> {
-        crate::files::commit(vec![self.stage(path)?])
+    /// I/O errors, with the path; fewer joint names than joints.
+    pub fn write(&self, path: &Path, joints: &[&str]) -> anyhow::Result<()> {
+        crate::files::commit(vec![self.stage(path, joints)?])
     }
 
     /// The record staged for [`crate::files::commit`] (see [`Measurement::write`]).
     ///
     /// # Errors
     /// As [`Measurement::write`].
-    pub fn stage(&self, path: &Path) -> anyhow::Result<crate::files::Staged> {
+    pub fn stage(&self, path: &Path, joints: &[&str]) -> anyhow::Result<crate::files::Staged> {
+        if joints.len() < self.q.len() {
+            anyhow::bail!(
+                "{}: {} joint names for a record of {} joints",
+                path.display(),
+                joints.len(),
+                self.q.len()
+            );
+        }
+        let col = crate::names::column;
         let mut names = vec!["t".to_string()];
         let mut cols: Vec<&[f64]> = vec![&self.t];
-        for j in 0..self.q.len() {
-            names.push(format!("tau{j}"));
+        for (j, joint) in joints.iter().enumerate().take(self.q.len()) {
+            names.push(col("tau", joint));
             cols.push(&self.tau[j]);
-            names.push(format!("q{j}"));
+            names.push(col("q", joint));
             cols.push(&self.q[j]);
             if let Some(v) = &self.qd[j] {
-                names.push(format!("qd{j}"));
+                names.push(col("qd", joint));
                 cols.push(v);
             }
             if let Some(v) = &self.tau_m[j] {
-                names.push(format!("tauM{j}"));
+                names.push(col("tauM", joint));
                 cols.push(v);
             }
         }

@@ -16,8 +16,8 @@
 //!
 //! [parameters]                         # SI; rigid body in the model file's symbols
 //! m4 = 0.0679                          # (m, centroid, inertia about it) or barycentric
-//! sigma0_4 = 0.17618                   # names, one form per link
-//! G_5to4 = -0.20362
+//! sigma0_q4 = 0.17618                  # names, one form per link; effects' named by
+//! G_q5_to_q4 = -0.20362                # joint (crate::names; Fc_3 of earlier versions read)
 //!
 //! [bounds]                             # [lower, upper], used by identification
 //! m4 = [0.03395, 0.10185]
@@ -191,6 +191,78 @@ impl Plant {
         }
     }
 
+    /// The current name of parameter `name`: itself, or for an effect parameter in the
+    /// numbered form of earlier versions (`Fc_2`) the name with the model's joint name
+    /// (`Fc_q3` on a model whose joints are `q1..`; [`crate::names::renamed_parameter`]). A
+    /// parameter of a user-defined effect keeps its name.
+    pub fn current_name(&self, name: &str) -> String {
+        let declared = self.parameters.contains_key(name)
+            || self
+                .expressions
+                .iter()
+                .any(|x| x.expression.parameters.iter().any(|p| p == name));
+        if declared {
+            return name.to_string();
+        }
+        // Renamed only to a name the plant has (a numbered name of an effect it lacks is
+        // refused as written).
+        match crate::names::renamed_parameter(self.model.joints, name) {
+            Some(current) if self.known_names().contains(&current) => current,
+            _ => name.to_string(),
+        }
+    }
+
+    /// `spec` with its parameter names in the current form ([`Plant::current_name`]);
+    /// refused when a value is given under both names.
+    fn renamed_spec(&self, mut spec: PlantFile) -> Result<PlantFile> {
+        fn rename<V>(
+            plant: &Plant,
+            table: &str,
+            map: BTreeMap<String, V>,
+        ) -> Result<BTreeMap<String, V>> {
+            let mut out = BTreeMap::new();
+            let mut given: BTreeMap<String, String> = BTreeMap::new();
+            for (k, v) in map {
+                let current = plant.current_name(&k);
+                if let Some(first) = given.insert(current.clone(), k.clone()) {
+                    bail!("{table}: '{first}' and '{k}' name the same parameter ('{current}'); give it once");
+                }
+                out.insert(current, v);
+            }
+            Ok(out)
+        }
+        spec.parameters = rename(self, "[parameters]", spec.parameters)?;
+        spec.bounds = rename(self, "[bounds]", spec.bounds)?;
+        spec.standard_errors = rename(self, "[standard_errors]", spec.standard_errors)?;
+        let mut correlations = BTreeMap::new();
+        for (a0, row) in spec.correlations {
+            let a = self.current_name(&a0);
+            for (b0, r) in row {
+                let b = self.current_name(&b0);
+                // A renamed pair may no longer be in lexical order; a pair as written is
+                // kept as written (its order is checked).
+                let renamed = a != a0 || b != b0;
+                let (x, y) = if renamed && b < a {
+                    (b, a.clone())
+                } else {
+                    (a.clone(), b)
+                };
+                let row: &mut BTreeMap<String, f64> = correlations.entry(x.clone()).or_default();
+                if row.insert(y.clone(), r).is_some() {
+                    bail!("[correlations.{x}] '{y}': the pair is given twice (under its numbered name too)");
+                }
+            }
+        }
+        spec.correlations = correlations;
+        for h in &mut spec.history {
+            h.fitted = std::mem::take(&mut h.fitted)
+                .into_iter()
+                .map(|(k, v)| (self.current_name(&k), v))
+                .collect();
+        }
+        Ok(spec)
+    }
+
     fn joint_index(&self, name: &str, item: &str) -> Result<usize> {
         self.model
             .joints
@@ -224,15 +296,12 @@ impl Plant {
     ///
     /// # Errors
     /// As [`Plant::load`], without the file name.
-    pub fn from_file(spec: PlantFile, path: Option<&Path>) -> Result<Plant> {
+    pub fn from_file(mut spec: PlantFile, path: Option<&Path>) -> Result<Plant> {
         let mut plant =
             Plant::new(&spec.model, vec![]).map_err(|e| anyhow::anyhow!("field 'model': {e}"))?;
         plant.file = path.map(Path::to_path_buf);
         plant.description = spec.description.clone();
-        plant.history = spec.history.clone();
         plant.undetermined = spec.undetermined.clone();
-        plant.standard_errors = spec.standard_errors.clone();
-        plant.correlations = spec.correlations.clone();
         for (i, e) in spec.effects.iter().enumerate() {
             let item = format!("effect {} ({})", i + 1, e.kind);
             let mut effects = Vec::new();
@@ -269,6 +338,10 @@ impl Plant {
         for (i, x) in spec.expressions.iter().enumerate() {
             plant.add_expression_spec(x, &format!("expression {} ('{}')", i + 1, x.name))?;
         }
+        spec = plant.renamed_spec(spec)?;
+        plant.history = spec.history.clone();
+        plant.standard_errors = spec.standard_errors.clone();
+        plant.correlations = spec.correlations.clone();
         let known = plant.known_names();
         let check_name = |k: &str, what: &str| -> Result<()> {
             if !known.iter().any(|n| n == k) {
@@ -394,7 +467,7 @@ impl Plant {
                 bail!("{item}: joint '{}' is given twice", self.model.joints[*j]);
             }
         }
-        let expression = Expression::parse(torque, self.model.joints.len(), parameters)
+        let expression = Expression::parse(torque, self.model.joints, parameters)
             .map_err(|e| anyhow::anyhow!("{item}: 'torque' {e}"))?;
         let taken = self.known_names();
         for p in parameters {
@@ -522,7 +595,7 @@ impl Plant {
     pub fn effect_parameter_names(&self) -> Vec<String> {
         let mut v: Vec<String> = Vec::new();
         for e in &self.effects {
-            for n in e.parameter_names() {
+            for n in e.parameter_names(self.model.joints) {
                 if !v.contains(&n) {
                     v.push(n);
                 }
@@ -744,12 +817,15 @@ impl Plant {
     /// # Errors
     /// It has none (named, with the plant file).
     pub fn value(&self, name: &str) -> Result<f64> {
-        self.parameters.get(name).copied().with_context(|| {
-            format!(
-                "{}: parameter '{name}' has no value (add it under [parameters])",
-                self.name()
-            )
-        })
+        let found = self.parameters.get(name).copied();
+        found
+            .or_else(|| self.parameters.get(&self.current_name(name)).copied())
+            .with_context(|| {
+                format!(
+                    "{}: parameter '{name}' has no value (add it under [parameters])",
+                    self.name()
+                )
+            })
     }
 
     /// Correlation of the recorded estimates of `a` and `b` ([`Plant::correlations`]): 1
@@ -909,15 +985,16 @@ impl Plant {
             let Some(a) = free_index(e.joint) else {
                 continue;
             };
-            let v = |s: &str| self.value(&format!("{s}_{}", e.joint));
+            let pname = |s: &str| e.parameter_name(s, m.joints);
+            let v = |s: &str| self.value(&pname(s));
             let t = &mut terms[a];
             let positive = |s: &str, x: f64| -> Result<f64> {
                 if x > 0.0 {
                     Ok(x)
                 } else {
                     bail!(
-                        "{name}: parameter '{s}_{}' must be positive, found {x}",
-                        e.joint
+                        "{name}: parameter '{}' must be positive, found {x}",
+                        pname(s)
                     )
                 }
             };
@@ -925,9 +1002,9 @@ impl Plant {
                 let x = v(s)?;
                 if x.is_nan() || x < 0.0 {
                     bail!(
-                        "{name}: {} '{s}_{}' must be 0 or positive ({what}), found {x}",
+                        "{name}: {} '{}' must be 0 or positive ({what}), found {x}",
                         e.kind,
-                        e.joint
+                        pname(s)
                     );
                 }
                 Ok(x)
@@ -981,7 +1058,7 @@ impl Plant {
                         couplings.push(InputCoupling {
                             from: b,
                             to: a,
-                            g: self.value(&e.parameter_names()[0])?,
+                            g: self.value(&pname("G"))?,
                         });
                     }
                 }

@@ -25,10 +25,12 @@ pub struct Excitation {
     pub side: SideFile,
     /// Joints whose signals the configuration does not apply (locked), by name.
     pub left_out: Vec<String>,
+    /// The model's joint names, which name the columns ([`crate::names`]).
+    pub joints: &'static [&'static str],
 }
 
 impl Excitation {
-    /// Write `t` and one column per joint (`tau{j}` for torques, `qref{j}` for position
+    /// Write `t` and one column per joint J (`tau_J` for torques, `qref_J` for position
     /// commands) as CSV or MAT (by extension), and the side file beside it, atomically.
     ///
     /// # Errors
@@ -40,8 +42,8 @@ impl Excitation {
         };
         let mut names = vec!["t".to_string()];
         let mut cols: Vec<&[f64]> = vec![&self.t];
-        for (j, c) in self.u.iter().enumerate() {
-            names.push(format!("{prefix}{j}"));
+        for (joint, c) in self.joints.iter().zip(&self.u) {
+            names.push(crate::names::column(prefix, joint));
             cols.push(c);
         }
         crate::files::commit(vec![
@@ -120,6 +122,7 @@ pub fn excite(
             .iter()
             .map(|&j| model.joints[j].to_string())
             .collect(),
+        joints: model.joints,
     })
 }
 
@@ -172,9 +175,11 @@ impl Default for SimulateOptions {
 /// What [`simulate_file`] made.
 #[derive(Debug, Clone)]
 pub struct Simulated {
-    /// The measurement: `t`, per joint `tau{j}` (as commanded), `q{j}` (with noise and
-    /// quantisation; locked joints at their positions) and `qd{j}` (noise-free).
+    /// The measurement: `t`, per joint J `tau_J` (as commanded), `q_J` (with noise and
+    /// quantisation; locked joints at their positions) and `qd_J` (noise-free).
     pub measurement: Measurement,
+    /// The model's joint names, which name the columns ([`crate::names`]).
+    pub joints: &'static [&'static str],
     /// Its side file (configuration, locked positions, provenance).
     pub side: SideFile,
     /// Consistency findings the simulation went ahead with.
@@ -190,7 +195,7 @@ impl Simulated {
     /// I/O errors, with the path.
     pub fn write(&self, path: &Path) -> Result<()> {
         crate::files::commit(vec![
-            self.measurement.stage(path)?,
+            self.measurement.stage(path, self.joints)?,
             crate::measurement::stage_side_file(path, &self.side)?,
         ])
     }
@@ -295,11 +300,11 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
     let mut notes = table.notes.clone();
     let mut tau_all = vec![vec![0.0; t.len()]; nj];
     for j in 0..nj {
-        let name = format!("tau{j}");
+        let name = crate::names::column("tau", model.joints[j]);
         let col = if conf.free.contains(&j) {
-            Some(table.need(&name)?)
+            Some(table.need_joint(model.joints, "tau", j)?)
         } else {
-            table.get(&name)?
+            table.joint_column(model.joints, "tau", j)?
         };
         if let Some(c) = col {
             if !conf.free.contains(&j) && c.iter().any(|&x| x != 0.0) {
@@ -429,6 +434,7 @@ pub fn simulate_file(plant: &Plant, input: &Path, opts: &SimulateOptions) -> Res
             tau_m: vec![None; nj],
             notes: Vec::new(),
         },
+        joints: model.joints,
         side,
         findings: configured.findings,
         notes,

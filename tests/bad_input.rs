@@ -49,7 +49,7 @@ fn run_identify(data: &Path, out: &Path) -> std::process::Output {
 }
 
 fn read_err(path: &Path) -> String {
-    Measurement::read(path, 1).unwrap_err().to_string()
+    Measurement::read(path, &["q0"]).unwrap_err().to_string()
 }
 
 #[test]
@@ -71,7 +71,9 @@ fn missing_column_lists_the_header() {
     );
     let e = read_err(&p);
     assert!(
-        e.contains("a.csv") && e.contains("missing column 'tau0'") && e.contains("t, force, q0"),
+        e.contains("a.csv")
+            && e.contains("missing column 'tau_q0' (or 'tau0', numbered from 0")
+            && e.contains("t, force, q0"),
         "{e}"
     );
 }
@@ -118,7 +120,7 @@ fn time_must_increase_and_uneven_steps_are_resampled() {
             )
         }),
     );
-    let m = Measurement::read(&p, 1).unwrap();
+    let m = Measurement::read(&p, &["q0"]).unwrap();
     assert!((m.dt() - 0.0011).abs() < 1e-12, "{}", m.dt());
     assert!(
         m.notes
@@ -192,15 +194,16 @@ fn plant_file_errors_name_file_and_item() {
         "model = \"emps\"\n[parameters]\nFc_0 = 3.0\n",
     );
     let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();
+    // A numbered name (earlier versions) of an effect the plant lacks: named as written.
     assert!(e.contains("'Fc_0' belongs to nothing"), "{e}");
     let p = write(
         d.path(),
         "p5.toml",
-        "model = \"emps\"\nundetermined = [\"Fc_0\"]\n",
+        "model = \"emps\"\nundetermined = [\"Fc_q0\"]\n",
     );
     let e = lockstep::plant::Plant::load(&p).unwrap_err().to_string();
     assert!(
-        e.contains("p5.toml") && e.contains("'undetermined': 'Fc_0' is not a rigid-body symbol"),
+        e.contains("p5.toml") && e.contains("'undetermined': 'Fc_q0' is not a rigid-body symbol"),
         "{e}"
     );
     // Standard errors are kept only for the plant's parameters, and must be positive.
@@ -218,13 +221,13 @@ fn plant_file_errors_name_file_and_item() {
         // Correlations only between values with standard errors, each pair once, in [−1, 1].
         (
             "p8.toml",
-            "model = \"emps\"\n[[effect]]\nkind = \"viscous\"\njoints = [\"q0\"]\n[parameters]\nM = 95.0\nFv_0 = 20.0\n[standard_errors]\nM = 0.1\n[correlations.Fv_0]\nM = 0.5\n",
-            "[correlations.Fv_0] 'M': 'Fv_0' has no entry in [standard_errors]",
+            "model = \"emps\"\n[[effect]]\nkind = \"viscous\"\njoints = [\"q0\"]\n[parameters]\nM = 95.0\nFv_0 = 20.0\n[standard_errors]\nM = 0.1\n[correlations.Fv_q0]\nM = 0.5\n",
+            "[correlations.Fv_q0] 'M': 'Fv_q0' has no entry in [standard_errors]",
         ),
         (
             "p9.toml",
-            "model = \"emps\"\n[[effect]]\nkind = \"viscous\"\njoints = [\"q0\"]\n[parameters]\nM = 95.0\nFv_0 = 20.0\n[standard_errors]\nM = 0.1\nFv_0 = 0.2\n[correlations.Fv_0]\nM = -1.2\n",
-            "[correlations.Fv_0] 'M': expected a correlation in [-1, 1], found -1.2",
+            "model = \"emps\"\n[[effect]]\nkind = \"viscous\"\njoints = [\"q0\"]\n[parameters]\nM = 95.0\nFv_0 = 20.0\n[standard_errors]\nM = 0.1\nFv_0 = 0.2\n[correlations.Fv_q0]\nM = -1.2\n",
+            "[correlations.Fv_q0] 'M': expected a correlation in [-1, 1], found -1.2",
         ),
     ] {
         let p = write(d.path(), file, text);

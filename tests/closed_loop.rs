@@ -160,8 +160,8 @@ fn compare_in_closed_loop_on_the_command_line_and_its_mistakes() {
         &["[joints.q0]", "law 'cascade' needs 'kv'"],
     );
     bad(
-        &|t| t.replace("reference = \"qref0\"", "reference = \"qref9\""),
-        &["qref9", "emps_test_pulses.csv", "reference of joint q0"],
+        &|t| t.replace("reference = \"qref_q0\"", "reference = \"qref_q9\""),
+        &["qref_q9", "emps_test_pulses.csv", "reference of joint q0"],
     );
     // A record sampled at another rate than the controller.
     let other = d.join("data");
@@ -210,7 +210,7 @@ fn idim_start(file: &str) -> (Plant, Controller, ClosedLoopRecord) {
     use lockstep::identify::idim::{least_squares, observation, IdimOptions};
     let mut plant = Plant::load(&manifest(file)).unwrap();
     let table = Table::read(&manifest("data/emps/emps_train.csv")).unwrap();
-    let m = lockstep::measurement::Measurement::from_table(&table, 1).unwrap();
+    let m = lockstep::measurement::Measurement::from_table(&table, &["q0"]).unwrap();
     least_squares(&observation(&plant, "full", &[m], &IdimOptions::default()).unwrap())
         .unwrap()
         .apply(&mut plant)
@@ -257,8 +257,8 @@ fn didim_and_the_closed_loop_diagnosis_find_coulomb_then_the_offset_emps() {
     assert!(viscous.iterations.last().unwrap().force_error > 15.0);
     plant = viscous.plant;
     for (expected, symbol) in [
-        (EffectKind::Coulomb, "Fc_0"),
-        (EffectKind::Offset, "offset_0"),
+        (EffectKind::Coulomb, "Fc_q0"),
+        (EffectKind::Offset, "offset_q0"),
     ] {
         let (d, _) = diagnose_closed_loop(&plant, &c, &records, &options.idim, &[]).unwrap();
         let text = table(&d.findings, 4);
@@ -285,7 +285,7 @@ fn didim_and_the_closed_loop_diagnosis_find_coulomb_then_the_offset_emps() {
 /// `identify didim` and `diagnose --controller` on the command line: DIDIM from the mass +
 /// viscous IDIM-LS values writes its plant, the closed-loop diagnosis of it names Coulomb
 /// friction, and `--apply 1` adds it and refits by DIDIM (Fc within 5 % of the benchmark's
-/// 20.39 N, the offset still missing); `refit --controller --params Fc_0` takes Fc from 10 N
+/// 20.39 N, the offset still missing); `refit --controller --params Fc_q0` takes Fc from 10 N
 /// back to that value (1 %) with the others held and records the step; a user's candidate is ranked beside the catalogue; a
 /// plant whose effect the inverse model cannot fit is refused with the reason
 /// and nothing written.
@@ -339,13 +339,13 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
         "{text}"
     );
     let fitted = Plant::load(&p3).unwrap();
-    let fc = fitted.parameters["Fc_0"];
+    let fc = fitted.parameters["Fc_q0"];
     // Without the offset yet, the closed-loop fit puts Fc a little below the full model's.
     assert!((fc / 20.3935 - 1.0).abs() < 0.05, "Fc {fc}");
-    // `refit --controller`: Fc_0 alone refitted from 10 N, the others held; the step in
+    // `refit --controller`: Fc_q0 alone refitted from 10 N, the others held; the step in
     // the history with the closed-loop force RMS before and after.
     let mut off = fitted.clone();
-    off.parameters.insert("Fc_0".into(), 10.0);
+    off.parameters.insert("Fc_q0".into(), 10.0);
     let (p6, p7) = (d.join("p6.toml"), d.join("p7.toml"));
     off.save(&p6).unwrap();
     let refit = |params: &str, out: &Path| {
@@ -363,11 +363,11 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
             &s(out),
         ])
     };
-    common::ok(&refit("Fc_0", &p7));
+    common::ok(&refit("Fc_q0", &p7));
     let refitted = Plant::load(&p7).unwrap();
-    let back = refitted.parameters["Fc_0"];
+    let back = refitted.parameters["Fc_q0"];
     assert!((back / fc - 1.0).abs() < 0.01, "Fc {back} against {fc}");
-    assert_eq!(refitted.parameters["Fv_0"], fitted.parameters["Fv_0"]);
+    assert_eq!(refitted.parameters["Fv_q0"], fitted.parameters["Fv_q0"]);
     let step = refitted.history.last().unwrap();
     assert_eq!(step.space.as_deref(), Some("closed loop"));
     assert!(
@@ -376,8 +376,8 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
     );
     let p8 = d.join("p8.toml");
     common::fails(
-        &refit("Ks_0", &p8),
-        &["'Ks_0' is not a parameter of the inverse model"],
+        &refit("Ks_q0", &p8),
+        &["'Ks_q0' is not a parameter of the inverse model"],
     );
     assert!(!p8.exists());
     // The user's candidates are ranked beside the catalogue in closed-loop space too.
@@ -415,8 +415,8 @@ parameters = { c = { start = 0.0, bounds = [-1e5, 1e5] } }
             0,
         ))
         .unwrap();
-    spring.parameters.insert("Ks_0".into(), 1.0);
-    spring.parameters.insert("qeq_0".into(), 0.1);
+    spring.parameters.insert("Ks_q0".into(), 1.0);
+    spring.parameters.insert("qeq_q0".into(), 0.1);
     let p4 = d.join("p4.toml");
     spring.save(&p4).unwrap();
     let p5 = d.join("p5.toml");
@@ -589,11 +589,11 @@ fn hidden_coulomb_on_two_joints_of_a_puma_under_pd_in_closed_loop_space() {
     )
     .unwrap();
     for (n, v) in [
-        ("Fv_0", 2.0),
-        ("Fv_1", 2.0),
-        ("Fv_2", 1.0),
-        ("Fc_1", 3.0),
-        ("Fc_2", 2.0),
+        ("Fv_q1", 2.0),
+        ("Fv_q2", 2.0),
+        ("Fv_q3", 1.0),
+        ("Fc_q2", 3.0),
+        ("Fc_q3", 2.0),
     ] {
         truth.parameters.insert(n.into(), v);
     }
@@ -637,8 +637,8 @@ fn hidden_coulomb_on_two_joints_of_a_puma_under_pd_in_closed_loop_space() {
     }
     let mut plant = truth.clone();
     plant.effects.retain(|e| e.kind != EffectKind::Coulomb);
-    plant.parameters.remove("Fc_1");
-    plant.parameters.remove("Fc_2");
+    plant.parameters.remove("Fc_q2");
+    plant.parameters.remove("Fc_q3");
     let options = DidimOptions::default();
     let refit = |p: &Plant| {
         let r = didim(p, &c, &records, &options, &|i, it| {
@@ -670,7 +670,7 @@ fn hidden_coulomb_on_two_joints_of_a_puma_under_pd_in_closed_loop_space() {
     let last = closed_loop_errors(&plant, &c, &records).unwrap();
     eprintln!(
         "with both: force {:.4} % (truth {:.4} %), Fc {:.4} / {:.4}",
-        last.0, floor.0, plant.parameters["Fc_1"], plant.parameters["Fc_2"]
+        last.0, floor.0, plant.parameters["Fc_q2"], plant.parameters["Fc_q3"]
     );
     assert!(
         last.0 <= 1.01 * floor.0,
@@ -678,6 +678,6 @@ fn hidden_coulomb_on_two_joints_of_a_puma_under_pd_in_closed_loop_space() {
         last.0,
         floor.0
     );
-    assert!((plant.parameters["Fc_1"] / 3.0 - 1.0).abs() < 0.01);
-    assert!((plant.parameters["Fc_2"] / 2.0 - 1.0).abs() < 0.01);
+    assert!((plant.parameters["Fc_q2"] / 3.0 - 1.0).abs() < 0.01);
+    assert!((plant.parameters["Fc_q3"] / 2.0 - 1.0).abs() < 0.01);
 }

@@ -39,7 +39,7 @@ fn fit_and_diagnose(plant: &mut Plant, m: &Measurement) -> (f64, Vec<Finding>) {
 
 #[test]
 fn emps_hidden_coulomb_friction_is_named_first_and_adding_it_brings_the_error_below_4_3_percent() {
-    let m = Measurement::read(&root().join("data/emps/emps_train.csv"), 1).unwrap();
+    let m = Measurement::read(&root().join("data/emps/emps_train.csv"), &["q0"]).unwrap();
     let mut plant = Plant::load(&root().join("model/plants/emps_viscous.toml")).unwrap();
     let (error, f) = fit_and_diagnose(&mut plant, &m);
     assert!(error >= 15.0, "{error}");
@@ -60,7 +60,7 @@ fn emps_hidden_coulomb_friction_is_named_first_and_adding_it_brings_the_error_be
     plant
         .add_effect(Effect::on(EffectKind::Coulomb, 0))
         .unwrap();
-    plant.parameters.insert("Fc_0".into(), 0.0);
+    plant.parameters.insert("Fc_q0".into(), 0.0);
     let (_, f) = fit_and_diagnose(&mut plant, &m);
     // Next: a constant, alone (offset, −3.1 N) or inside a spring (Ks (q − qeq) has a constant
     // column; on EMPS it explains 68.3 % against the offset's 67.8 %).
@@ -79,7 +79,7 @@ fn emps_hidden_coulomb_friction_is_named_first_and_adding_it_brings_the_error_be
     );
     assert!((off.estimate[0].1 + 3.1).abs() < 0.5, "{t}");
     plant.add_effect(Effect::on(EffectKind::Offset, 0)).unwrap();
-    plant.parameters.insert("offset_0".into(), 0.0);
+    plant.parameters.insert("offset_q0".into(), 0.0);
     let (error, _) = fit_and_diagnose(&mut plant, &m);
     assert!(error <= 4.3, "{error}");
 }
@@ -144,7 +144,7 @@ fn synthetic_emps_with(dir: &std::path::Path, k3: f64, drift: f64) -> Measuremen
         text += &format!("{},{},{}\n", t[k], y[k], q[k]);
     }
     std::fs::write(&path, text).unwrap();
-    Measurement::read(&path, 1).unwrap()
+    Measurement::read(&path, &["q0"]).unwrap()
 }
 
 /// The truth's residual, filtered and decimated, passes the whiteness test, so the verdict
@@ -252,7 +252,7 @@ fn the_loop_in_torque_space_on_the_command_line_emps() {
         (h.rms_before["q0"] / h.rms_after["q0"] - 9.6227 / 3.8065).abs() < 0.05,
         "{h:?}"
     );
-    assert!((h.fitted["Fc_0"] - 20.37).abs() < 0.5, "{h:?}");
+    assert!((h.fitted["Fc_q0"] - 20.37).abs() < 0.5, "{h:?}");
     let rel: f64 = out
         .lines()
         .rev()
@@ -265,7 +265,7 @@ fn the_loop_in_torque_space_on_the_command_line_emps() {
     assert!(rel <= 4.3, "{out}");
     assert_eq!(plant.history.len(), 2);
     assert_eq!(plant.history[1].change, "added offset on q0");
-    assert!((plant.history[1].fitted["offset_0"] + 3.1).abs() < 0.5);
+    assert!((plant.history[1].fitted["offset_q0"] + 3.1).abs() < 0.5);
     std::fs::copy(&p2, &p3).unwrap();
     // Against the demo's own IDIM-LS of the same model (an independent path: the library's
     // least squares on the plant with both effects): the same relative error.
@@ -273,9 +273,9 @@ fn the_loop_in_torque_space_on_the_command_line_emps() {
     for k in [EffectKind::Coulomb, EffectKind::Offset] {
         by_hand.add_effect(Effect::on(k, 0)).unwrap();
     }
-    by_hand.parameters.insert("Fc_0".into(), 0.0);
-    by_hand.parameters.insert("offset_0".into(), 0.0);
-    let m = Measurement::read(&root().join("data/emps/emps_train.csv"), 1).unwrap();
+    by_hand.parameters.insert("Fc_q0".into(), 0.0);
+    by_hand.parameters.insert("offset_q0".into(), 0.0);
+    let m = Measurement::read(&root().join("data/emps/emps_train.csv"), &["q0"]).unwrap();
     let (error, _) = fit_and_diagnose(&mut by_hand, &m);
     assert!((error - rel).abs() < 1e-3, "{error} against {rel}");
     // By hand: `refit --params` in torque space fits the named values, the others held;
@@ -294,15 +294,15 @@ fn the_loop_in_torque_space_on_the_command_line_emps() {
             &s(&p4),
         ])
     };
-    let out = common::ok(&refit("offset_0"));
+    let out = common::ok(&refit("offset_q0"));
     assert!(out.contains("torque space"), "{out}");
     let refitted = Plant::load(&p4).unwrap();
-    assert!((refitted.parameters["offset_0"] / plant.parameters["offset_0"] - 1.0).abs() < 1e-6);
+    assert!((refitted.parameters["offset_q0"] / plant.parameters["offset_q0"] - 1.0).abs() < 1e-6);
     common::fails(
-        &refit("Ks_0"),
+        &refit("Ks_q0"),
         &[
-            "'Ks_0' is not a parameter of the inverse model",
-            "M, Fv_0, Fc_0, offset_0",
+            "'Ks_q0' is not a parameter of the inverse model",
+            "M, Fv_q0, Fc_q0, offset_q0",
         ],
     );
     // The report reads the torque-space history.
@@ -341,7 +341,7 @@ fn a_hidden_cubic_stiffness_is_named_in_torque_space() {
     );
     assert!(
         f.iter()
-            .any(|x| x.structure && x.name.starts_with("structure: q0^3")),
+            .any(|x| x.structure && x.name.starts_with("structure: q_q0^3")),
         "{table}"
     );
     let r = lockstep::diagnose::torque::apply_finding(
@@ -352,7 +352,7 @@ fn a_hidden_cubic_stiffness_is_named_in_torque_space() {
         &opts(),
     )
     .unwrap();
-    let k3 = r.plant.parameters["K3_0"];
+    let k3 = r.plant.parameters["K3_q0"];
     let rms = r.after[0].1;
     // The floor: the true model on the same noise without the cubic.
     let mut truth = Plant::load(&root().join("model/plants/emps_symmetric.toml")).unwrap();
@@ -603,7 +603,7 @@ fn a_six_joint_torque_diagnosis_has_finite_figures_k5() {
         },
         &path,
     );
-    let m = Measurement::read(&path, 6).unwrap();
+    let m = Measurement::read(&path, &["q0", "q1", "q2", "q3", "q4", "q5"]).unwrap();
     let mut plant = truth.clone();
     plant.effects.clear();
     for j in 0..6 {
@@ -611,7 +611,7 @@ fn a_six_joint_torque_diagnosis_has_finite_figures_k5() {
             plant.add_effect(Effect::on(kind, j)).unwrap();
             plant
                 .parameters
-                .entry(format!("{}_{j}", kind.symbols()[0]))
+                .entry(format!("{}_q{j}", kind.symbols()[0]))
                 .or_insert(0.0);
         }
     }

@@ -142,18 +142,18 @@ fn hidden_tendon_coupling_5_to_4_k1() {
         (EffectKind::InputCoupling, "q4", Some("q5")),
     );
     assert!(ratio < 0.5, "error ratio {ratio}");
-    let g = f.values.iter().find(|v| v.0 == "G_5to4").unwrap().1;
-    assert!((g + 0.20362).abs() < 0.02, "G_5to4 = {g}");
+    let g = f.values.iter().find(|v| v.0 == "G_q5_to_q4").unwrap().1;
+    assert!((g + 0.20362).abs() < 0.02, "G_q5_to_q4 = {g}");
 }
 
 #[test]
 fn hidden_strong_stribeck_on_joint_5_c2() {
     let dir = tmp();
     let mut truth = base();
-    truth.parameters.insert("Fs_5".into(), 0.1);
-    truth.parameters.insert("vs_5".into(), 0.1);
+    truth.parameters.insert("Fs_q5".into(), 0.1);
+    truth.parameters.insert("vs_q5".into(), 0.1);
     let mut start = truth.clone();
-    start.parameters.insert("Fs_5".into(), 0.02);
+    start.parameters.insert("Fs_q5".into(), 0.02);
     let rec = data(dir.path(), &truth, "c2", "4.3", Some("J5"));
     let (_, ratio, _) = diagnose_and_fix(&start, "c2", &rec, (EffectKind::Stribeck, "q5", None));
     assert!(ratio < 0.5, "error ratio {ratio}");
@@ -163,16 +163,16 @@ fn hidden_strong_stribeck_on_joint_5_c2() {
 fn hidden_plant_gain_error_on_joint_2_c4() {
     let dir = tmp();
     let mut truth = base();
-    let kp = truth.parameters["Kp_2"];
-    truth.parameters.insert("Kp_2".into(), 1.3 * kp);
+    let kp = truth.parameters["Kp_q2"];
+    truth.parameters.insert("Kp_q2".into(), 1.3 * kp);
     let start = base();
     let rec = data(dir.path(), &truth, "c4", "4.3", Some("J2"));
     let (_, ratio, f) = diagnose_and_fix(&start, "c4", &rec, (EffectKind::Gain, "q2", None));
     assert!(ratio < 0.5, "error ratio {ratio}");
-    let fitted = f.values.iter().find(|v| v.0 == "Kp_2").unwrap().1;
+    let fitted = f.values.iter().find(|v| v.0 == "Kp_q2").unwrap().1;
     assert!(
         (fitted / kp - 1.3).abs() < 0.03,
-        "Kp_2 = {fitted}, truth {}",
+        "Kp_q2 = {fitted}, truth {}",
         1.3 * kp
     );
 }
@@ -217,10 +217,10 @@ fn the_loop_on_the_command_line_c3() {
     start
         .effects
         .retain(|e| !(e.kind == EffectKind::Spring && e.joint == 3));
-    start.parameters.remove("Ks_3");
-    start.parameters.remove("qeq_3");
-    start.bounds.remove("Ks_3");
-    start.bounds.remove("qeq_3");
+    start.parameters.remove("Ks_q3");
+    start.parameters.remove("qeq_q3");
+    start.bounds.remove("Ks_q3");
+    start.bounds.remove("qeq_q3");
     let start_file = d.join("start.toml");
     start.save(&start_file).unwrap();
     data(d, &truth, "c3", "4.3", Some("J3"));
@@ -244,7 +244,7 @@ fn the_loop_on_the_command_line_c3() {
     let h = &p.history[0];
     assert_eq!(h.change, "added spring on q3");
     assert!(h.rms_after["q3"] < 0.01 * h.rms_before["q3"], "{h:?}");
-    assert!((h.fitted["Ks_3"] / 0.0064599 - 1.0).abs() < 0.05, "{h:?}");
+    assert!((h.fitted["Ks_q3"] / 0.0064599 - 1.0).abs() < 0.05, "{h:?}");
     // The report: self-contained (figures inlined, nothing fetched), with the history and
     // the starting plant drawn beside the model.
     let rep = d.join("rep");
@@ -308,15 +308,15 @@ fn the_loop_on_the_command_line_c3() {
         "--plant",
         &s(&start_file),
         "--set",
-        "qeq_3=0.1",
+        "qeq_q3=0.1",
         "--bound",
-        "Ks_3=0:0.1",
+        "Ks_q3=0:0.1",
         "--bound",
-        "qeq_3=-2:2",
+        "qeq_q3=-2:2",
         "--out",
         &hand,
     ]));
-    assert!(o.contains("Ks_3 = 0") && o.contains("qeq_3 = 0.1"), "{o}");
+    assert!(o.contains("Ks_q3 = 0") && o.contains("qeq_q3 = 0.1"), "{o}");
     let o = ok(&lockstep(&[
         "refit",
         "--plant",
@@ -324,7 +324,7 @@ fn the_loop_on_the_command_line_c3() {
         "--data",
         &run_csv,
         "--params",
-        "Ks_3,qeq_3",
+        "Ks_q3,qeq_q3",
     ]));
     let p = Plant::load(Path::new(&hand)).unwrap();
     let h = &p.history[0];
@@ -359,19 +359,19 @@ fn the_loop_on_the_command_line_c3() {
         &lockstep(&[
             "effect", "add", "offset", "--joint", "q3", "--plant", &st, "--set", "Kx_3=1",
         ]),
-        &["--set Kx_3", "offset_3"],
+        &["--set Kx_3", "offset_q3"],
     );
     fails(
         &lockstep(&[
-            "refit", "--plant", &st, "--data", &run_csv, "--params", "Fs_9",
+            "refit", "--plant", &st, "--data", &run_csv, "--params", "Fs_q9",
         ]),
-        &["Fs_9"],
+        &["Fs_q9"],
     );
     fails(
         &lockstep(&[
-            "refit", "--plant", &st, "--data", &run_csv, "--params", "Fc_3",
+            "refit", "--plant", &st, "--data", &run_csv, "--params", "Fc_q3",
         ]),
-        &["'Fc_3'", "no bounds"],
+        &["'Fc_q3'", "no bounds"],
     );
     // The start plant file is untouched by the refused edits.
     assert_eq!(

@@ -11,7 +11,7 @@ fn record(name: &str) -> Measurement {
         &Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("data/emps")
             .join(name),
-        1,
+        &["q0"],
     )
     .unwrap()
 }
@@ -43,9 +43,9 @@ fn symmetric_model_reproduces_published_parameters_and_errors() {
         fit.names, fit.theta, fit.relative_error, fit.condition
     );
     within(fit.get("M").unwrap(), 95.1089, 0.5);
-    within(fit.get("Fv_0").unwrap(), 203.5034, 2.0);
-    within(fit.get("Fc_0").unwrap(), 20.3935, 2.0);
-    within(fit.get("offset_0").unwrap(), -3.1648, 5.0);
+    within(fit.get("Fv_q0").unwrap(), 203.5034, 2.0);
+    within(fit.get("Fc_q0").unwrap(), 20.3935, 2.0);
+    within(fit.get("offset_q0").unwrap(), -3.1648, 5.0);
     assert!(
         (fit.relative_error - 4.0834).abs() <= 0.15,
         "training error {}",

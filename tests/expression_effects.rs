@@ -27,7 +27,7 @@ fn spring_by_hand(truth: &Plant) -> Plant {
     let mut p = truth.clone();
     p.effects
         .retain(|e| !(e.kind == EffectKind::Spring && e.joint == 3));
-    let (ks, qeq) = (truth.parameters["Ks_3"], truth.parameters["qeq_3"]);
+    let (ks, qeq) = (truth.parameters["Ks_q3"], truth.parameters["qeq_q3"]);
     p.add_expression(
         "spring_by_hand",
         vec![3],
@@ -81,7 +81,7 @@ fn a_spring_written_by_hand_simulates_as_the_built_in_c3() {
 
 /// Time in an expression is the simulation's time at every stage: a torque `d*sin(5*t)`
 /// taken from q3 by a user-defined effect moves the joint exactly as the same torque taken
-/// off the command (over the plant gain Kp_3, evaluated by the input at the stage times t,
+/// off the command (over the plant gain Kp_q3, evaluated by the input at the stage times t,
 /// t + h/2, t + h), with RK4
 /// and with ETDRK4, 3 s of c3; without the term the motion differs (the check can fail).
 #[test]
@@ -115,7 +115,7 @@ fn time_in_an_expression_is_the_simulations_time_c3() {
                 .unwrap();
             q
         };
-        let kp = truth.parameters["Kp_3"];
+        let kp = truth.parameters["Kp_q3"];
         let (a, b, without) = (run(&timed, 0.0), run(&truth, 0.004 / kp), run(&truth, 0.0));
         let largest = |u: &[f64], v: &[f64]| {
             u.iter()
@@ -136,7 +136,7 @@ fn time_in_an_expression_is_the_simulations_time_c3() {
 /// only its coefficient), to 1e-8; c of the record as it is stays small.
 #[test]
 fn time_in_an_expression_is_the_records_time_in_idim_emps() {
-    let train = Measurement::read(&manifest("data/emps/emps_train.csv"), 1).unwrap();
+    let train = Measurement::read(&manifest("data/emps/emps_train.csv"), &["q0"]).unwrap();
     let mut drifting = train.clone();
     for (k, t) in train.t.iter().enumerate() {
         drifting.tau[0][k] += 0.5 * t;
@@ -162,7 +162,7 @@ fn time_in_an_expression_is_the_records_time_in_idim_emps() {
     eprintln!("c = {ca:.12} as recorded, {cb:.12} with the drift");
     assert!(ca.abs() < 0.1, "c {ca}");
     assert!((cb - ca - 0.5).abs() < 1e-8, "c {ca} → {cb}");
-    for x in ["M", "Fv_0", "Fc_0", "offset_0"] {
+    for x in ["M", "Fv_q0", "Fc_q0", "offset_q0"] {
         let (va, vb) = (a.get(x).unwrap(), b.get(x).unwrap());
         eprintln!("{x} {va:.9} / {vb:.9}");
         assert!(
@@ -216,11 +216,11 @@ fn an_expression_undefined_at_the_motion_is_named_with_the_time_and_state_c3() {
 /// estimates (and the published ones, tests/emps_idim.rs) to 1e-9.
 #[test]
 fn coulomb_viscous_and_offset_written_by_hand_fit_as_the_built_ins_emps() {
-    let train = Measurement::read(&manifest("data/emps/emps_train.csv"), 1).unwrap();
+    let train = Measurement::read(&manifest("data/emps/emps_train.csv"), &["q0"]).unwrap();
     let built_in = Plant::load(&manifest("model/plants/emps_symmetric.toml")).unwrap();
     let mut by_hand = built_in.clone();
     by_hand.effects.clear();
-    for n in ["Fv_0", "Fc_0", "offset_0"] {
+    for n in ["Fv_q0", "Fc_q0", "offset_q0"] {
         by_hand.parameters.remove(n);
         by_hand.bounds.remove(n);
     }
@@ -248,9 +248,9 @@ fn coulomb_viscous_and_offset_written_by_hand_fit_as_the_built_ins_emps() {
     let (a, b) = (fit(&built_in), fit(&by_hand));
     for (x, y) in [
         ("M", "M"),
-        ("Fv_0", "Fv"),
-        ("Fc_0", "Fc"),
-        ("offset_0", "off"),
+        ("Fv_q0", "Fv"),
+        ("Fc_q0", "Fc"),
+        ("offset_q0", "off"),
     ] {
         let (va, vb) = (a.get(x).unwrap(), b.get(y).unwrap());
         eprintln!("{x} {va:.6} / {y} {vb:.6}");
@@ -268,7 +268,7 @@ fn coulomb_viscous_and_offset_written_by_hand_fit_as_the_built_ins_emps() {
 #[test]
 fn the_built_ins_written_by_hand_fit_as_the_built_ins_emps() {
     use lockstep::diagnose::structure::Named;
-    let train = Measurement::read(&manifest("data/emps/emps_train.csv"), 1).unwrap();
+    let train = Measurement::read(&manifest("data/emps/emps_train.csv"), &["q0"]).unwrap();
     let base = Plant::load(&manifest("model/plants/emps_symmetric.toml")).unwrap();
     let fit = |p: &Plant| {
         least_squares(
@@ -284,7 +284,7 @@ fn the_built_ins_written_by_hand_fit_as_the_built_ins_emps() {
     };
     let compare = |tag: &str, a: &Plant, b: &Plant, pairs: &[(&str, &str)]| {
         let (fa, fb) = (fit(a), fit(b));
-        for &(x, y) in pairs.iter().chain(&[("M", "M"), ("Fv_0", "Fv_0")]) {
+        for &(x, y) in pairs.iter().chain(&[("M", "M"), ("Fv_q0", "Fv_q0")]) {
             let (va, vb) = (fa.get(x).unwrap(), fb.get(y).unwrap());
             eprintln!("{tag}: {x} {va:.9e} / {y} {vb:.9e}");
             assert!(
@@ -299,7 +299,7 @@ fn the_built_ins_written_by_hand_fit_as_the_built_ins_emps() {
         (Named::QuadraticDrag, "c*qd0*abs(qd0)", vec!["c"]),
         (Named::LoadFriction, "mu*abs(tau0)*sign(qd0)", vec!["mu"]),
     ] {
-        let e = named.effect(0, "q0", &[1.0, 0.0], true).unwrap();
+        let e = named.effect(0, &["q0"], &[1.0, 0.0], true).unwrap();
         let mut built_in = base.clone();
         built_in
             .add_expression(&e.name, vec![0], &e.torque, &e.parameters)
@@ -336,7 +336,7 @@ fn the_built_ins_written_by_hand_fit_as_the_built_ins_emps() {
         let c = obs.names.iter().position(|n| n == name).unwrap();
         obs.w.column(c).iter().copied().collect::<Vec<f64>>()
     };
-    let (a, b) = (column(&built_in, "Ia_0"), column(&hand, "Ia"));
+    let (a, b) = (column(&built_in, "Ia_q0"), column(&hand, "Ia"));
     let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let worst = a
         .iter()
@@ -462,17 +462,17 @@ fn a_hidden_cubic_stiffness_is_not_called_nothing_and_the_users_expression_takes
         &["K3".into(), "qc".into()],
     )
     .unwrap();
-    let (ks, qeq) = (truth.parameters["Ks_3"], truth.parameters["qeq_3"]);
+    let (ks, qeq) = (truth.parameters["Ks_q3"], truth.parameters["qeq_q3"]);
     for (n, v, lo, hi) in [
         ("K3", 0.005, 0.0, 0.1),
         ("qc", 0.0, -0.5, 0.5),
-        ("Ks_3", ks, 0.0, 10.0 * ks),
-        ("qeq_3", qeq, qeq - 1.0, qeq + 1.0),
+        ("Ks_q3", ks, 0.0, 10.0 * ks),
+        ("qeq_q3", qeq, qeq - 1.0, qeq + 1.0),
     ] {
         with.parameters.insert(n.into(), v);
         with.bounds.insert(n.into(), (lo, hi));
     }
-    let names: Vec<String> = ["K3", "qc", "Ks_3", "qeq_3"].map(String::from).to_vec();
+    let names: Vec<String> = ["K3", "qc", "Ks_q3", "qeq_q3"].map(String::from).to_vec();
     let options = RefitOptions {
         warm_ups: true,
         ..RefitOptions::default()
@@ -548,8 +548,8 @@ fn effect_add_expression_on_the_command_line_and_its_mistakes() {
     );
     unchanged();
     common::fails(
-        &add("Fv_0*qd0", "Fv_0", &[]),
-        &["'Fv_0' is already a parameter"],
+        &add("Fv_q0*qd0", "Fv_q0", &[]),
+        &["'Fv_q0' is already a parameter"],
     );
     unchanged();
     common::fails(&add("c*qd0", "c", &["--set", "e=1"]), &["no parameter 'e'"]);
@@ -690,7 +690,7 @@ fn hidden_outside_the_catalogue(
 fn hidden_cogging_is_named_and_applied_to_the_noise_c3() {
     let cogging = |x: &State| vec![0.01 * (6.0 * x.q[0]).sin()];
     let name =
-        hidden_outside_the_catalogue("cogging", ("c3", "4.3", Some("J3"), 31), &cogging, "6*q3");
+        hidden_outside_the_catalogue("cogging", ("c3", "4.3", Some("J3"), 31), &cogging, "6*q_q3");
     assert_eq!(name, "cogging (6 per turn)");
 }
 
@@ -699,8 +699,12 @@ fn hidden_cogging_is_named_and_applied_to_the_noise_c3() {
 #[test]
 fn hidden_quadratic_drag_is_named_and_applied_to_the_noise_c2() {
     let drag = |x: &State| vec![2e-4 * x.qd[0] * x.qd[0].abs()];
-    let name =
-        hidden_outside_the_catalogue("drag", ("c2", "4.3", Some("J5"), 37), &drag, "qd5*abs(qd5)");
+    let name = hidden_outside_the_catalogue(
+        "drag",
+        ("c2", "4.3", Some("J5"), 37),
+        &drag,
+        "qd_q5*abs(qd_q5)",
+    );
     assert_eq!(name, "quadratic drag");
 }
 
@@ -719,12 +723,12 @@ fn hidden_backlash_is_named_and_applied_to_the_noise_c3() {
         "{}",
         done.first.table(4)
     );
-    let b = done.plant.value("backlash_3").unwrap();
+    let b = done.plant.value("backlash_q3").unwrap();
     assert!((b - 2e-3).abs() <= 0.05 * 2e-3, "backlash {b}");
     assert_at_the_noise("", &done);
 }
 
-/// Armature (rotor inertia) hidden on c3: Ia_3 = 0.3 D_33 (at q3 = 0) in the plant that
+/// Armature (rotor inertia) hidden on c3: Ia_q3 = 0.3 D_33 (at q3 = 0) in the plant that
 /// makes the data. The truth's diagnosis without it names the armature first, and the
 /// loop's `--apply` takes q3 to the noise (≤ 1.1 σ) with Ia within 2 % of the truth.
 #[test]
@@ -740,7 +744,7 @@ fn hidden_armature_is_named_and_applied_to_the_noise_c3() {
     maker
         .add_effect(lockstep::effects::Effect::on(EffectKind::Armature, 3))
         .unwrap();
-    maker.parameters.insert("Ia_3".into(), ia);
+    maker.parameters.insert("Ia_q3".into(), ia);
     let done = loop_on_data_of(
         "armature",
         ("c3", "4.3", Some("J3"), 47),
@@ -756,8 +760,8 @@ fn hidden_armature_is_named_and_applied_to_the_noise_c3() {
         "{}",
         done.first.table(4)
     );
-    let fitted = done.plant.value("Ia_3").unwrap();
-    eprintln!("Ia_3 {fitted:.6e} (truth {ia:.6e}, D_33 {d33:.6e})");
+    let fitted = done.plant.value("Ia_q3").unwrap();
+    eprintln!("Ia_q3 {fitted:.6e} (truth {ia:.6e}, D_33 {d33:.6e})");
     assert!((fitted / ia - 1.0).abs() <= 0.02, "Ia {fitted} vs {ia}");
     assert_at_the_noise("", &done);
 }
@@ -789,7 +793,7 @@ fn hidden_coupled_motor_inertia_is_named_and_applied_to_the_noise_k1() {
         "{}",
         done.first.table(4)
     );
-    let fitted = done.plant.value("Jm_45").unwrap();
+    let fitted = done.plant.value("Jm_q4_q5").unwrap();
     eprintln!("Jm {fitted:.6e} (truth {jm:.6e})");
     assert!((fitted / jm - 1.0).abs() <= 0.02, "Jm {fitted} vs {jm}");
     assert_at_the_noise("", &done);
@@ -809,7 +813,7 @@ fn hidden_coupled_motor_friction_is_named_and_applied_to_the_noise_k1() {
         "motor",
         ("k1", "4.7", None, 41),
         &motor,
-        "tanh((qd4 + qd5)/0.01)",
+        "tanh((qd_q4 + qd_q5)/0.01)",
     );
     assert_eq!(name, "coupled-motor friction (q4 + q5)");
 }
@@ -827,9 +831,9 @@ fn accelerations_in_an_expression_enter_the_inertia_matrix_emps_k1() {
     let mut emps = Plant::load(&manifest("model/plants/emps_symmetric.toml")).unwrap();
     for (n, v) in [
         ("M", 95.0),
-        ("Fv_0", 200.0),
-        ("Fc_0", 20.0),
-        ("offset_0", -3.0),
+        ("Fv_q0", 200.0),
+        ("Fc_q0", 20.0),
+        ("offset_q0", -3.0),
     ] {
         emps.parameters.insert(n.into(), v);
     }

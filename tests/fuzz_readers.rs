@@ -160,7 +160,7 @@ fn csv_records_and_their_side_files() {
     proptest!(config(), |(c in input(seeds.clone()), s in input(sides.clone()), with_side in any::<bool>())| {
         write(&csv, &c);
         if with_side { write(&side, &s) } else { let _ = std::fs::remove_file(&side); }
-        let _ = Measurement::read(&csv, 1);
+        let _ = Measurement::read(&csv, &["q0"]);
         let _ = Table::read(&csv);
     });
 }
@@ -181,7 +181,7 @@ fn mat_files() {
     let path = d.path().join("m.mat");
     proptest!(config(), |(b in input(seeds.clone()))| {
         write(&path, &b);
-        let _ = Measurement::read(&path, 1);
+        let _ = Measurement::read(&path, &["q0"]);
     });
 }
 

@@ -139,7 +139,7 @@ fn a_rank_deficient_regressor_is_fitted_on_its_base_parameters() {
     assert_eq!(fit.parameters["m1"], 1.5);
     assert!(!fit.parameters.contains_key("x1") && !fit.parameters.contains_key("I1"));
     let truth_plant = Plant::load(&truth).unwrap();
-    let records = vec![Measurement::read(&run, 2).unwrap()];
+    let records = vec![Measurement::read(&run, &["q0", "q1"]).unwrap()];
     let obs = observation(&truth_plant, "full", &records, &IdimOptions::default()).unwrap();
     let (yt, yf) = (
         predict(&truth_plant, &obs).unwrap(),

@@ -375,8 +375,8 @@ fn hidden_spring_on_independent_data_c3() {
         hidden_spec("c3", "4.3", Some("J3")),
         ((EffectKind::Spring, "q3", None), true),
         &[
-            ("Ks_3", Within::Relative(0.02)),
-            ("qeq_3", Within::Relative(0.05)),
+            ("Ks_q3", Within::Relative(0.02)),
+            ("qeq_q3", Within::Relative(0.05)),
         ],
         1.1,
     );
@@ -397,8 +397,8 @@ fn hidden_friction_bias_on_independent_data_c7() {
         hidden_spec("c7", "4.4", Some("J01-1")),
         ((EffectKind::FrictionBias, "q0", None), true),
         &[
-            ("FrictionBias_0", Within::Relative(0.02)),
-            ("FrictionBias_1", Within::Relative(0.02)),
+            ("FrictionBias_q0", Within::Relative(0.02)),
+            ("FrictionBias_q1", Within::Relative(0.02)),
         ],
         1.1,
     );
@@ -408,8 +408,8 @@ fn hidden_friction_bias_on_independent_data_c7() {
 #[test]
 fn hidden_gain_error_on_independent_data_c4() {
     let mut truth = common::appendix_d_coupled();
-    let kp = truth.parameters["Kp_2"];
-    truth.parameters.insert("Kp_2".into(), 1.3 * kp);
+    let kp = truth.parameters["Kp_q2"];
+    truth.parameters.insert("Kp_q2".into(), 1.3 * kp);
     let start = common::appendix_d_coupled();
     hidden_case(
         &truth,
@@ -417,7 +417,7 @@ fn hidden_gain_error_on_independent_data_c4() {
         "gain",
         hidden_spec("c4", "4.3", Some("J2")),
         ((EffectKind::Gain, "q2", None), true),
-        &[("Kp_2", Within::Relative(0.02))],
+        &[("Kp_q2", Within::Relative(0.02))],
         1.1,
     );
 }
@@ -442,8 +442,8 @@ fn hidden_tendon_coupling_on_independent_data_k1() {
         hidden_spec("k1", "4.7", None),
         ((EffectKind::InputCoupling, "q5", Some("q4")), false),
         &[
-            ("G_4to5", Within::Relative(0.02)),
-            ("G_5to4", Within::Relative(0.02)),
+            ("G_q4_to_q5", Within::Relative(0.02)),
+            ("G_q5_to_q4", Within::Relative(0.02)),
         ],
         1.1,
     );
@@ -456,8 +456,8 @@ fn hidden_tendon_coupling_on_independent_data_k1() {
 fn a_coupling_with_its_sign_flipped_is_found_and_refitted_k1() {
     let truth = common::appendix_d_coupled();
     let mut start = truth.clone();
-    let g = truth.parameters["G_5to4"];
-    start.parameters.insert("G_5to4".into(), -g);
+    let g = truth.parameters["G_q5_to_q4"];
+    start.parameters.insert("G_q5_to_q4".into(), -g);
     hidden_case(
         &truth,
         &start,
@@ -467,7 +467,7 @@ fn a_coupling_with_its_sign_flipped_is_found_and_refitted_k1() {
             ..hidden_spec("k1", "4.7", None)
         },
         ((EffectKind::InputCoupling, "q4", Some("q5")), true),
-        &[("G_5to4", Within::Relative(0.02))],
+        &[("G_q5_to_q4", Within::Relative(0.02))],
         1.1,
     );
 }
@@ -480,7 +480,7 @@ fn a_coupling_with_its_sign_flipped_is_found_and_refitted_k1() {
 fn a_spring_rest_angle_off_is_found_and_refitted_c3() {
     let truth = common::appendix_d_coupled();
     let mut start = truth.clone();
-    start.parameters.insert("qeq_3".into(), 0.0);
+    start.parameters.insert("qeq_q3".into(), 0.0);
     hidden_case(
         &truth,
         &start,
@@ -490,7 +490,7 @@ fn a_spring_rest_angle_off_is_found_and_refitted_c3() {
             ..hidden_spec("c3", "4.3", Some("J3"))
         },
         ((EffectKind::Spring, "q3", None), true),
-        &[("qeq_3", Within::Relative(0.05))],
+        &[("qeq_q3", Within::Relative(0.05))],
         1.1,
     );
 }
@@ -499,10 +499,10 @@ fn a_spring_rest_angle_off_is_found_and_refitted_c3() {
 #[test]
 fn hidden_stribeck_on_independent_data_c2() {
     let mut truth = common::appendix_d_coupled();
-    truth.parameters.insert("Fs_5".into(), 0.1);
-    truth.parameters.insert("vs_5".into(), 0.1);
+    truth.parameters.insert("Fs_q5".into(), 0.1);
+    truth.parameters.insert("vs_q5".into(), 0.1);
     let mut start = truth.clone();
-    start.parameters.insert("Fs_5".into(), 0.02);
+    start.parameters.insert("Fs_q5".into(), 0.02);
     hidden_case(
         &truth,
         &start,
@@ -510,8 +510,8 @@ fn hidden_stribeck_on_independent_data_c2() {
         hidden_spec("c2", "4.3", Some("J5")),
         ((EffectKind::Stribeck, "q5", None), true),
         &[
-            ("Fs_5", Within::Undetermined),
-            ("vs_5", Within::Undetermined),
+            ("Fs_q5", Within::Undetermined),
+            ("vs_q5", Within::Undetermined),
         ],
         1.1,
     );
@@ -544,7 +544,7 @@ fn ten_percent_off(plant: &Plant, joints: &[usize], seed: u64) -> Plant {
         .effects
         .iter()
         .filter(|e| joints.contains(&e.joint) && e.kind.is_friction_law())
-        .flat_map(|e| e.parameter_names())
+        .flat_map(|e| e.parameter_names(p.model.joints))
         .collect();
     for name in friction {
         let v = p.parameters[&name] * coin();

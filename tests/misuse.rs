@@ -361,7 +361,7 @@ fn truncated_mat_files_are_refused_without_a_panic() {
     let cut = d.path().join("cut.mat");
     for k in 1..40 {
         std::fs::write(&cut, &bytes[..bytes.len() * k / 40]).unwrap();
-        let e = Measurement::read(&cut, 1).unwrap_err().to_string();
+        let e = Measurement::read(&cut, &["q0"]).unwrap_err().to_string();
         assert!(e.contains("cut.mat") && !e.contains('\u{1b}'), "{e}");
     }
     let o = lockstep(&[
@@ -795,7 +795,10 @@ fn a_data_directory_works_in_torque_space() {
         "--data",
         s(&data),
     ]));
-    assert!(out.contains("1 record(s)") && out.contains("Fc_0"), "{out}");
+    assert!(
+        out.contains("1 record(s)") && out.contains("Fc_q0"),
+        "{out}"
+    );
     let empty = d.path().join("none");
     std::fs::create_dir(&empty).unwrap();
     let o = lockstep(&[
@@ -827,11 +830,11 @@ fn bad_bounds_an_empty_csv_and_a_duplicate_column_are_named() {
     );
     let empty = d.path().join("empty.csv");
     std::fs::write(&empty, "").unwrap();
-    let e = Measurement::read(&empty, 1).unwrap_err().to_string();
+    let e = Measurement::read(&empty, &["q0"]).unwrap_err().to_string();
     assert!(e.contains("empty.csv: the file is empty"), "{e}");
     let dup = d.path().join("dup.csv");
     std::fs::write(&dup, "t,tau0,q0,q0\n0,1,2,3\n").unwrap();
-    let e = Measurement::read(&dup, 1).unwrap_err().to_string();
+    let e = Measurement::read(&dup, &["q0"]).unwrap_err().to_string();
     assert!(e.contains("'q0' twice (columns 3 and 4)"), "{e}");
 }
 

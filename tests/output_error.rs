@@ -105,7 +105,7 @@ fn perturbed_start(truth: &Path, names: &[String], out: &Path) {
     }
     // Fs ≥ Fc at the start.
     for j in 0..6 {
-        let (fc, fs) = (format!("Fc_{j}"), format!("Fs_{j}"));
+        let (fc, fs) = (format!("Fc_q{j}"), format!("Fs_q{j}"));
         if let (Some(&c), Some(&s)) = (p.parameters.get(&fc), p.parameters.get(&fs)) {
             if s < c {
                 p.parameters.insert(fs, c);
@@ -139,7 +139,17 @@ fn fit_c1(d: &Path) -> (serde_json::Value, Plant, PathBuf) {
     assert_eq!(c1.config, "c1");
     // Figure 4.2: m7, x7, y7, I7_33 first appear in c1; joint 4's gain, LuGre and spring.
     for n in [
-        "m7", "x7", "y7", "I7_33", "Kp_4", "sigma0_4", "Fc_4", "Fs_4", "vs_4", "Ks_4", "qeq_4",
+        "m7",
+        "x7",
+        "y7",
+        "I7_33",
+        "Kp_q4",
+        "sigma0_q4",
+        "Fc_q4",
+        "Fs_q4",
+        "vs_q4",
+        "Ks_q4",
+        "qeq_q4",
     ] {
         assert!(
             c1.fitted.contains(&n.to_string()),
@@ -340,12 +350,12 @@ fn isolated_step_c1_reaches_the_noise_floor_and_recovers_everything_it_calls_ide
     }
     // The Stribeck velocity and the spring's rest position are outside the plant-gain scale
     // family (Kp with every force-like parameter of the joint): called identifiable.
-    for n in ["vs_4", "qeq_4"] {
+    for n in ["vs_q4", "qeq_q4"] {
         let i = names.iter().position(|x| x == n).unwrap();
         assert!(identifiable[i], "{n} should be identifiable");
     }
     // The plant gain is not separately identifiable from what it multiplies.
-    let kp = names.iter().position(|x| x == "Kp_4").unwrap();
+    let kp = names.iter().position(|x| x == "Kp_q4").unwrap();
     assert!(!identifiable[kp]);
     // By default (`--rigid-body spanning`) c1 fits 3 of its 4 rigid-body symbols: m7, x7,
     // y7, I7_33 enter its equation through 3 base parameters (m7·x7, m7·y7 and the
@@ -376,7 +386,7 @@ fn isolated_step_c1_reaches_the_noise_floor_and_recovers_everything_it_calls_ide
     // the held values' share in later steps, and `--carried-prior`): finite for the two
     // outside the gain family, none for the tied symbols (infinite standard errors).
     let recorded = recorded_standard_errors(&report["steps"][0]["fit"]);
-    for n in ["vs_4", "qeq_4"] {
+    for n in ["vs_q4", "qeq_q4"] {
         assert!(recorded.contains_key(n), "{recorded:?}");
     }
     for n in &undetermined {
@@ -408,7 +418,7 @@ fn fs_at_least_fc_holds_at_every_trial_point() {
     let truth = truth(d.path());
     make_data(d.path(), &truth, "4.3", Some("J4"), "c1", "2");
     let mut plant = Plant::load(&truth).unwrap();
-    for n in ["Fc_4", "Fs_4"] {
+    for n in ["Fc_q4", "Fs_q4"] {
         plant.bounds.insert(n.into(), (0.001, 0.1));
     }
     let model = plant.model;
@@ -421,7 +431,7 @@ fn fs_at_least_fc_holds_at_every_trial_point() {
     let p = Problem::new(
         &plant,
         conf,
-        vec!["Fc_4".into(), "Fs_4".into()],
+        vec!["Fc_q4".into(), "Fs_q4".into()],
         vec![rec],
         &[4],
         opts,
@@ -451,12 +461,12 @@ fn the_coupled_plan_follows_figure_4_2_and_identifies_effects_where_their_joints
     assert_eq!(names, ["k1", "k2", "k3", "k4", "k5"]);
     // k1: both wrist joints new (λ = 50 on both), the tendon coupling both ways.
     assert_eq!(steps[0].interest, [4, 5]);
-    for n in ["G_4to5", "G_5to4", "Kp_4", "Kp_5", "m7", "I7_33"] {
+    for n in ["G_q4_to_q5", "G_q5_to_q4", "Kp_q4", "Kp_q5", "m7", "I7_33"] {
         assert!(steps[0].fitted.iter().any(|x| x == n), "{n}");
     }
     assert_eq!(steps[1].interest, [3]);
     assert_eq!(steps[4].interest, [0]);
-    assert!(steps[4].fitted.iter().any(|x| x == "FrictionBias_0"));
+    assert!(steps[4].fitted.iter().any(|x| x == "FrictionBias_q0"));
     // Every rigid-body symbol is fitted first at most once over the sequence; later only
     // when carried because an earlier step could not separate it.
     let mut all: Vec<&String> = steps
@@ -562,7 +572,7 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
     std::fs::create_dir_all(&cut).unwrap();
     let text = std::fs::read_to_string(data.join("k1_run.csv")).unwrap();
     let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-    let keep: Vec<usize> = (0..header.len()).filter(|&i| header[i] != "q5").collect();
+    let keep: Vec<usize> = (0..header.len()).filter(|&i| header[i] != "q_q5").collect();
     let cut_text: String = text
         .lines()
         .map(|l| {
@@ -581,23 +591,23 @@ fn bad_input_is_refused_before_any_optimisation_naming_file_and_item() {
     );
     // A fitted parameter without bounds.
     let mut p = Plant::load(&start).unwrap();
-    p.bounds.remove("G_4to5");
+    p.bounds.remove("G_q4_to_q5");
     let nb = d.path().join("no_bounds.toml");
     p.save(&nb).unwrap();
     fails(
         &run(&nb, &data, "k1"),
         &[
             "step 'k1'",
-            "'G_4to5' is fitted in configuration 'k1' but has no bounds",
+            "'G_q4_to_q5' is fitted in configuration 'k1' but has no bounds",
         ],
     );
     // An initial value outside its bounds: refused when the plant is read.
     let text = std::fs::read_to_string(&start)
         .unwrap()
-        .replace("G_4to5 = 1.0\n", "G_4to5 = 3.0\n");
+        .replace("G_q4_to_q5 = 1.0\n", "G_q4_to_q5 = 3.0\n");
     let ob = d.path().join("outside.toml");
     std::fs::write(&ob, text).unwrap();
-    fails(&run(&ob, &data, "k1"), &["outside.toml", "G_4to5"]);
+    fails(&run(&ob, &data, "k1"), &["outside.toml", "G_q4_to_q5"]);
     // Horizons that leave nothing to fit, or that do not grow to the whole files; the
     // coupled method's defaults (no horizons, the equation error and the predictor) with
     // both warm-ups turned off; a predictor step that is not a step.
@@ -691,7 +701,7 @@ fn symbols_that_enter_only_through_base_parameters_are_not_called_identifiable()
         assert_eq!(stats.only_with[at(n)], others, "{n}");
         assert!(!stats.identifiable[at(n)], "{n}");
     }
-    for n in ["I7_33", "sigma0_4", "vs_4", "Ks_4", "qeq_4", "Kp_4"] {
+    for n in ["I7_33", "sigma0_q4", "vs_q4", "Ks_q4", "qeq_q4", "Kp_q4"] {
         assert!(stats.only_with[at(n)].is_empty(), "{n}");
     }
     // At the truth the fit is at the noise floor (σ̂ from the data near the true 2e-4) and
@@ -699,7 +709,7 @@ fn symbols_that_enter_only_through_base_parameters_are_not_called_identifiable()
     assert!(stats.above_floor.is_empty(), "{:?}", stats.above_floor);
     let q4 = &stats.joints[0];
     assert!((q4.noise / 2e-4 - 1.0).abs() < 0.15, "σ̂ {}", q4.noise);
-    assert!(stats.identifiable[at("vs_4")] && stats.identifiable[at("qeq_4")]);
+    assert!(stats.identifiable[at("vs_q4")] && stats.identifiable[at("qeq_q4")]);
 }
 
 /// Physical consistency is a constraint of every stage: a trial point that leaves a link
@@ -870,13 +880,13 @@ fn segments_add_a_start_that_runs_beside_the_horizons_and_the_lower_cost_wins() 
 /// The gain family of joint 4 in c1 with the prior's offsets δ_i: scaling the plant gain
 /// with every force-like parameter of the joint leaves the motion exactly unchanged.
 const GAIN_FAMILY_4: [(&str, f64); 9] = [
-    ("Kp_4", 0.30),
-    ("sigma0_4", 0.20),
-    ("sigma1_4", 0.40),
-    ("sigma2_4", 0.25),
-    ("Fc_4", 0.30),
-    ("Fs_4", 0.35),
-    ("Ks_4", 0.20),
+    ("Kp_q4", 0.30),
+    ("sigma0_q4", 0.20),
+    ("sigma1_q4", 0.40),
+    ("sigma2_q4", 0.25),
+    ("Fc_q4", 0.30),
+    ("Fs_q4", 0.35),
+    ("Ks_q4", 0.20),
     ("m7", 0.30),
     ("I7_33", 0.25),
 ];
@@ -923,13 +933,13 @@ fn gain_family_start(
 /// Fs, the spring Ks, and m7, I7_33) by α leaves the motion exactly unchanged. With the
 /// prior's centre c_i = t_i (1 + δ_i) about the truth t, the posterior picks on that line
 /// the α minimising Σ ((α t_i − c_i) / (τ c_i))², i.e. α* = Σ ρ_i / Σ ρ_i², ρ_i = t_i / c_i
-/// (an analytic reference independent of the fit); the parameters outside the family (vs_4,
-/// qeq_4) stay where the data put them, and the cost stays at the noise floor.
+/// (an analytic reference independent of the fit); the parameters outside the family (vs_q4,
+/// qeq_q4) stay where the data put them, and the cost stays at the noise floor.
 #[test]
 #[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn the_prior_picks_the_point_of_an_exact_scale_symmetry_its_centre_prefers() {
     let d = tempfile::tempdir().unwrap();
-    let others = ["vs_4", "qeq_4"];
+    let others = ["vs_q4", "qeq_q4"];
     let (truth, plant, names, conf, rec) = gain_family_start(d.path(), "20", &others);
     let family = GAIN_FAMILY_4;
     let tau = 0.1;
@@ -1017,7 +1027,7 @@ fn the_prior_term_is_least_at_the_analytic_point_of_a_scale_symmetry() {
 /// The least change's plant-gain scale move: in c1 (x7, y7 held) the fit cannot tell the
 /// truth from the whole gain family of joint 4 scaled by 0.6 (the motion is the same to
 /// rounding), so the least change must scale it by α = 1 / 0.6 — the α that returns the
-/// fitted plant gain Kp_4 to the plant's value (here the truth) — and the rest of the family
+/// fitted plant gain Kp_q4 to the plant's value (here the truth) — and the rest of the family
 /// must follow to the truth, the cost unchanged; the parameters outside the family stay.
 /// Again with I7_33 held as a tie (as `--rigid-body spanning` holds k1's I7_13) and × 0.6
 /// in the plant: the move must scale it too (`held`), or it is not exact and is dropped.
@@ -1028,11 +1038,19 @@ fn the_least_change_returns_a_scaled_gain_family_to_the_initial_plant_gain() {
     let truth = Plant::load(&truth_file).unwrap();
     make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
     let family = [
-        "Kp_4", "sigma0_4", "sigma1_4", "sigma2_4", "Fc_4", "Fs_4", "Ks_4", "m7", "I7_33",
+        "Kp_q4",
+        "sigma0_q4",
+        "sigma1_q4",
+        "sigma2_q4",
+        "Fc_q4",
+        "Fs_q4",
+        "Ks_q4",
+        "m7",
+        "I7_33",
     ];
     let all: Vec<String> = family
         .iter()
-        .chain(&["vs_4", "qeq_4"])
+        .chain(&["vs_q4", "qeq_q4"])
         .map(|n| n.to_string())
         .collect();
     let start = d.path().join("start.toml");
@@ -1124,15 +1142,15 @@ fn the_least_change_returns_a_scaled_gain_family_to_the_initial_plant_gain() {
 /// The equation error (the warm start of `--equation-error`): at the true parameters the
 /// torque balance holds up to the filtering and the noise; the ±25 % start of c4 (joint 2,
 /// the parallelogram base with gravity, Table 4.3's J2 chirp) breaks it many times over;
-/// and it is unchanged (to rounding) along the plant gain's scale family — Kp_2 with every force
+/// and it is unchanged (to rounding) along the plant gain's scale family — Kp_q2 with every force
 /// of joint 2 and every mass and inertia — as the simulated positions are, so the warm
 /// start does not pick a scale the output error cannot see.
 /// rmpfit freezes a parameter only when it equals its limit; one within rounding of it (a
 /// value read back from a plant file) shortened every step to about 1e-16 of the bound
 /// distance, and the fit "converged" where it started (k3 of the Freedom 6S: no stage
-/// moved from the fitted plant, whose I6_13 was 4e-23 above its lower bound). Here Ks_4's
+/// moved from the fitted plant, whose I6_13 was 4e-23 above its lower bound). Here Ks_q4's
 /// upper bound is below its truth, so its optimum is on the bound, and it starts 4 ulps
-/// under it; Kp_4 starts 20 % high: the fit must bring Kp_4 back and leave Ks_4 on the bound.
+/// under it; Kp_q4 starts 20 % high: the fit must bring Kp_q4 back and leave Ks_q4 on the bound.
 #[test]
 fn a_parameter_within_rounding_of_its_bound_does_not_freeze_the_fit() {
     let d = tempfile::tempdir().unwrap();
@@ -1140,27 +1158,27 @@ fn a_parameter_within_rounding_of_its_bound_does_not_freeze_the_fit() {
     let truth = Plant::load(&truth_file).unwrap();
     make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
     let (conf, rec) = c1_record(d.path(), &truth);
-    let (kp, ks) = (truth.parameters["Kp_4"], truth.parameters["Ks_4"]);
+    let (kp, ks) = (truth.parameters["Kp_q4"], truth.parameters["Ks_q4"]);
     let ks_upper = 0.9 * ks;
     let mut plant = truth.clone();
-    plant.bounds.insert("Kp_4".into(), (0.5 * kp, 2.0 * kp));
-    plant.bounds.insert("Ks_4".into(), (0.1 * ks, ks_upper));
-    plant.parameters.insert("Kp_4".into(), 1.2 * kp);
+    plant.bounds.insert("Kp_q4".into(), (0.5 * kp, 2.0 * kp));
+    plant.bounds.insert("Ks_q4".into(), (0.1 * ks, ks_upper));
+    plant.parameters.insert("Kp_q4".into(), 1.2 * kp);
     plant
         .parameters
-        .insert("Ks_4".into(), ks_upper * (1.0 - 4.0 * f64::EPSILON));
+        .insert("Ks_q4".into(), ks_upper * (1.0 - 4.0 * f64::EPSILON));
     let options = OutputErrorOptions {
         h: 1.0 / 12000.0,
         horizons: vec![1.0],
         ..OutputErrorOptions::thesis()
     };
-    let names = vec!["Kp_4".to_string(), "Ks_4".to_string()];
+    let names = vec!["Kp_q4".to_string(), "Ks_q4".to_string()];
     let fit = Problem::new(&plant, conf, names, vec![rec], &[4], options)
         .unwrap()
         .fit(&|_| {})
         .unwrap();
     println!(
-        "cost {:.4e} -> {:.4e}; Kp_4 {:.6} (truth {kp:.6}), Ks_4 {:.6e} (bound {ks_upper:.6e}); {}",
+        "cost {:.4e} -> {:.4e}; Kp_q4 {:.6} (truth {kp:.6}), Ks_q4 {:.6e} (bound {ks_upper:.6e}); {}",
         fit.cost_before, fit.cost_after, fit.fitted[0], fit.fitted[1], fit.starts[0].status
     );
     assert!(
@@ -1171,18 +1189,18 @@ fn a_parameter_within_rounding_of_its_bound_does_not_freeze_the_fit() {
     );
     assert!(
         (fit.fitted[0] / kp - 1.0).abs() < 0.05,
-        "Kp_4 {}",
+        "Kp_q4 {}",
         fit.fitted[0]
     );
     assert!(
         (fit.fitted[1] / ks_upper - 1.0).abs() < 1e-12,
-        "Ks_4 {}",
+        "Ks_q4 {}",
         fit.fitted[1]
     );
 }
 
-/// The truth with joint 4's Stribeck velocity a tenth of Appendix D's (vs_4 = 0.05 rad/s;
-/// k3's vs_2 is 0.019 rad/s: a dip seen only at the reversals), 20 s of Table 4.3's J4
+/// The truth with joint 4's Stribeck velocity a tenth of Appendix D's (vs_q4 = 0.05 rad/s;
+/// k3's vs_q2 is 0.019 rad/s: a dip seen only at the reversals), 20 s of Table 4.3's J4
 /// chirp on c1 simulated from it into `dir`: the truth, c1 and the file's record.
 fn slow_dip_c1(
     dir: &Path,
@@ -1193,8 +1211,8 @@ fn slow_dip_c1(
 ) {
     let truth_file = truth(dir);
     let text = std::fs::read_to_string(&truth_file).unwrap();
-    assert!(text.contains("vs_4 = 0.19765"));
-    std::fs::write(&truth_file, text.replace("vs_4 = 0.19765", "vs_4 = 0.05")).unwrap();
+    assert!(text.contains("vs_q4 = 0.19765"));
+    std::fs::write(&truth_file, text.replace("vs_q4 = 0.19765", "vs_q4 = 0.05")).unwrap();
     let truth = Plant::load(&truth_file).unwrap();
     make_data(dir, &truth_file, "4.3", Some("J4"), "c1", "20");
     let (conf, rec) = c1_record(dir, &truth);
@@ -1204,35 +1222,42 @@ fn slow_dip_c1(
 /// A collapsed Stribeck dip (Fs = Fc) leaves the cost flat in vs, so no gradient brings
 /// the dip back, and once the other parameters have adapted to its absence the collapsed
 /// point is a local minimum. With joint 4's Stribeck velocity at 0.05 rad/s, its gain
-/// and friction fitted with the dip held collapsed (Fs_4 = Fc_4, vs_4 on its upper bound),
-/// then Fs_4 and vs_4 freed, the start alone ends at Fs_4 = 1.024 Fc_4, vs_4 = 0.26 rad/s,
+/// and friction fitted with the dip held collapsed (Fs_q4 = Fc_q4, vs_q4 on its upper bound),
+/// then Fs_q4 and vs_q4 freed, the start alone ends at Fs_q4 = 1.024 Fc_q4, vs_q4 = 0.26 rad/s,
 /// 4 % above the truth's cost. The Stribeck branch must win: at most 2 % above the
-/// truth's cost, the dip at least half the truth's, vs_4 within 10 %, the rest within 1 %
+/// truth's cost, the dip at least half the truth's, vs_q4 within 10 %, the rest within 1 %
 /// (and whatever the statistics call identifiable within 5 %).
 #[test]
 #[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
     let d = tempfile::tempdir().unwrap();
     let (truth, conf, rec) = slow_dip_c1(d.path());
-    let adapted: Vec<String> = ["Kp_4", "sigma0_4", "sigma1_4", "sigma2_4", "Fc_4", "Ks_4"]
-        .map(String::from)
-        .to_vec();
+    let adapted: Vec<String> = [
+        "Kp_q4",
+        "sigma0_q4",
+        "sigma1_q4",
+        "sigma2_q4",
+        "Fc_q4",
+        "Ks_q4",
+    ]
+    .map(String::from)
+    .to_vec();
     let names: Vec<String> = adapted
         .iter()
         .cloned()
-        .chain(["Fs_4".to_string(), "vs_4".to_string()])
+        .chain(["Fs_q4".to_string(), "vs_q4".to_string()])
         .collect();
     let at_truth: Vec<f64> = names.iter().map(|n| truth.parameters[n]).collect();
     let mut plant = truth.clone();
     for (n, v) in names.iter().zip(&at_truth) {
         plant.bounds.insert(n.clone(), (v / 4.0, 4.0 * v));
     }
-    // Appendix D's bounds on vs_4.
-    plant.bounds.insert("vs_4".into(), (0.003953, 9.8825));
+    // Appendix D's bounds on vs_q4.
+    plant.bounds.insert("vs_q4".into(), (0.003953, 9.8825));
     plant
         .parameters
-        .insert("Fs_4".into(), truth.parameters["Fc_4"]);
-    plant.parameters.insert("vs_4".into(), 9.8825);
+        .insert("Fs_q4".into(), truth.parameters["Fc_q4"]);
+    plant.parameters.insert("vs_q4".into(), 9.8825);
     let options = OutputErrorOptions {
         h: 1.0 / 12000.0,
         horizons: Vec::new(),
@@ -1294,7 +1319,7 @@ fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
         let e = fit.fitted[i] / at_truth[i] - 1.0;
         let limit = if i < adapted.len() {
             0.01
-        } else if n == "vs_4" {
+        } else if n == "vs_q4" {
             0.1
         } else {
             f64::INFINITY
@@ -1316,25 +1341,25 @@ fn a_collapsed_stribeck_dip_is_re_seeded_and_recovered() {
 
 /// A dip lost the other way: vs on its upper bound leaves g(v) ≈ Fs at every velocity the
 /// files reach, so Fs carries the level the files saw (the truth's Fc) and Fc is barely
-/// seen (the rerun's k3: vs_2 = 9.48 rad/s on its bound, Fs_2 = the truth's Fc_2, Fc_2 40 %
+/// seen (the rerun's k3: vs_q2 = 9.48 rad/s on its bound, Fs_q2 = the truth's Fc_q2, Fc_q2 40 %
 /// low). A re-seed that keeps Fc as the level puts the dip under the truth's Coulomb
-/// friction. Joint 4 of c1 with the truth's vs_4 at 0.05 rad/s, at Fc_4 = 0.9 × the truth's
-/// Fc_4, Fs_4 = the truth's Fc_4, vs_4 on its upper bound (Appendix D's): the seed must
-/// take Fc_4 = Fs_4's level, vs_4 at one of the grid's two points around the truth's
-/// (0.028 or 0.074 rad/s), and cost at most half the best seed with Fc_4 kept.
+/// friction. Joint 4 of c1 with the truth's vs_q4 at 0.05 rad/s, at Fc_q4 = 0.9 × the truth's
+/// Fc_q4, Fs_q4 = the truth's Fc_q4, vs_q4 on its upper bound (Appendix D's): the seed must
+/// take Fc_q4 = Fs_q4's level, vs_q4 at one of the grid's two points around the truth's
+/// (0.028 or 0.074 rad/s), and cost at most half the best seed with Fc_q4 kept.
 #[test]
 fn a_stribeck_dip_lost_with_vs_on_its_upper_bound_is_re_seeded_at_the_level_seen() {
     let d = tempfile::tempdir().unwrap();
     let (truth, conf, rec) = slow_dip_c1(d.path());
-    let names: Vec<String> = ["Fc_4", "Fs_4", "vs_4"].map(String::from).to_vec();
-    let fc_truth = truth.parameters["Fc_4"];
+    let names: Vec<String> = ["Fc_q4", "Fs_q4", "vs_q4"].map(String::from).to_vec();
+    let fc_truth = truth.parameters["Fc_q4"];
     let (vs_lower, vs_upper) = (0.003953, 9.8825);
     let mut plant = truth.clone();
     for n in &names {
         let v = truth.parameters[n];
         plant.bounds.insert(n.clone(), (v / 4.0, 4.0 * v));
     }
-    plant.bounds.insert("vs_4".into(), (vs_lower, vs_upper));
+    plant.bounds.insert("vs_q4".into(), (vs_lower, vs_upper));
     let lost = [0.9 * fc_truth, fc_truth, vs_upper];
     let options = OutputErrorOptions {
         h: 1.0 / 12000.0,
@@ -1354,11 +1379,11 @@ fn a_stribeck_dip_lost_with_vs_on_its_upper_bound_is_re_seeded_at_the_level_seen
         })
         .fold(f64::INFINITY, f64::min);
     println!("{note}: {seed:?}, cost {seed_cost:.5e}; best with Fc kept {fc_kept:.5e}");
-    assert_eq!(seed[0], fc_truth, "Fc_4 of the seed");
-    assert!(seed[1] > 1.2 * seed[0], "Fs_4 of the seed {}", seed[1]);
+    assert_eq!(seed[0], fc_truth, "Fc_q4 of the seed");
+    assert!(seed[1] > 1.2 * seed[0], "Fs_q4 of the seed {}", seed[1]);
     assert!(
         (0.02..0.08).contains(&seed[2]),
-        "vs_4 of the seed {}",
+        "vs_q4 of the seed {}",
         seed[2]
     );
     assert!(seed_cost < 0.5 * fc_kept, "{seed_cost} vs {fc_kept}");
@@ -1401,7 +1426,13 @@ fn the_equation_error_holds_at_the_truth_and_keeps_the_gain_scale_symmetry() {
     let mut moved = 0;
     for (n, v) in scaled.parameters.iter_mut() {
         let force = [
-            "Kp_2", "sigma0_2", "sigma1_2", "sigma2_2", "Fc_2", "Fs_2", "Ks_2",
+            "Kp_q2",
+            "sigma0_q2",
+            "sigma1_q2",
+            "sigma2_q2",
+            "Fc_q2",
+            "Fs_q2",
+            "Ks_q2",
         ];
         let inertial = truth.model.inertial_symbols.contains(&n.as_str())
             && (n.starts_with('m') || n.starts_with('I'));
@@ -1626,22 +1657,22 @@ fn the_carried_prior_weighs_a_carried_symbol_by_its_earlier_standard_error() {
 }
 
 /// A held value's recorded standard error enters the fitted values' standard errors by
-/// the model's own exact symmetry: on c1 at the truth with the Coulomb level Fc_4 held with
-/// σ = 1 % of its value, a relative change ε of Fc_4 is absorbed exactly by scaling the
+/// the model's own exact symmetry: on c1 at the truth with the Coulomb level Fc_q4 held with
+/// σ = 1 % of its value, a relative change ε of Fc_q4 is absorbed exactly by scaling the
 /// plant gain and every other force and inertia of joint 4 by 1 + ε (positions
 /// unchanged), so the held share √(σ_p² − σ_p,given held²) of each determined member p of
-/// that family is 1 % of |p|; the members outside it (vs_4, qeq_4) get none. With Fc_4
+/// that family is 1 % of |p|; the members outside it (vs_q4, qeq_q4) get none. With Fc_q4
 /// held the family is no longer an exact symmetry, so its members are determined given
-/// Fc_4.
+/// Fc_q4.
 #[test]
 fn a_held_values_standard_error_is_propagated_along_the_plant_gain_scale() {
     let d = tempfile::tempdir().unwrap();
     let (p, at_truth, _) = problem_at_truth(d.path(), "J4", 0);
     let mut plant = p.plant_at(&at_truth);
-    let fc = plant.parameters["Fc_4"];
+    let fc = plant.parameters["Fc_q4"];
     let relative = 0.01;
-    plant.standard_errors.insert("Fc_4".into(), relative * fc);
-    let names: Vec<String> = p.names.iter().filter(|n| *n != "Fc_4").cloned().collect();
+    plant.standard_errors.insert("Fc_q4".into(), relative * fc);
+    let names: Vec<String> = p.names.iter().filter(|n| *n != "Fc_q4").cloned().collect();
     let values: Vec<f64> = names.iter().map(|n| plant.parameters[n]).collect();
     let statistics_on = |plant: &Plant| {
         Problem::new(
@@ -1657,17 +1688,17 @@ fn a_held_values_standard_error_is_propagated_along_the_plant_gain_scale() {
         .unwrap()
     };
     let stats = statistics_on(&plant);
-    assert_eq!(stats.held, [("Fc_4".to_string(), relative * fc)]);
+    assert_eq!(stats.held, [("Fc_q4".to_string(), relative * fc)]);
     let share = |i: usize| {
         let (se, given) = (stats.std_err[i], stats.std_err_given_held[i]);
         (se * se - given * given).max(0.0).sqrt()
     };
     let mut checked = Vec::new();
-    for n in ["Kp_4", "sigma0_4", "sigma2_4", "Fs_4", "Ks_4"] {
+    for n in ["Kp_q4", "sigma0_q4", "sigma2_q4", "Fs_q4", "Ks_q4"] {
         let i = names.iter().position(|x| x == n).unwrap();
         assert!(
             stats.std_err_given_held[i].is_finite(),
-            "{n} undetermined given Fc_4"
+            "{n} undetermined given Fc_q4"
         );
         let expected = relative * values[i].abs();
         println!(
@@ -1682,7 +1713,7 @@ fn a_held_values_standard_error_is_propagated_along_the_plant_gain_scale() {
         );
         checked.push(n);
     }
-    for n in ["vs_4", "qeq_4"] {
+    for n in ["vs_q4", "qeq_q4"] {
         let i = names.iter().position(|x| x == n).unwrap();
         println!(
             "{n}: σ {:.4e}, given held {:.4e}",
@@ -1695,10 +1726,10 @@ fn a_held_values_standard_error_is_propagated_along_the_plant_gain_scale() {
             stats.std_err_given_held[i]
         );
     }
-    // Without the record, Fc_4 is held as exact and the standard errors are those given it.
+    // Without the record, Fc_q4 is held as exact and the standard errors are those given it.
     plant.standard_errors.clear();
     let exact = statistics_on(&plant);
-    assert!(exact.held.is_empty() && exact.held_exact.contains(&"Fc_4".to_string()));
+    assert!(exact.held.is_empty() && exact.held_exact.contains(&"Fc_q4".to_string()));
     assert_eq!(exact.std_err, exact.std_err_given_held);
 }
 
@@ -1721,8 +1752,8 @@ fn a_spanning_symbol_on_its_bound_reaches_its_base_parameter_through_the_held_ti
     let start = truth_within_bounds(d.path(), &truth_file, &[("I2_33", 0.75), ("m1", 0.8)]);
     let mut plant = Plant::load(&start).unwrap();
     // The plant gain known (as the isolated method needs for c6): held at the truth's.
-    let kp = truth.parameters["Kp_0"];
-    plant.bounds.insert("Kp_0".into(), (kp, kp));
+    let kp = truth.parameters["Kp_q0"];
+    plant.bounds.insert("Kp_q0".into(), (kp, kp));
     plant.save(&start).unwrap();
     let args = ["--step", "1/2000", "--horizons", "1"];
     // Without the reach (`--tie-reach off`) the step ends above the floor.
@@ -1898,11 +1929,11 @@ fn a_step_that_leaves_a_link_impossible_says_which_and_where_it_matters() {
     let mut p = Plant::load(&truth(dir.path())).unwrap();
     let fitted = |names: &[&str]| names.iter().map(|s| s.to_string()).collect::<Vec<_>>();
     // At the truth (I4_33 made positive) no link is impossible.
-    assert!(impossible_links(&p, &fitted(&["I1_33", "Kp_0"]))
+    assert!(impossible_links(&p, &fitted(&["I1_33", "Kp_q0"]))
         .unwrap()
         .is_empty());
     p.parameters.insert("I1_33".into(), -7.97 * 0.00144);
-    let lines = impossible_links(&p, &fitted(&["I1_33", "Kp_0", "sigma0_0"])).unwrap();
+    let lines = impossible_links(&p, &fitted(&["I1_33", "Kp_q0", "sigma0_q0"])).unwrap();
     assert_eq!(lines.len(), 1, "{lines:?}");
     let l = &lines[0];
     eprintln!("{l}");
@@ -1912,7 +1943,7 @@ fn a_step_that_leaves_a_link_impossible_says_which_and_where_it_matters() {
     // Configurations without joint 0 free do not contain link 1's inertia about its axis.
     assert!(!l.contains("c1,") && !l.contains("k1"), "{l}");
     // A step that did not fit the link does not report it.
-    assert!(impossible_links(&p, &fitted(&["Kp_0", "m2"]))
+    assert!(impossible_links(&p, &fitted(&["Kp_q0", "m2"]))
         .unwrap()
         .is_empty());
 }
@@ -1991,7 +2022,7 @@ fn the_fit_estimates_initial_positions_and_reports_them() {
         ..p.options().clone()
     };
     let problem = |estimate| {
-        let names = vec!["Kp_1".to_string(), "Fc_1".to_string()];
+        let names = vec!["Kp_q1".to_string(), "Fc_q1".to_string()];
         Problem::new(
             &plant,
             p.configuration(),
@@ -2080,8 +2111,8 @@ fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
     for k in ["k1", "k2"] {
         make_data(d.path(), &truth_file, "4.7", None, k, "30");
     }
-    let names: Vec<String> = ["Fc_4", "Fc_3", "sigma2_3"].map(String::from).to_vec();
-    let start_file = truth_within_bounds(d.path(), &truth_file, &[("Fc_4", 1.02)]);
+    let names: Vec<String> = ["Fc_q4", "Fc_q3", "sigma2_q3"].map(String::from).to_vec();
+    let start_file = truth_within_bounds(d.path(), &truth_file, &[("Fc_q4", 1.02)]);
     let start = Plant::load(&start_file).unwrap();
     let options = OutputErrorOptions {
         h: 1.0 / 12000.0,
@@ -2100,7 +2131,7 @@ fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
     let worst = |joints: &[lockstep::identify::output_error::JointFit]| {
         joints.iter().map(|j| j.rms / j.noise).fold(0.0, f64::max)
     };
-    // k2's step with Fc_4 held wrong.
+    // k2's step with Fc_q4 held wrong.
     let (k2, k2_records) = files("k2");
     let step = Problem::new(
         &start,
@@ -2114,7 +2145,7 @@ fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
     .fit(&|_| {})
     .unwrap();
     eprintln!(
-        "k2 with Fc_4 held 2 % off: {:?}, worst RMS {:.2} σ̂",
+        "k2 with Fc_q4 held 2 % off: {:?}, worst RMS {:.2} σ̂",
         step.fitted,
         worst(&step.statistics.joints)
     );
@@ -2128,7 +2159,7 @@ fn the_joint_fit_recovers_a_value_an_earlier_step_held_wrong() {
         &occurrence(truth.model),
     )
     .unwrap();
-    assert_eq!(joint.entering("k1"), ["Fc_4"]);
+    assert_eq!(joint.entering("k1"), ["Fc_q4"]);
     assert_eq!(joint.entering("k2"), names);
     let fit = joint.fit(&|_| {}).unwrap();
     let stats = &fit.statistics;
@@ -2190,10 +2221,10 @@ impl K2Case {
 /// The release of held values (`--release-held`, `StepRefit::release_held`): joint 4's Coulomb
 /// level, which k1 fits, is held 2 % off with a recorded standard error of 1 % while k2
 /// fits joint 3's friction (30 s of Table 4.7); k2's fit ends above the noise floor. Its
-/// statistics say how much better k2's data see Fc_4 than its recorded error: ρ =
-/// σ_rec² / var, checked against the variance a fit with Fc_4 among its parameters reports
-/// for it. ρ > 1, so the release refits Fc_4 with k2's parameters under a prior of 1 %
-/// about the held value: the fit reaches the floor, Fc_4 returns within 0.5 % of the truth
+/// statistics say how much better k2's data see Fc_q4 than its recorded error: ρ =
+/// σ_rec² / var, checked against the variance a fit with Fc_q4 among its parameters reports
+/// for it. ρ > 1, so the release refits Fc_q4 with k2's parameters under a prior of 1 %
+/// about the held value: the fit reaches the floor, Fc_q4 returns within 0.5 % of the truth
 /// (a move of about −2 of its prior's σ), and the plant-level result keeps the step's
 /// history (cost before, the first fit's evaluations counted).
 #[test]
@@ -2201,13 +2232,13 @@ impl K2Case {
 fn a_held_value_the_step_sees_better_is_released_and_the_floor_reached() {
     use lockstep::identify::sequence::StepRefit;
     let d = tempfile::tempdir().unwrap();
-    let case = K2Case::new(d.path(), &[("Fc_4", 1.02)]);
+    let case = K2Case::new(d.path(), &[("Fc_q4", 1.02)]);
     let (truth, mut start, options, k2) =
         (&case.truth, case.start.clone(), &case.options, case.k2());
-    let fc4 = truth.parameters["Fc_4"];
-    start.standard_errors.insert("Fc_4".into(), 0.01 * fc4);
+    let fc4 = truth.parameters["Fc_q4"];
+    start.standard_errors.insert("Fc_q4".into(), 0.01 * fc4);
     let record = || case.record();
-    let names: Vec<String> = ["Fc_3", "sigma2_3"].map(String::from).to_vec();
+    let names: Vec<String> = ["Fc_q3", "sigma2_q3"].map(String::from).to_vec();
     let problem = Problem::new(&start, k2, names.clone(), record(), &[3], options.clone()).unwrap();
     // σ̂ from the data (robust 5th differences) is near the sensor's 2.02e-4 rad; a known
     // sensor σ (`--noise-sigma`) replaces it on every free joint.
@@ -2228,25 +2259,25 @@ fn a_held_value_the_step_sees_better_is_released_and_the_floor_reached() {
             .map(|j| j.rms / j.noise)
             .fold(0.0, f64::max)
     };
-    eprintln!("k2 with Fc_4 held 2 % off: worst RMS {:.2} σ̂", worst(&fit));
+    eprintln!("k2 with Fc_q4 held 2 % off: worst RMS {:.2} σ̂", worst(&fit));
     assert!(!fit.statistics.above_floor.is_empty());
     let rho = fit
         .statistics
         .held_information
         .iter()
-        .find(|(n, _)| n == "Fc_4")
+        .find(|(n, _)| n == "Fc_q4")
         .map(|x| x.1)
-        .expect("Fc_4 is held with a standard error");
-    // The variance of Fc_4 fitted with the others, at the same point.
+        .expect("Fc_q4 is held with a standard error");
+    // The variance of Fc_q4 fitted with the others, at the same point.
     let mut at = start.clone();
     at.set_values(&fit.names, &fit.fitted);
     let mut with = names.clone();
-    with.push("Fc_4".into());
+    with.push("Fc_q4".into());
     let augmented = Problem::new(&at, k2, with.clone(), record(), &[3], options.clone()).unwrap();
     let p: Vec<f64> = with.iter().map(|n| at.parameters[n]).collect();
     let stats = augmented.statistics(&p).unwrap();
     let reference = (0.01 * fc4 / stats.std_err_given_held[2]).powi(2);
-    eprintln!("ρ(Fc_4) = {rho:.4}, from the augmented fit's standard error {reference:.4}");
+    eprintln!("ρ(Fc_q4) = {rho:.4}, from the augmented fit's standard error {reference:.4}");
     assert!(rho > 1.0);
     assert!((rho / reference - 1.0).abs() < 0.05, "{rho} vs {reference}");
     let (released, summary) = StepRefit {
@@ -2257,15 +2288,15 @@ fn a_held_value_the_step_sees_better_is_released_and_the_floor_reached() {
     }
     .release_held(&start, fit.clone())
     .unwrap();
-    let summary = summary.expect("Fc_4 is released");
+    let summary = summary.expect("Fc_q4 is released");
     eprintln!("{summary:?}");
     assert!(summary.kept);
     assert_eq!(summary.values.len(), 1);
     let (name, _, se, before, after) = summary.values[0].clone();
-    assert_eq!(name, "Fc_4");
+    assert_eq!(name, "Fc_q4");
     assert!(
         (after / fc4 - 1.0).abs() < 0.005,
-        "Fc_4 {after}, truth {fc4}"
+        "Fc_q4 {after}, truth {fc4}"
     );
     assert!(
         ((after - before) / se + 2.0).abs() < 0.6,
@@ -2388,8 +2419,8 @@ fn check_joint_fit(out: &Path, truth: &Plant) -> serde_json::Value {
 /// parameter k1 and k2 fit (those k2's plan lists, with the symbols that span the two
 /// configurations' base parameters), stays at the noise floor on every joint of both, and
 /// calls at least three values identifiable, each within 1 % of the truth and 4 of its
-/// standard errors (measured: qeq_4, qeq_5, G_4to5, G_5to4, vs_3; the largest 3.4 σ,
-/// qeq_5). The plant written holds the fitted values and lists the symbols left
+/// standard errors (measured: qeq_q4, qeq_q5, G_q4_to_q5, G_q5_to_q4, vs_q3; the largest 3.4 σ,
+/// qeq_q5). The plant written holds the fitted values and lists the symbols left
 /// undetermined; report.md has the joint fit's section. Without k1's file the run is
 /// refused before any fit, naming the step.
 #[test]
@@ -2525,8 +2556,8 @@ fn fit_the_diverging_start(extra: &[&str]) -> Vec<serde_json::Value> {
             plant.parameters.insert(n.clone(), f * truth.parameters[n]);
         }
     }
-    let fc = plant.parameters["Fc_4"];
-    let fs = plant.parameters.get_mut("Fs_4").unwrap();
+    let fc = plant.parameters["Fc_q4"];
+    let fs = plant.parameters.get_mut("Fs_q4").unwrap();
     *fs = fs.max(fc);
     plant.save(&start).unwrap();
     // The bound of the run this premise was written for (the default now follows the
@@ -2586,23 +2617,23 @@ fn fit_the_diverging_start(extra: &[&str]) -> Vec<serde_json::Value> {
 
 /// A fit whose bounds exclude the truth ends away from the noise floor with the value at
 /// its bound, and the report says exactly which values ended at a bound and what that may
-/// mean (joint 4's cable-drag spring Ks_4 bounded to 10–20 % of its true value; c1, 12 s,
+/// mean (joint 4's cable-drag spring Ks_q4 bounded to 10–20 % of its true value; c1, 12 s,
 /// 15 iterations). Joint 4's Stribeck dip and plant gain are held at the truth's (bounds
 /// lower = upper). With the dip fitted, the Stribeck re-seed's branch (Fc = Fs tried) ends
-/// lower (7.2e7 against 4.0e8) with σ1_4, σ2_4 and vs_4 on their bounds and Ks_4 inside;
-/// with the gain fitted, the plant-gain scale lets Kp_4 run to its bound instead (3.6e8,
-/// Ks_4 at 17 %): either would test something else than the bound the truth is outside of.
+/// lower (7.2e7 against 4.0e8) with σ1_4, σ2_4 and vs_q4 on their bounds and Ks_q4 inside;
+/// with the gain fitted, the plant-gain scale lets Kp_q4 run to its bound instead (3.6e8,
+/// Ks_q4 at 17 %): either would test something else than the bound the truth is outside of.
 #[test]
 fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
     let d = tempfile::tempdir().unwrap();
     let (truth, start) = short_isolated_start(d.path(), "J4", 0);
     let mut plant = Plant::load(&start).unwrap();
-    let ks = truth.parameters["Ks_4"];
-    plant.bounds.insert("Ks_4".into(), (0.1 * ks, 0.2 * ks));
-    plant.parameters.insert("Ks_4".into(), 0.15 * ks);
+    let ks = truth.parameters["Ks_q4"];
+    plant.bounds.insert("Ks_q4".into(), (0.1 * ks, 0.2 * ks));
+    plant.parameters.insert("Ks_q4".into(), 0.15 * ks);
     // The Stribeck dip and the gain held at the truth's (bounds lower = upper): no re-seed
-    // branch and no gain scale (either ends with other values on their bounds, Ks_4 inside).
-    for n in ["Fs_4", "vs_4", "Kp_4"] {
+    // branch and no gain scale (either ends with other values on their bounds, Ks_q4 inside).
+    for n in ["Fs_q4", "vs_q4", "Kp_q4"] {
         let v = truth.parameters[n];
         plant.bounds.insert(n.into(), (v, v));
         plant.parameters.insert(n.into(), v);
@@ -2618,8 +2649,8 @@ fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
     let names: Vec<String> = column(fit, &["names"]);
     let fitted: Vec<f64> = column(fit, &["fitted"]);
     let at_bound: Vec<bool> = column(fit, &["statistics", "at_bound"]);
-    let k = names.iter().position(|n| n == "Ks_4").unwrap();
-    assert!(at_bound[k], "Ks_4 = {} not at its bound", fitted[k]);
+    let k = names.iter().position(|n| n == "Ks_q4").unwrap();
+    assert!(at_bound[k], "Ks_q4 = {} not at its bound", fitted[k]);
     assert!((fitted[k] - 0.2 * ks).abs() <= 1e-9 * ks, "{}", fitted[k]);
     let bounded: Vec<&String> = names
         .iter()
@@ -2650,19 +2681,19 @@ fn a_fit_away_from_the_floor_names_the_values_at_their_bounds() {
 }
 
 /// In k1 (joints 4 and 5 free, every parameter that scales with the plant gains fitted or
-/// held along a tie) the gain's scale family — Kp_4, Kp_5 with every force of both joints
+/// held along a tie) the gain's scale family — Kp_q4, Kp_q5 with every force of both joints
 /// and link 7's mass and inertias — is an exact symmetry of position data, so the
 /// statistics must call every member undetermined, also where a member's column is only
-/// difference noise, as Fs_5's is at the truth's vs_5 = 8.0e-9 rad/s (a k1 fit of the
-/// seed-7 data called Kp_4 and Kp_5 "identifiable" to 4 and 9 ppm: such a column had
+/// difference noise, as Fs_q5's is at the truth's vs_q5 = 8.0e-9 rad/s (a k1 fit of the
+/// seed-7 data called Kp_q4 and Kp_q5 "identifiable" to 4 and 9 ppm: such a column had
 /// lifted the family's direction above the exact-symmetry cut-off). The parameters outside
-/// the family keep finite standard errors. With Kp_5 held at a known value (a datasheet
+/// the family keep finite standard errors. With Kp_q5 held at a known value (a datasheet
 /// gain) nothing scales any more: the forces get finite standard errors. The direction
 /// includes what makes up for the held ties, over the fitted rigid-body symbols only, and
 /// so does each held tie's share in the standard errors (a value uniform within its
-/// bounds): z7 (for I7_13) gets the tie's uncertainty, vs_4, qeq_4 and G_4to5 keep theirs
+/// bounds): z7 (for I7_13) gets the tie's uncertainty, vs_q4, qeq_q4 and G_q4_to_q5 keep theirs
 /// (solved over every column, the least squares leaked the finite-difference error along
-/// the projected direction into them: qeq_4 ± 0.0155 rad, 6 %).
+/// the projected direction into them: qeq_q4 ± 0.0155 rad, 6 %).
 #[test]
 fn the_plant_gain_scale_family_is_undetermined_and_a_held_gain_determines_it() {
     let d = tempfile::tempdir().unwrap();
@@ -2673,11 +2704,11 @@ fn the_plant_gain_scale_family_is_undetermined_and_a_held_gain_determines_it() {
     let (p, at_truth, _) = problem_of_step(d.path(), "coupled", "4.7", None, |_| 0);
     let mut plant = p.plant_at(&at_truth);
     let model = truth.model;
-    // Where that k1 fit ended joint 5's Stribeck dip: Fs_5 and vs_5 on their upper bounds
+    // Where that k1 fit ended joint 5's Stribeck dip: Fs_q5 and vs_q5 on their upper bounds
     // (3.14385 N·m, 4.0112e-7 rad/s), a dip no sample sees.
-    plant.bounds.insert("Fs_5".into(), (1.2575e-3, 3.14385));
-    plant.bounds.insert("vs_5".into(), (1.6045e-10, 4.0112e-7));
-    let dip_lost = [("Fs_5", 3.14385), ("vs_5", 4.0112e-7)];
+    plant.bounds.insert("Fs_q5".into(), (1.2575e-3, 3.14385));
+    plant.bounds.insert("vs_q5".into(), (1.6045e-10, 4.0112e-7));
+    let dip_lost = [("Fs_q5", 3.14385), ("vs_q5", 4.0112e-7)];
     // As `--rigid-body spanning` fits k1 on these files: y7 and I7_13 held along ties.
     let ties = vec!["y7".to_string(), "I7_13".to_string()];
     let problem = |held: &[&str], at: &[(&str, f64)]| {
@@ -2720,7 +2751,14 @@ fn the_plant_gain_scale_family_is_undetermined_and_a_held_gain_determines_it() {
             && truth.parameters[n] != 0.0
     };
     for n in [
-        "Kp_4", "Kp_5", "sigma0_4", "Fc_5", "Fs_5", "Ks_5", "m7", "I7_33",
+        "Kp_q4",
+        "Kp_q5",
+        "sigma0_q4",
+        "Fc_q5",
+        "Fs_q5",
+        "Ks_q5",
+        "m7",
+        "I7_33",
     ] {
         assert!(step.fitted.iter().any(|f| f == n) && in_family(n), "{n}");
     }
@@ -2734,7 +2772,7 @@ fn the_plant_gain_scale_family_is_undetermined_and_a_held_gain_determines_it() {
                 assert!(!stats.identifiable[i], "{n} called identifiable");
             }
         }
-        for n in ["qeq_4", "qeq_5", "G_4to5", "vs_4"] {
+        for n in ["qeq_q4", "qeq_q5", "G_q4_to_q5", "vs_q4"] {
             let i = names.iter().position(|m| m == n).unwrap();
             let se = stats.std_err[i];
             assert!(
@@ -2762,21 +2800,21 @@ fn the_plant_gain_scale_family_is_undetermined_and_a_held_gain_determines_it() {
         }
     }
 
-    // Kp_5 held at its value (a datasheet gain): nothing scales any more.
-    let (names, values, stats) = problem(&["Kp_5"], &[]);
-    for n in ["Kp_4", "sigma0_4", "Fc_5", "Ks_5", "Ks_4"] {
+    // Kp_q5 held at its value (a datasheet gain): nothing scales any more.
+    let (names, values, stats) = problem(&["Kp_q5"], &[]);
+    for n in ["Kp_q4", "sigma0_q4", "Fc_q5", "Ks_q5", "Ks_q4"] {
         let i = names.iter().position(|m| m == n).unwrap();
         let (se, v) = (stats.std_err[i], values[i]);
-        println!("Kp_5 held: {n}: {v:.6e} ± {se:.3e}");
+        println!("Kp_q5 held: {n}: {v:.6e} ± {se:.3e}");
         assert!(
             se.is_finite() && se < 0.05 * v.abs(),
-            "{n}: {v} ± {se} with Kp_5 held"
+            "{n}: {v} ± {se} with Kp_q5 held"
         );
     }
 }
 
 /// The balanced refit (`--balance on`, `StepRefit::balance`): k2 (q3 of interest, weighted
-/// 50; 30 s of Table 4.7) with k1's Coulomb level Fc_4 held 0.01 % off (the wrist sees it:
+/// 50; 30 s of Table 4.7) with k1's Coulomb level Fc_q4 held 0.01 % off (the wrist sees it:
 /// 0.5 % off puts q4 at 149 σ̂), fitting joint 3's friction and link 7's centroid (x7, y7),
 /// which move every free joint. Measured: the thesis-weighted fit ends with q3, q4, q5 at
 /// 1.57, 5.32, 2.76 σ̂ (cost 0.477); refitted with every joint weighted 1 at 1.12, 2.70,
@@ -2789,10 +2827,12 @@ fn the_plant_gain_scale_family_is_undetermined_and_a_held_gain_determines_it() {
 fn the_balanced_refit_spreads_a_held_values_misfit_over_the_joints() {
     use lockstep::identify::sequence::StepRefit;
     let d = tempfile::tempdir().unwrap();
-    let case = K2Case::new(d.path(), &[("Fc_4", 1.0001)]);
+    let case = K2Case::new(d.path(), &[("Fc_q4", 1.0001)]);
     let (start, options, k2) = (&case.start, &case.options, case.k2());
     let record = || case.record();
-    let names: Vec<String> = ["x7", "y7", "Fc_3", "sigma2_3"].map(String::from).to_vec();
+    let names: Vec<String> = ["x7", "y7", "Fc_q3", "sigma2_q3"]
+        .map(String::from)
+        .to_vec();
     let problem = Problem::new(start, k2, names.clone(), record(), &[3], options.clone()).unwrap();
     let fit = problem.fit(&|_| {}).unwrap();
     let refit = StepRefit {

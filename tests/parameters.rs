@@ -107,7 +107,7 @@ fn planar_2r_has_the_textbook_base_parameters() {
 fn least_change_along_ties_keeps_the_base_parameters_and_returns_along_the_tie() {
     let plant = coupled_plant();
     let conf = plant.model.configuration("c1").unwrap();
-    let names: Vec<String> = ["m7", "x7", "y7", "I7_33", "Fc_4"]
+    let names: Vec<String> = ["m7", "x7", "y7", "I7_33", "Fc_q4"]
         .map(String::from)
         .to_vec();
     let value = |p: &Plant| -> Vec<f64> { names.iter().map(|n| p.parameters[n]).collect() };
@@ -140,7 +140,7 @@ fn least_change_along_ties_keeps_the_base_parameters_and_returns_along_the_tie()
         moved[1]
     );
     assert!((moved[1] / moved[2] - truth[1] / truth[2]).abs() < 1e-6 * (truth[1] / truth[2]).abs());
-    // Fc_4 is no rigid-body symbol: untouched.
+    // Fc_q4 is no rigid-body symbol: untouched.
     assert_eq!(moved[4], truth[4]);
     // Back from there toward the original values: the original values are on the tie.
     let back = least_change_along_ties(&at, conf, &names, &truth, &lower, &upper).unwrap();

@@ -27,15 +27,15 @@ fn appendix_d_plant_files_load_with_the_ocr_fixes() {
     let init = Plant::load(&plant_file("initial")).unwrap();
     let iso = Plant::load(&plant_file("isolated")).unwrap();
     let cpl = Plant::load(&plant_file("coupled")).unwrap();
-    assert_eq!(init.parameters["Ks_1"], 1.5694e-1);
-    assert_eq!(iso.parameters["Ks_2"], 4.59e-2);
-    assert_eq!(iso.parameters["sigma1_3"], 9e-4);
-    assert_eq!(cpl.parameters["qeq_0"], -2.1791e-2);
+    assert_eq!(init.parameters["Ks_q1"], 1.5694e-1);
+    assert_eq!(iso.parameters["Ks_q2"], 4.59e-2);
+    assert_eq!(iso.parameters["sigma1_q3"], 9e-4);
+    assert_eq!(cpl.parameters["qeq_q0"], -2.1791e-2);
     assert_eq!(cpl.parameters["m7"], 6.0061e-2);
-    assert_eq!(cpl.parameters["sigma2_5"], 0.0019215);
+    assert_eq!(cpl.parameters["sigma2_q5"], 0.0019215);
     // Thesis G54 = 0.20362 enters τ'_4 with a minus sign.
-    assert_eq!(cpl.parameters["G_5to4"], -0.20362);
-    assert_eq!(cpl.parameters["G_4to5"], 1.01);
+    assert_eq!(cpl.parameters["G_q5_to_q4"], -0.20362);
+    assert_eq!(cpl.parameters["G_q4_to_q5"], 1.01);
     // 59 effect parameters + 64 Appendix D inertial values + 6 symbols that appear nowhere.
     assert_eq!(cpl.parameters.len(), 129);
     assert_eq!(iso.parameters.len(), 129 - 5);
@@ -201,7 +201,7 @@ fn k1_response(coupling: bool, w4: f64, w5: f64, t_end: f64) -> (Vec<f64>, Vec<V
     }
     for j in [4, 5] {
         p.add_effect(Effect::on(EffectKind::Viscous, j)).unwrap();
-        p.parameters.insert(format!("Fv_{j}"), 2e-3);
+        p.parameters.insert(format!("Fv_q{j}"), 2e-3);
     }
     let s = p
         .simulator("k1", &[0.0; 6], ConsistencyPolicy::Refuse)
@@ -307,9 +307,9 @@ fn friction_bias_scales_friction_below_the_equilibrium() {
     for e in [EffectKind::Coulomb, EffectKind::FrictionBias] {
         p.add_effect(Effect::on(e, 5)).unwrap();
     }
-    p.parameters.insert("Fc_5".into(), 0.01);
-    p.parameters.insert("FrictionBias_5".into(), 1.8);
-    p.parameters.insert("qeq_5".into(), 0.1);
+    p.parameters.insert("Fc_q5".into(), 0.01);
+    p.parameters.insert("FrictionBias_q5".into(), 1.8);
+    p.parameters.insert("qeq_q5".into(), 0.1);
     let s = p
         .simulator("c2", &[0.0; 6], ConsistencyPolicy::Refuse)
         .unwrap()
@@ -333,10 +333,10 @@ fn static_stribeck_friction_reaches_its_terminal_velocity() {
     .unwrap();
     for (k, v) in [
         ("M", 95.0),
-        ("Fc_0", 20.0),
-        ("Fs_0", 35.0),
-        ("vs_0", 0.05),
-        ("Fv_0", 200.0),
+        ("Fc_q0", 20.0),
+        ("Fs_q0", 35.0),
+        ("vs_q0", 0.05),
+        ("Fv_q0", 200.0),
     ] {
         p.parameters.insert(k.into(), v);
     }
@@ -557,8 +557,8 @@ fn measurement_files_round_trip_in_csv_and_mat() {
     };
     for ext in ["csv", "mat"] {
         let path = d.path().join(format!("x.{ext}"));
-        m.write(&path).unwrap();
-        let back = Measurement::read(&path, 2).unwrap();
+        m.write(&path, &["q0", "q1"]).unwrap();
+        let back = Measurement::read(&path, &["q0", "q1"]).unwrap();
         assert_eq!(back.t, m.t, "{ext}");
         assert_eq!(back.tau, m.tau, "{ext}");
         assert_eq!(back.q, m.q, "{ext}");
@@ -577,14 +577,16 @@ fn mat_files_from_other_tools_and_bad_mat_files() {
     // Written by SciPy 1.17 (header "MATLAB 5.0 MAT-file Platform: …", no comma): t, tau0 and
     // a 12×2 matrix q giving q0 and q1; a text variable is skipped.
     let f = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scipy_v5.mat");
-    let m = Measurement::read(&f, 1).unwrap();
+    let m = Measurement::read(&f, &["q0"]).unwrap();
     assert_eq!(m.len(), 12);
     assert!((m.q[0][3] - (0.03f64).sin()).abs() < 1e-15);
     let table = Table::read(&f).unwrap();
     assert_eq!(table.get("q1").unwrap().unwrap()[3], 2.0 * (0.03f64).sin());
-    let e = Measurement::read(&f, 2).unwrap_err().to_string();
+    let e = Measurement::read(&f, &["q0", "q1"])
+        .unwrap_err()
+        .to_string();
     assert!(
-        e.contains("missing column 'tau1'") && e.contains("variables are"),
+        e.contains("missing column 'tau_q1'") && e.contains("variables are"),
         "{e}"
     );
     let d = tempfile::tempdir().unwrap();
@@ -592,11 +594,11 @@ fn mat_files_from_other_tools_and_bad_mat_files() {
     let mut bytes = b"MATLAB 7.3 MAT-file, Platform: GLNXA64".to_vec();
     bytes.resize(512, 0);
     std::fs::write(&v73, bytes).unwrap();
-    let e = Measurement::read(&v73, 1).unwrap_err().to_string();
+    let e = Measurement::read(&v73, &["q0"]).unwrap_err().to_string();
     assert!(e.contains("v7.3") && e.contains("-v7"), "{e}");
     let junk = d.path().join("junk.mat");
     std::fs::write(&junk, b"not a mat file at all").unwrap();
-    let e = Measurement::read(&junk, 1).unwrap_err().to_string();
+    let e = Measurement::read(&junk, &["q0"]).unwrap_err().to_string();
     assert!(e.contains("junk.mat") && e.contains("MAT file"), "{e}");
 }
 
@@ -627,7 +629,7 @@ fn the_friction_bias_switch_is_located_within_the_step() {
         tau: &tau,
         hold: Hold::Zoh,
     };
-    let qeq = truth.parameters["qeq_2"];
+    let qeq = truth.parameters["qeq_q2"];
     // Positions at the sample times: split steps (simulate_at) or plain RK4 (simulate),
     // `per_sample` steps per 0.01 s sample.
     let run = |name: &str, factor: f64, split: bool, per_sample: usize| -> Vec<f64> {
@@ -669,17 +671,17 @@ fn the_friction_bias_switch_is_located_within_the_step() {
             .map(|(x, y)| (x - y).abs())
             .fold(0.0, f64::max)
     };
-    let reference = run("Kp_2", 1.0, true, 320);
+    let reference = run("Kp_q2", 1.0, true, 320);
     let crossings = reference
         .windows(2)
         .filter(|w| (w[0] < qeq) != (w[1] < qeq))
         .count();
     assert!(crossings >= 6, "only {crossings} crossings of qeq");
-    let e_split = worst(&run("Kp_2", 1.0, true, 20), &reference);
-    let e_plain = worst(&run("Kp_2", 1.0, false, 20), &reference);
+    let e_split = worst(&run("Kp_q2", 1.0, true, 20), &reference);
+    let e_plain = worst(&run("Kp_q2", 1.0, false, 20), &reference);
     println!("{crossings} crossings; position error at 1/2000 s: split {e_split:.3e}, plain {e_plain:.3e} rad");
     assert!(e_split < 0.8 * e_plain, "{e_split:.3e} vs {e_plain:.3e}");
-    for name in ["Kp_2", "FrictionBias_2"] {
+    for name in ["Kp_q2", "FrictionBias_q2"] {
         let slope = |split: bool, per_sample: usize| {
             let rel = 1e-6;
             let (a, b) = (

@@ -229,7 +229,7 @@ fn oscillator(dir: &Path) -> PathBuf {
         dir.join("oscillator_plant.toml"),
         "model = \"emps\"\n\n[[effect]]\nkind = \"viscous\"\njoints = [\"q0\"]\n\n\
          [[effect]]\nkind = \"spring\"\njoints = [\"q0\"]\n\n[parameters]\nM = 0.5\nFv_0 = 1.0\n\
-         Ks_0 = 1.0e5\nqeq_0 = 0.0\n",
+         Ks_q0 = 1.0e5\nqeq_0 = 0.0\n",
     )
     .unwrap();
     path
@@ -277,12 +277,12 @@ fn a_610_hz_oscillator_keeps_its_resonance_and_a_fast_record_is_simulated() {
             .unwrap_or_else(|| panic!("{name} not in {out}"))
     };
     let wn = 2.0 * PI * OSC_F0;
-    // Measured: M +0.007 %, Fv_0 +0.05 %, Ks_0 −0.008 %, qeq_0 −0.08 %.
+    // Measured: M +0.007 %, Fv_q0 +0.05 %, Ks_q0 −0.008 %, qeq_q0 −0.08 %.
     for (name, truth, tol) in [
         ("M", OSC_M, 0.005),
-        ("Fv_0", 2.0 * OSC_ZETA * wn * OSC_M, 0.01),
-        ("Ks_0", OSC_M * wn * wn, 0.005),
-        ("qeq_0", OSC_YEQ, 0.005),
+        ("Fv_q0", 2.0 * OSC_ZETA * wn * OSC_M, 0.01),
+        ("Ks_q0", OSC_M * wn * wn, 0.005),
+        ("qeq_q0", OSC_YEQ, 0.005),
     ] {
         let v = value(name);
         assert!(

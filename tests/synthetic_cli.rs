@@ -43,10 +43,10 @@ fn excite_then_simulate_makes_noisy_quantised_data_of_the_configuration() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("note: q0, q1, q2, q3 locked"));
     let t = Table::read(&tau).unwrap();
     assert_eq!(t.side.configuration.as_deref(), Some("k1"));
-    let tau5 = t.need("tau5").unwrap();
+    let tau5 = t.need("tau_q5").unwrap();
     assert_eq!(tau5.len(), 1001);
     assert_eq!(tau5[0], 0.0055); // Table 4.7: A5(0) cos(0)
-    assert!(t.need("tau0").unwrap().iter().all(|&x| x == 0.0));
+    assert!(t.need("tau_q0").unwrap().iter().all(|&x| x == 0.0));
     for (ext, noise) in [("csv", "2e-4"), ("mat", "0")] {
         let out = d.path().join(format!("k1.{ext}"));
         let o = lockstep(&[
@@ -73,7 +73,7 @@ fn excite_then_simulate_makes_noisy_quantised_data_of_the_configuration() {
             stderr.contains("warning:") && stderr.contains("link 'L7'"),
             "{stderr}"
         );
-        let m = Measurement::read(&out, 6).unwrap();
+        let m = Measurement::read(&out, &["q0", "q1", "q2", "q3", "q4", "q5"]).unwrap();
         assert_eq!(m.len(), 1001);
         // Positions on the 1e-4 grid; locked joint 1 at 0.1 within the noise.
         for q in &m.q {
@@ -139,7 +139,7 @@ fn excite_and_simulate_errors_name_the_item() {
     fails(&sim(&[]), &["tau.csv", "no configuration", "--config"]);
     fails(
         &sim(&["--config", "k1"]),
-        &["tau.csv", "missing column 'tau5'", "t, tau4"],
+        &["tau.csv", "missing column 'tau_q5' (or 'tau5'", "t, tau4"],
     );
     fails(
         &sim(&["--config", "c1", "--initial", "q0=0.2"]),

@@ -81,9 +81,9 @@ fn plant(dir: &Path, name: &str, with_bias: bool) -> PathBuf {
     }
     // The presliding values (σ0, σ1) are the simulator's; a wrong Stribeck speed to start.
     text += "\n[parameters]\nM = 80.0\nsigma0_0 = 1.0e6\nsigma1_0 = 2000.0\nsigma2_0 = 150.0\n\
-             Fc_0 = 15.0\nFs_0 = 15.0\nvs_0 = 0.02\noffset_0 = 0.0\n";
+             Fc_q0 = 15.0\nFs_0 = 15.0\nvs_0 = 0.02\noffset_0 = 0.0\n";
     if with_bias {
-        text += "FrictionBias_0 = 1.0\nqeq_0 = 0.0\n";
+        text += "FrictionBias_q0 = 1.0\nqeq_0 = 0.0\n";
     }
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
@@ -134,20 +134,20 @@ fn lugre_static_curve_and_friction_bias_are_fitted_in_torque_space() {
     let start = plant(d.path(), "start.toml", true);
     let out = identify(&start, &data, &d.path().join("fitted.toml"));
     within("M", value(&out, "M"), M, 1.0);
-    within("Fc_0", value(&out, "Fc_0"), FC, 2.0);
-    within("Fs_0", value(&out, "Fs_0"), FS, 2.0);
-    within("sigma2_0", value(&out, "sigma2_0"), SIGMA2, 2.0);
-    within("vs_0", value(&out, "vs_0"), VS, 5.0);
-    within("FrictionBias_0", value(&out, "FrictionBias_0"), BIAS, 2.0);
+    within("Fc_q0", value(&out, "Fc_q0"), FC, 2.0);
+    within("Fs_q0", value(&out, "Fs_q0"), FS, 2.0);
+    within("sigma2_q0", value(&out, "sigma2_q0"), SIGMA2, 2.0);
+    within("vs_q0", value(&out, "vs_q0"), VS, 5.0);
+    within("FrictionBias_q0", value(&out, "FrictionBias_q0"), BIAS, 2.0);
     // The switch is found to within the grid between samples of the motion.
     assert!(
-        (value(&out, "qeq_0") - QEQ).abs() <= 0.01,
-        "qeq_0 {}",
-        value(&out, "qeq_0")
+        (value(&out, "qeq_q0") - QEQ).abs() <= 0.01,
+        "qeq_q0 {}",
+        value(&out, "qeq_q0")
     );
     // σ0 and σ1 are not torque space's to fit: said, kept.
     assert!(
-        out.contains("sigma0_0") && out.contains("not determined"),
+        out.contains("sigma0_q0") && out.contains("not determined"),
         "{out}"
     );
 }
@@ -181,6 +181,6 @@ fn a_hidden_friction_bias_is_named_added_and_refitted_in_torque_space() {
     assert!(first.contains("friction_bias"), "{first}");
     let text = std::fs::read_to_string(&applied).unwrap();
     let v = |n: &str| value(&text.replace(" = ", " "), n);
-    within("FrictionBias_0", v("FrictionBias_0"), BIAS, 2.0);
-    assert!((v("qeq_0") - QEQ).abs() <= 0.01, "qeq_0 {}", v("qeq_0"));
+    within("FrictionBias_q0", v("FrictionBias_q0"), BIAS, 2.0);
+    assert!((v("qeq_q0") - QEQ).abs() <= 0.01, "qeq_q0 {}", v("qeq_q0"));
 }

@@ -34,24 +34,25 @@ fn truth() -> Plant {
     let mut p = Plant::new("panda", vec![]).unwrap();
     for j in 0..NJ {
         p.add_effect(Effect::on(EffectKind::Viscous, j)).unwrap();
-        p.parameters.insert(format!("Fv_{j}"), 0.4 + 0.1 * j as f64);
+        p.parameters
+            .insert(format!("Fv_q{}", j + 1), 0.4 + 0.1 * j as f64);
         if j != 3 {
             p.add_effect(Effect::on(EffectKind::Coulomb, j)).unwrap();
             p.parameters
-                .insert(format!("Fc_{j}"), 0.5 + 0.05 * j as f64);
+                .insert(format!("Fc_q{}", j + 1), 0.5 + 0.05 * j as f64);
         }
     }
     for j in [2, 4] {
         p.add_effect(Effect::on(EffectKind::Offset, j)).unwrap();
-        p.parameters.insert(format!("offset_{j}"), 0.3);
+        p.parameters.insert(format!("offset_q{}", j + 1), 0.3);
     }
     p.add_effect(Effect::on(EffectKind::Spring, 0)).unwrap();
-    p.parameters.insert("Ks_0".into(), 15.0);
-    p.parameters.insert("qeq_0".into(), 0.4);
+    p.parameters.insert("Ks_q1".into(), 15.0);
+    p.parameters.insert("qeq_q1".into(), 0.4);
     p.add_effect(Effect::on(EffectKind::Stribeck, 3)).unwrap();
-    p.parameters.insert("Fc_3".into(), 0.6);
-    p.parameters.insert("Fs_3".into(), 1.4);
-    p.parameters.insert("vs_3".into(), 0.15);
+    p.parameters.insert("Fc_q4".into(), 0.6);
+    p.parameters.insert("Fs_q4".into(), 1.4);
+    p.parameters.insert("vs_q4".into(), 0.15);
     p
 }
 
@@ -107,18 +108,18 @@ fn record_with(truth: &Plant, frozen: Option<usize>) -> Measurement {
         (conf.inverse_dynamics)(&qk, &qdk, &qddk, &p, &mut tk);
         for j in 0..NJ {
             let s = lockstep::effects::sign(qdk[j]);
-            tk[j] += v(&format!("Fv_{j}")) * qdk[j];
+            tk[j] += v(&format!("Fv_q{}", j + 1)) * qdk[j];
             if j == 3 {
-                let e = (-(qdk[j] / v("vs_3")).powi(2)).exp();
-                tk[j] += (v("Fc_3") + (v("Fs_3") - v("Fc_3")) * e) * s;
+                let e = (-(qdk[j] / v("vs_q4")).powi(2)).exp();
+                tk[j] += (v("Fc_q4") + (v("Fs_q4") - v("Fc_q4")) * e) * s;
             } else {
-                tk[j] += v(&format!("Fc_{j}")) * s;
+                tk[j] += v(&format!("Fc_q{}", j + 1)) * s;
             }
             if j == 2 || j == 4 {
                 tk[j] += 0.3;
             }
             if j == 0 {
-                tk[j] += v("Ks_0") * (qk[0] - v("qeq_0"));
+                tk[j] += v("Ks_q1") * (qk[0] - v("qeq_q1"));
             }
             // A still joint reads a constant (its encoder's quantum is larger than the noise).
             let noise = 1e-6 * gauss(&mut rng);
@@ -186,8 +187,8 @@ fn a_spring_rest_angle_and_a_stribeck_speed_are_fitted_in_torque_space() {
     let records = vec![record(&truth)];
     // The right structure from a wrong start: rest angle 0, Stribeck speed 0.5 rad/s.
     let mut start = truth.clone();
-    start.parameters.insert("qeq_0".into(), 0.0);
-    start.parameters.insert("vs_3".into(), 0.5);
+    start.parameters.insert("qeq_q1".into(), 0.0);
+    start.parameters.insert("vs_q4".into(), 0.5);
     let s = separable_fit(&start, "full", &records, &options(), &linear(&records)).unwrap();
     let mut fitted = s.plant.clone();
     s.fit.apply(&mut fitted).unwrap();
@@ -198,11 +199,11 @@ fn a_spring_rest_angle_and_a_stribeck_speed_are_fitted_in_torque_space() {
             "{what}: {x} against {want} (±{pct} %)"
         );
     };
-    within("qeq_0", nl("qeq_0"), 0.4, 1.0);
-    within("vs_3", nl("vs_3"), 0.15, 5.0);
-    within("Ks_0", s.fit.get("Ks_0").unwrap(), 15.0, 1.0);
-    within("Fs_3", s.fit.get("Fs_3").unwrap(), 1.4, 5.0);
-    within("Fc_3", s.fit.get("Fc_3").unwrap(), 0.6, 5.0);
+    within("qeq_q1", nl("qeq_q1"), 0.4, 1.0);
+    within("vs_q4", nl("vs_q4"), 0.15, 5.0);
+    within("Ks_q1", s.fit.get("Ks_q1").unwrap(), 15.0, 1.0);
+    within("Fs_q4", s.fit.get("Fs_q4").unwrap(), 1.4, 5.0);
+    within("Fc_q4", s.fit.get("Fc_q4").unwrap(), 0.6, 5.0);
     // The base parameters where the data determine them to 0.5 %: within 1 % of the truth's
     // combinations (β = θ_kept + Σ k θ_dependent).
     let tv = truth.values_with_barycentric().unwrap();
@@ -257,8 +258,8 @@ fn the_hidden_spring_is_named_added_and_refitted_in_torque_space() {
     // The plant without the spring, its other values fitted.
     let mut plant = truth.clone();
     plant.effects.retain(|e| e.kind != EffectKind::Spring);
-    plant.parameters.remove("Ks_0");
-    plant.parameters.remove("qeq_0");
+    plant.parameters.remove("Ks_q1");
+    plant.parameters.remove("qeq_q1");
     let s = separable_fit(&plant, "full", &records, &options(), &linear(&records)).unwrap();
     let mut start = s.plant.clone();
     s.fit.apply(&mut start).unwrap();
@@ -284,8 +285,8 @@ fn the_hidden_spring_is_named_added_and_refitted_in_torque_space() {
         first.name,
         first.joint
     );
-    let qeq = done.plant.parameters["qeq_0"];
-    assert!((qeq - 0.4).abs() < 0.004, "qeq_0 = {qeq}");
+    let qeq = done.plant.parameters["qeq_q1"];
+    assert!((qeq - 0.4).abs() < 0.004, "qeq_q1 = {qeq}");
     let obs = observation(&done.plant, "full", &records, &options()).unwrap();
     let e = &obs.y - predict(&done.plant, &obs).unwrap();
     let rms = (e.norm_squared() / e.len() as f64).sqrt();

@@ -9,7 +9,7 @@
 //!
 //! FIGAROH writes the motor-6 terms as cross terms (row 5: fvm6·q̇6, row 6: fvm6·q̇5), lockstep
 //! as the motor's own friction on q̇5 + q̇6 acting on both joints; so FIGAROH's fv5 is
-//! lockstep's Fv_4 + fvm6 and its fv6 is Fv_5 + fvm6 (the coefficient of q̇5 on row 5, of
+//! lockstep's Fv_q5 + fvm6 and its fv6 is Fv_q6 + fvm6 (the coefficient of q̇5 on row 5, of
 //! q̇6 on row 6).
 
 use lockstep::identify::idim::{
@@ -40,8 +40,11 @@ fn options(window: (f64, f64)) -> IdimOptions {
 /// `--decimate`), on `window`: measured, the fit band 66.7 Hz (×30, positions at 133 Hz)
 /// by cross-validation among 16.7–286 Hz.
 fn chosen(window: (f64, f64)) -> IdimOptions {
-    let record =
-        Measurement::read(&root().join("data/staubli_tx40/tx40_joint_5kHz.csv"), 6).unwrap();
+    let record = Measurement::read(
+        &root().join("data/staubli_tx40/tx40_joint_5kHz.csv"),
+        &["q1", "q2", "q3", "q4", "q5", "q6"],
+    )
+    .unwrap();
     let plant = Plant::load(&root().join("model/plants/tx40_figaroh.toml")).unwrap();
     let (opts, said) = lockstep::identify::preparation::Requested::default()
         .resolve(
@@ -57,8 +60,11 @@ fn chosen(window: (f64, f64)) -> IdimOptions {
 
 /// The fit on the training window, the fitted plant and the record.
 fn fitted(options: &dyn Fn((f64, f64)) -> IdimOptions) -> (Fit, Plant, Measurement, f64) {
-    let record = Measurement::read(&root().join("data/staubli_tx40/tx40_joint_5kHz.csv"), 6)
-        .expect("the TX40 record reads");
+    let record = Measurement::read(
+        &root().join("data/staubli_tx40/tx40_joint_5kHz.csv"),
+        &["q1", "q2", "q3", "q4", "q5", "q6"],
+    )
+    .expect("the TX40 record reads");
     let mut plant = Plant::load(&root().join("model/plants/tx40_figaroh.toml")).unwrap();
     let opts = options((0.1, 5.5));
     let records = std::slice::from_ref(&record);
@@ -108,22 +114,22 @@ fn reaches_figaroh(options: &dyn Fn((f64, f64)) -> IdimOptions) {
     eprintln!("TX40: training error {training:.3} %, validation error {validation:.3} %");
     assert!(validation <= 9.0, "validation error {validation:.3} %");
     // Friction against FIGAROH's OLS essential parameters (TX40_ep_5.csv).
-    within("fv1", v("Fv_0"), 8.027789, 5.0);
-    within("fs1", v("Fc_0"), 7.231843, 5.0);
-    within("fv2", v("Fv_1"), 5.520149, 5.0);
-    within("fs2", v("Fc_1"), 8.250505, 5.0);
-    within("fv3", v("Fv_2"), 1.996299, 10.0);
-    within("fs3", v("Fc_2"), 6.287724, 10.0);
-    within("fv4", v("Fv_3"), 1.108709, 10.0);
-    within("fv5", v("Fv_4") + v("fvm6"), 1.845313, 10.0);
-    within("fv6", v("Fv_5") + v("fvm6"), 0.669334, 10.0);
+    within("fv1", v("Fv_q1"), 8.027789, 5.0);
+    within("fs1", v("Fc_q1"), 7.231843, 5.0);
+    within("fv2", v("Fv_q2"), 5.520149, 5.0);
+    within("fs2", v("Fc_q2"), 8.250505, 5.0);
+    within("fv3", v("Fv_q3"), 1.996299, 10.0);
+    within("fs3", v("Fc_q3"), 6.287724, 10.0);
+    within("fv4", v("Fv_q4"), 1.108709, 10.0);
+    within("fv5", v("Fv_q5") + v("fvm6"), 1.845313, 10.0);
+    within("fv6", v("Fv_q6") + v("fvm6"), 0.669334, 10.0);
     within("fvm6", v("fvm6"), 0.590868, 10.0);
     // The first base parameter is FIGAROH's first essential one, term for term.
     let b = fit
         .base
         .iter()
-        .find(|b| b.parameter.name == "Ia_0")
-        .expect("Ia_0 carries the inertia about joint 1's axis");
+        .find(|b| b.parameter.name == "Ia_q1")
+        .expect("Ia_q1 carries the inertia about joint 1's axis");
     let terms = b.parameter.to_string();
     for t in [
         "ZZ_link_1",
@@ -151,13 +157,16 @@ fn the_loop_on_the_tx40_names_the_friction_and_the_coupled_motor() {
     // torque-space loop adds what is significant and lowers the error, step by step, to
     // within 0.3 percentage points of the full model's (rigid body, Ia, Fv, Fc, offsets and
     // the motor-6 terms: tx40_idim_reaches_figaroh_on_the_real_recording).
-    let record =
-        Measurement::read(&root().join("data/staubli_tx40/tx40_joint_5kHz.csv"), 6).unwrap();
+    let record = Measurement::read(
+        &root().join("data/staubli_tx40/tx40_joint_5kHz.csv"),
+        &["q1", "q2", "q3", "q4", "q5", "q6"],
+    )
+    .unwrap();
     let d = tempfile::tempdir().unwrap();
     let file = d.path().join("tx40_nofriction.toml");
     // Rotor inertias and offsets from zero: the loop's first step refits them.
     let zeros: String = (0..6)
-        .map(|j| format!("Ia_{j} = 0.0\noffset_{j} = 0.0\n"))
+        .map(|j| format!("Ia_q{0} = 0.0\noffset_q{0} = 0.0\n", j + 1))
         .collect();
     std::fs::write(
         &file,
@@ -215,8 +224,11 @@ fn the_loop_on_the_tx40_names_the_friction_and_the_coupled_motor() {
 fn the_consistent_tx40_set_is_physical_and_keeps_the_fit() {
     // The least squares' standard values describe no body (negative inertias about the
     // centroid on links 2, 3, 4, 6); the consistent set does, for a small rise of the error.
-    let record =
-        Measurement::read(&root().join("data/staubli_tx40/tx40_joint_5kHz.csv"), 6).unwrap();
+    let record = Measurement::read(
+        &root().join("data/staubli_tx40/tx40_joint_5kHz.csv"),
+        &["q1", "q2", "q3", "q4", "q5", "q6"],
+    )
+    .unwrap();
     let prior = Plant::load(&root().join("model/plants/tx40_figaroh.toml")).unwrap();
     let opts = options((0.1, 5.5));
     let obs = observation(&prior, "full", std::slice::from_ref(&record), &opts).unwrap();
@@ -247,14 +259,14 @@ fn the_consistent_tx40_set_is_physical_and_keeps_the_fit() {
     // The friction the data determine stays where the least squares put it.
     within(
         "fv1 (consistent)",
-        c.get("Fv_0").unwrap(),
-        fit.get("Fv_0").unwrap(),
+        c.get("Fv_q1").unwrap(),
+        fit.get("Fv_q1").unwrap(),
         2.0,
     );
     within(
         "fs2 (consistent)",
-        c.get("Fc_1").unwrap(),
-        fit.get("Fc_1").unwrap(),
+        c.get("Fc_q2").unwrap(),
+        fit.get("Fc_q2").unwrap(),
         2.0,
     );
 }
@@ -308,11 +320,11 @@ fn bad_input_on_the_tx40_is_one_line_and_writes_nothing() {
             && e.contains("more data needed"),
         "{e}"
     );
-    // q6 (column q5) held still.
+    // q6 (column q_q6) held still.
     let text = std::fs::read_to_string(&data).unwrap();
     let mut lines = text.lines();
     let header = lines.next().unwrap();
-    let col = header.split(',').position(|c| c == "q5").unwrap();
+    let col = header.split(',').position(|c| c == "q_q6").unwrap();
     let first: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
     let mut still = String::from(header) + "\n";
     for l in lines {
@@ -332,7 +344,7 @@ fn bad_input_on_the_tx40_is_one_line_and_writes_nothing() {
     assert!(
         e.contains("joint 'q6' does not move")
             && e.contains("too little excitation")
-            && e.contains("Fv_5"),
+            && e.contains("Fv_q6"),
         "{e}"
     );
     // A negative mass in the prior.

@@ -94,7 +94,7 @@ fn plant_new_starts_from_the_model_and_identifies_to_a_consistent_plant() {
     );
     let p = lockstep::plant::Plant::load(&start).unwrap();
     assert_eq!(p.value("m_link_2").unwrap(), 3.6);
-    assert_eq!(p.value("Fv_3").unwrap(), 0.0);
+    assert_eq!(p.value("Fv_q4").unwrap(), 0.0);
     let fitted = d.path().join("fitted.toml");
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let out = ok(&lockstep(&[

@@ -21,9 +21,9 @@ pub enum EffectAction {
         /// expression: the effect's name, unique in the plant.
         #[arg(long)]
         name: Option<String>,
-        /// expression: the torque it takes from each joint, e.g. "K3*(q3 - qeq3)^3" (symbols
-        /// qk, qdk, qddk, tauk, zk of joint k, t the time; functions sin cos tan exp ln sqrt abs sign
-        /// tanh atan sinh cosh min max; ^ power).
+        /// expression: the torque it takes from each joint, e.g. "K3*(q_q3 - qeq3)^3"
+        /// (symbols q_J, qd_J, qdd_J, tau_J, z_J of joint J, t the time; functions sin cos
+        /// tan exp ln sqrt abs sign tanh atan sinh cosh min max; ^ power).
         #[arg(long)]
         torque: Option<String>,
         /// expression: its parameters, e.g. K3,qeq3.
@@ -35,10 +35,10 @@ pub enum EffectAction {
         /// input_coupling: the joint that receives it.
         #[arg(long)]
         to: Option<String>,
-        /// Values, e.g. Ks_3=0.01,qeq_3=0.2 (repeatable).
+        /// Values, e.g. Ks_q3=0.01,qeq_q3=0.2 (repeatable).
         #[arg(long, value_parser = parse_positions)]
         set: Vec<PositionList>,
-        /// Bounds, e.g. Ks_3=0:0.1 (repeatable).
+        /// Bounds, e.g. Ks_q3=0:0.1 (repeatable).
         #[arg(long, value_parser = parse_bound)]
         bound: Vec<(String, f64, f64)>,
         /// Plant file to write (default: the plant file itself).
@@ -104,10 +104,10 @@ pub struct SpaceArgs {
 pub fn parse_bound(s: &str) -> Result<(String, f64, f64), String> {
     let (n, r) = s
         .split_once('=')
-        .ok_or_else(|| format!("'{s}': expected name=lower:upper, e.g. Ks_3=0:0.1"))?;
+        .ok_or_else(|| format!("'{s}': expected name=lower:upper, e.g. Ks_q3=0:0.1"))?;
     let (lo, hi) = r
         .split_once(':')
-        .ok_or_else(|| format!("'{s}': expected name=lower:upper, e.g. Ks_3=0:0.1"))?;
+        .ok_or_else(|| format!("'{s}': expected name=lower:upper, e.g. Ks_q3=0:0.1"))?;
     Ok((
         n.trim().to_string(),
         parse_number(lo.trim()).map_err(|e| format!("'{s}': {e}"))?,
@@ -448,7 +448,7 @@ pub struct SimulateArgs {
     /// Plant file.
     #[arg(long)]
     pub plant: PathBuf,
-    /// Torque file (.csv or .mat): t and tau{j} of the free joints.
+    /// Torque file (.csv or .mat): t and tau_J of the free joints J.
     #[arg(long)]
     pub input: PathBuf,
     /// Configuration (default: the input's side file's).

@@ -621,7 +621,7 @@ pub fn identify_idim(
         .filter(|e| conf.free.contains(&e.joint))
     {
         for sym in e.kind.undetermined_in_torque_space() {
-            let n = format!("{sym}_{}", e.joint);
+            let n = e.parameter_name(sym, plant.model.joints);
             if let Ok(v) = plant.value(&n) {
                 lockstep::outln!(
                     "{n:<16} {v:>11.6}   (kept: not determined in torque space; the presliding \

@@ -122,7 +122,7 @@ pub enum Command {
         #[command(flatten)]
         space: SpaceArgs,
         /// Parameters to fit (in output space each needs bounds in the plant file), e.g.
-        /// Ks_3,qeq_3.
+        /// Ks_q3,qeq_q3.
         #[arg(long, value_delimiter = ',', required = true)]
         params: Vec<String>,
         /// What changed, for the history (default: "refitted <params>").
@@ -229,7 +229,7 @@ pub enum Command {
         #[arg(long, num_args = 1..)]
         gains: Vec<String>,
         /// Measured closed-loop runs, one per gain set in the same order (CSV or .mat with
-        /// t and q{j}).
+        /// t and q_J of each joint J).
         #[arg(long, num_args = 1..)]
         measured: Vec<PathBuf>,
         /// Duration (s), replacing the file's.
@@ -492,6 +492,7 @@ fn run_command(cli: Cli) -> Result<()> {
             lockstep::files::check_writable(&[&out])?;
             if let Some(controller) = controller {
                 let (plant, _) = common.load_plant()?;
+                let params: Vec<String> = params.iter().map(|p| plant.current_name(p)).collect();
                 let change = change.unwrap_or_else(|| {
                     format!("refitted {} in closed loop (DIDIM)", params.join(", "))
                 });
@@ -505,6 +506,7 @@ fn run_command(cli: Cli) -> Result<()> {
                 return Ok(());
             }
             let (plant, inputs) = common.inputs(&space)?;
+            let params: Vec<String> = params.iter().map(|p| plant.current_name(p)).collect();
             let change = change.unwrap_or_else(|| format!("refitted {}", params.join(", ")));
             refit_command(&plant, &inputs, &params, &change, &out)?;
             lockstep::outln!("wrote {}", out.display());
@@ -564,7 +566,7 @@ fn run_command(cli: Cli) -> Result<()> {
             let set: Vec<(String, f64)> = merged("--set", set)?.into_iter().collect();
             let (new, added) = if kind == "expression" {
                 let (Some(name), Some(joint), Some(torque)) = (&name, &joint, &torque) else {
-                    bail!("expression needs --name, --joint and --torque (e.g. --name cubic --joint q3 --torque \"K3*q3^3\" --params K3)");
+                    bail!("expression needs --name, --joint and --torque (e.g. --name cubic --joint q3 --torque \"K3*q_q3^3\" --params K3)");
                 };
                 let new = lockstep::report::diagnosis::expression_add(
                     &p,
@@ -589,7 +591,8 @@ fn run_command(cli: Cli) -> Result<()> {
                     &bound,
                     &out,
                 )?;
-                (new, effect.parameter_names())
+                let names = effect.parameter_names(new.model.joints);
+                (new, names)
             };
             lockstep::outln!(
                 "added {kind} to {}: {}",

@@ -22,7 +22,7 @@
 //! velocity = [0.5, 0.0, -0.5]    # q̇̂(k) = Σ c_i q(k − i) / period
 //! saturation = [-10.0, 10.0]     # command limits (V)
 //! drive_gain = 35.15065188       # N/V: the joint's force or torque = drive_gain · u
-//! reference = "qref0"            # the measurement's reference column (standard name)
+//! reference = "qref_q0"          # the measurement's reference column (default qref_J)
 //! ```
 //!
 //! Laws of joint j, with e = qref − q and q̇̂ the velocity estimate:
@@ -75,8 +75,10 @@ pub struct JointLawSpec {
     /// Force or torque per unit of command (N·m or N per command unit; 1 when absent).
     #[serde(default = "one")]
     pub drive_gain: f64,
-    /// The measurement's reference column for this joint (standard name, e.g. `qref0`).
-    pub reference: String,
+    /// The measurement's reference column for this joint (standard name; `qref_J` for
+    /// joint J when absent, the numbered `qref2` of earlier versions also read).
+    #[serde(default)]
+    pub reference: Option<String>,
     /// `"gravity"`: the controller adds the plant's gravity torque φ(q) at the positions it
     /// reads (over the drive gain), a model-based feed-forward.
     #[serde(default)]
@@ -335,7 +337,10 @@ impl Controller {
                 velocity: s.velocity.clone(),
                 saturation,
                 drive_gain: s.drive_gain,
-                reference: s.reference.clone(),
+                reference: s
+                    .reference
+                    .clone()
+                    .unwrap_or_else(|| crate::names::column("qref", name)),
                 gravity_feedforward,
             });
         }
@@ -373,7 +378,7 @@ pub struct ClosedLoopRun {
 }
 
 /// The measured signals a closed-loop run is compared with, per free joint. A record may
-/// hold a disturbance the experiment added to joint j's command, `dist{j}` (command units,
+/// hold a disturbance the experiment added to joint J's command, `dist_J` (command units,
 /// added after the saturation: EMPS's force pulses, 5 V for 0.5 s each second, are inside
 /// its recorded command); the controller then adds it too.
 #[derive(Debug, Clone)]
@@ -439,23 +444,38 @@ impl ClosedLoopRecord {
         let mut disturbance = Vec::new();
         for (a, &j) in conf.free.iter().enumerate() {
             let jc = &c.joints[a];
-            qref.push(table.need(&jc.reference).with_context(|| {
+            // The joint's own reference column may be in either form (`qref_q0`, `qref0`).
+            let own = crate::names::column_joint(m.joints, "qref", &jc.reference) == Some(j);
+            let reference = if own {
+                table.need_joint(m.joints, "qref", j)
+            } else {
+                table.need(&jc.reference)
+            };
+            qref.push(reference.with_context(|| {
                 format!(
                     "the reference of joint {} in {}",
                     m.joints[j],
                     c.file.display()
                 )
             })?);
-            q.push(table.need(&format!("q{j}"))?);
-            tau.push(table.need(&format!("tau{j}"))?);
-            let dist = format!("dist{j}");
-            disturbance.push(match table.get(&dist)? {
+            q.push(table.need_joint(m.joints, "q", j)?);
+            tau.push(table.need_joint(m.joints, "tau", j)?);
+            let mapped = [
+                crate::names::column("dist", m.joints[j]),
+                crate::names::numbered_column("dist", j),
+            ]
+            .into_iter()
+            .find(|n| table.side.columns.contains_key(n));
+            disturbance.push(match table.joint_column(m.joints, "dist", j)? {
                 Some(d) => d,
-                None if table.side.columns.contains_key(&dist) => bail!(
-                    "{}: its side file maps '{dist}' to '{}', which is not a column of the file",
-                    table.file.display(),
-                    table.side.columns[&dist]
-                ),
+                None if mapped.is_some() => {
+                    let dist = mapped.unwrap_or_default();
+                    bail!(
+                        "{}: its side file maps '{dist}' to '{}', which is not a column of the file",
+                        table.file.display(),
+                        table.side.columns[&dist]
+                    )
+                }
                 None => vec![0.0; t.len()],
             });
         }
@@ -466,7 +486,7 @@ impl ClosedLoopRecord {
             q,
             tau,
             disturbance,
-            measurement: crate::measurement::Measurement::from_table(table, m.joints.len())?,
+            measurement: crate::measurement::Measurement::from_table(table, m.joints)?,
         })
     }
 }
@@ -634,7 +654,7 @@ pub fn compare_closed_loop(
         let v = crate::signal::central_difference(&filtered, c.period);
         let cut = |x: &[f64]| x[skip..].to_vec();
         let name = m.joints[j];
-        let inputs = vec![(format!("qref{j}"), cut(&record.qref[a]))];
+        let inputs = vec![(crate::names::column("qref", name), cut(&record.qref[a]))];
         let signals = |y: &[f64], yhat: &[f64]| Signals {
             t: cut(&record.t),
             q: cut(&record.q[a]),

@@ -84,7 +84,7 @@ pub fn configuration_values(
         .iter()
         .filter(|e| e.acts_with(conf.free) && e.kind != EffectKind::Gain)
     {
-        for name in e.parameter_names() {
+        for name in e.parameter_names(plant.model.joints) {
             if fittable(plant, &name) && !names.contains(&name) {
                 names.push(name);
             }
@@ -278,7 +278,7 @@ fn equilibrium_starts(
     else {
         return Ok((starts, None));
     };
-    let name = format!("qeq_{}", conf.free[a]);
+    let name = crate::names::parameter("qeq", changed.model.joints[conf.free[a]]);
     let Some(&given) = finding
         .values
         .iter()
@@ -523,12 +523,12 @@ fn no_effect_value(kind: EffectKind, symbol: &str) -> Option<f64> {
 /// The parameter that sizes `effect` and the value at which it has no effect (None for a
 /// friction law); the kind's symbols name its parameters in order
 /// ([`crate::effects::Effect::parameter_names`]).
-fn no_effect_size(effect: &crate::effects::Effect) -> Option<(String, f64)> {
+fn no_effect_size(effect: &crate::effects::Effect, joints: &[&str]) -> Option<(String, f64)> {
     effect
         .kind
         .symbols()
         .iter()
-        .zip(effect.parameter_names())
+        .zip(effect.parameter_names(joints))
         .find_map(|(symbol, n)| no_effect_value(effect.kind, symbol).map(|v| (n, v)))
 }
 
@@ -544,8 +544,9 @@ fn prune(mut plant: Plant, steps: &[LoopStep]) -> (Plant, Vec<String>) {
         if step.finding.replaces.is_some() {
             continue;
         }
-        let names = effect.parameter_names();
-        let Some((name, neutral)) = no_effect_size(&effect) else {
+        let joints = plant.model.joints;
+        let names = effect.parameter_names(joints);
+        let Some((name, neutral)) = no_effect_size(&effect, joints) else {
             continue;
         };
         // The last refit that fitted the size: its value and standard error.
@@ -563,7 +564,7 @@ fn prune(mut plant: Plant, steps: &[LoopStep]) -> (Plant, Vec<String>) {
         let still_used: Vec<String> = plant
             .effects
             .iter()
-            .flat_map(|e| e.parameter_names())
+            .flat_map(|e| e.parameter_names(joints))
             .collect();
         for n in &names {
             if !still_used.contains(n) {
@@ -597,15 +598,19 @@ mod tests {
     /// The size an added effect is pruned on, and its no-effect value.
     #[test]
     fn added_effects_have_their_no_effect_size_and_friction_laws_none() {
-        let size = |e: Effect| no_effect_size(&e);
-        assert_eq!(size(Effect::coupling(5, 4)), Some(("G_5to4".into(), 0.0)));
+        let joints = ["q0", "q1", "q2", "q3", "q4", "q5"];
+        let size = |e: Effect| no_effect_size(&e, &joints);
+        assert_eq!(
+            size(Effect::coupling(5, 4)),
+            Some(("G_q5_to_q4".into(), 0.0))
+        );
         assert_eq!(
             size(Effect::on(EffectKind::FrictionBias, 4)),
-            Some(("FrictionBias_4".into(), 1.0))
+            Some(("FrictionBias_q4".into(), 1.0))
         );
         assert_eq!(
             size(Effect::on(EffectKind::Spring, 3)),
-            Some(("Ks_3".into(), 0.0))
+            Some(("Ks_q3".into(), 0.0))
         );
         assert_eq!(size(Effect::on(EffectKind::Stribeck, 5)), None);
         assert_eq!(size(Effect::on(EffectKind::Lugre, 5)), None);

@@ -23,6 +23,7 @@
 //! in its parameters is refused there (named), as torque space refits only such effects.
 
 use super::Finding;
+use crate::names;
 use crate::plant::{ExpressionSpec, Plant};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Deserialize;
@@ -290,9 +291,12 @@ pub fn coupled_motor_candidates(
                     name: format!("coupled_motor_{qa}_{qb}"),
                     joints: vec![qa.to_string(), qb.to_string()],
                     torque: format!(
-                        "Fvm_{ja}{jb}*(qd{ja} + qd{jb}) + Fm_{ja}{jb}*sign(qd{ja} + qd{jb})"
+                        "Fvm_{qa}_{qb}*(qd_{qa} + qd_{qb}) + Fm_{qa}_{qb}*sign(qd_{qa} + qd_{qb})"
                     ),
-                    parameters: vec![format!("Fvm_{ja}{jb}"), format!("Fm_{ja}{jb}")],
+                    parameters: vec![
+                        names::pair_parameter("Fvm", qa, qb),
+                        names::pair_parameter("Fm", qa, qb),
+                    ],
                 },
                 meaning: format!(
                     "a motor driving {qa} and {qb} through a differential: its viscous and Coulomb friction at the motor's speed qd_a + qd_b, taken from both"
@@ -304,8 +308,8 @@ pub fn coupled_motor_candidates(
                 spec: ExpressionSpec {
                     name: format!("coupled_rotor_{qa}_{qb}"),
                     joints: vec![qa.to_string(), qb.to_string()],
-                    torque: format!("Jm_{ja}{jb}*(qdd{ja} + qdd{jb})"),
-                    parameters: vec![format!("Jm_{ja}{jb}")],
+                    torque: format!("Jm_{qa}_{qb}*(qdd_{qa} + qdd_{qb})"),
+                    parameters: vec![names::pair_parameter("Jm", qa, qb)],
                 },
                 meaning: format!(
                     "a motor driving {qa} and {qb} through a differential: its rotor's inertia at the motor's acceleration qdd_a + qdd_b, taken from both"

@@ -49,7 +49,7 @@ pub const SIGNIFICANT_EXPLAINED: f64 = 0.05;
 pub struct Finding {
     /// Joint name (the joint the effect acts on; for a coupling, the receiving joint).
     pub joint: String,
-    /// Candidate name (`coulomb`, `stribeck`, `input_coupling from q5`, `Kp_2 off`,
+    /// Candidate name (`coulomb`, `stribeck`, `input_coupling from q5`, `Kp_q2 off`,
     /// `refit existing parameters`, …).
     pub name: String,
     /// The plant effect that implements it (None for "refit existing parameters").
@@ -72,7 +72,7 @@ pub struct Finding {
     /// A friction law on the joint that the effect replaces (Coulomb → Stribeck).
     #[serde(skip)]
     pub replaces: Option<EffectKind>,
-    /// Plant parameter values (full names, e.g. `Ks_3`) that implement the finding; empty
+    /// Plant parameter values (full names, e.g. `Ks_q3`) that implement the finding; empty
     /// when the finding is not a plant edit.
     pub values: Vec<(String, f64)>,
     /// Bounds for refitting `values` (same order).
@@ -175,17 +175,25 @@ impl Finding {
         (sst, n): (f64, usize),
         pad: f64,
     ) -> Finding {
-        let joint = plant.model.joints[st.joint];
+        let joints = plant.model.joints;
+        let joint = joints[st.joint];
         let (name, prefix) = structure::free_names(plant, st.joint);
         let (torque, params, values) = st.effect(&prefix);
+        // The library's terms are numbered (`q2`); users read the joints' names (`q_q3`).
+        let torque = crate::names::expression_text(&torque, joints);
         let mut f = Finding::new(
             joint,
-            st.name(),
+            crate::names::expression_text(&st.name(), joints),
             None,
             None,
             st.terms
                 .iter()
-                .map(|t| (t.text.clone(), t.coefficient))
+                .map(|t| {
+                    (
+                        crate::names::expression_text(&t.text, joints),
+                        t.coefficient,
+                    )
+                })
                 .collect(),
             (sst * (1.0 - st.explained), sst, n as f64, st.terms.len()),
         );

@@ -52,6 +52,7 @@ use super::{effective_samples, Finding};
 use crate::effects::{Effect, EffectKind};
 use crate::identify::output_error::{JointFit, Problem, Record, FLOOR_FACTOR};
 use crate::identify::refit::{refit, Refit, RefitOptions};
+use crate::names;
 use crate::plant::Plant;
 use crate::simulation::{Hold, Trajectory};
 use anyhow::{anyhow, bail, Result};
@@ -803,7 +804,7 @@ fn structure_candidates(
         if !above(a) {
             continue;
         }
-        let lib = super::structure::library(j, conf.free, m.joints.len());
+        let lib = super::structure::library(j, conf.free, m.joints);
         let texts: Vec<String> = lib.iter().map(|t| t.text.clone()).collect();
         let lead: Vec<bool> = lib.iter().map(|t| !t.catalogued).collect();
         let mut order: Vec<usize> = (0..lib.len()).collect();
@@ -934,7 +935,8 @@ fn structure_candidates(
                 // given plant (a cogging from there stopped at 17 σ, measured on c3).
                 let terms = named.terms(j);
                 let coefficient = |t: &String| {
-                    structure.and_then(|f| f.estimate.iter().find(|(x, _)| x == t).map(|x| x.1))
+                    let t = crate::names::expression_text(t, m.joints);
+                    structure.and_then(|f| f.estimate.iter().find(|(x, _)| *x == t).map(|x| x.1))
                 };
                 let c = if coefficient(&terms[0]).is_some() {
                     terms
@@ -944,7 +946,7 @@ fn structure_candidates(
                 } else {
                     c
                 };
-                Some((named, named.effect(j, joint, &c, false)?))
+                Some((named, named.effect(j, m.joints, &c, false)?))
             })
             .find(|(_, e)| {
                 !plant.expressions.iter().any(|x| x.name == e.name)
@@ -1128,9 +1130,9 @@ fn coupled_motor_candidates(
                 Variant {
                     name: format!("coupled_motor_{qa}_{qb}"),
                     joints: [qa.to_string(), qb.to_string()],
-                    param: format!("Fm_{ja}{jb}"),
+                    param: names::pair_parameter("Fm", qa, qb),
                     torque: format!(
-                        "Fm_{ja}{jb}*tanh((qd{ja} + qd{jb})/{COUPLED_MOTOR_EPSILON})"
+                        "Fm_{qa}_{qb}*tanh((qd_{qa} + qd_{qb})/{COUPLED_MOTOR_EPSILON})"
                     ),
                     meaning: "a motor driving both joints through a differential: its friction, at the motor's speed qd_a + qd_b, is taken from both",
                     label: format!("coupled-motor friction ({qa} + {qb})"),
@@ -1139,8 +1141,8 @@ fn coupled_motor_candidates(
                 Variant {
                     name: format!("coupled_rotor_{qa}_{qb}"),
                     joints: [qa.to_string(), qb.to_string()],
-                    param: format!("Jm_{ja}{jb}"),
-                    torque: format!("Jm_{ja}{jb}*(qdd{ja} + qdd{jb})"),
+                    param: names::pair_parameter("Jm", qa, qb),
+                    torque: format!("Jm_{qa}_{qb}*(qdd_{qa} + qdd_{qb})"),
                     meaning: "a motor driving both joints through a differential: its rotor's inertia, at the motor's acceleration qdd_a + qdd_b, is taken from both",
                     label: format!("coupled-motor inertia ({qa} + {qb})"),
                     size: 1e-3 * if d > 0.0 && d.is_finite() { d } else { 1.0 },
@@ -1363,8 +1365,8 @@ fn catalogue(
     for (a, &j) in conf.free.iter().enumerate() {
         let has = |k: K| plant.has_effect(j, k);
         let law = plant.friction_law(j);
-        let value = |s: &str| plant.value(&format!("{s}_{j}"));
-        let name = |s: &str| format!("{s}_{j}");
+        let name = |s: &str| names::parameter(s, m.joints[j]);
+        let value = |s: &str| plant.value(&name(s));
         // Positions as measured (a plant far off simulates a motion elsewhere, and the
         // equilibrium grid must cover where the joint really went); speeds as simulated
         // (the file holds no velocity).
@@ -1573,7 +1575,7 @@ fn catalogue(
             }
             let ratio = tau / rms_tau[b];
             if plant.has_coupling(k, j) {
-                let g = plant.value(&format!("G_{k}to{j}"))?;
+                let g = plant.value(&names::coupling_gain(m.joints[k], m.joints[j]))?;
                 let reach = 100.0 * ratio.max(g.abs());
                 out.push(Candidate {
                     name: format!("input_coupling from {} (G off)", m.joints[k]),
@@ -1583,7 +1585,13 @@ fn catalogue(
                     effect: None,
                     replaces: None,
                     fixed: vec![],
-                    size: size(format!("G_{k}to{j}"), g, 0.02 * ratio, -reach, reach),
+                    size: size(
+                        names::coupling_gain(m.joints[k], m.joints[j]),
+                        g,
+                        0.02 * ratio,
+                        -reach,
+                        reach,
+                    ),
                     grid: None,
                 });
                 continue;
@@ -1597,7 +1605,7 @@ fn catalogue(
                 replaces: None,
                 fixed: vec![],
                 size: size(
-                    format!("G_{k}to{j}"),
+                    names::coupling_gain(m.joints[k], m.joints[j]),
                     0.0,
                     0.02 * ratio,
                     -100.0 * ratio,

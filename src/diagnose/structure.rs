@@ -58,7 +58,7 @@ impl LibraryTerm {
 /// The library of joint `j` (model index) among the free joints `free`, for a model of
 /// `joints` joints: its own 1, q, q², q³, q̇, q̇|q̇|, q̇³, sign(q̇), |τ| sign(q̇), sin(kq),
 /// cos(kq) (k = 1…[`HARMONICS`]) and the other free joints' q̇ and τ.
-pub fn library(j: usize, free: &[usize], joints: usize) -> Vec<LibraryTerm> {
+pub fn library(j: usize, free: &[usize], joints: &[&str]) -> Vec<LibraryTerm> {
     let mut texts: Vec<String> = vec![
         "1".into(),
         format!("q{j}"),
@@ -181,7 +181,7 @@ impl Named {
         }
     }
 
-    /// The user-defined effect on joint `j` (named `joint`) whose terms' least-squares
+    /// The user-defined effect on joint `j` (of the model's joints `joints`) whose terms' least-squares
     /// coefficients are `c` (same order as [`Named::terms`]): its name, torque, parameters,
     /// their values and bounds (±10 times each value's size about it, the cogging's both
     /// ±10 times its amplitude; the cubic's centre qc = −c₂/(3 c₃), within ±10 rad, ±1 rad
@@ -191,10 +191,11 @@ impl Named {
     pub fn effect(
         &self,
         j: usize,
-        joint: &str,
+        joints: &[&str],
         c: &[f64],
         fixed_centre: bool,
     ) -> Option<NamedEffect> {
+        let joint = *joints.get(j)?;
         let (key, torque, parameters, values) = match self {
             Named::CubicStiffness => {
                 let (a3, a2) = (*c.first()?, *c.get(1)?);
@@ -205,15 +206,15 @@ impl Named {
                 if fixed_centre {
                     (
                         "cubic_stiffness",
-                        format!("K3_{j}*(q{j} - ({qc:e}))^3"),
-                        vec![format!("K3_{j}")],
+                        format!("K3_{joint}*(q{j} - ({qc:e}))^3"),
+                        vec![format!("K3_{joint}")],
                         vec![a3],
                     )
                 } else {
                     (
                         "cubic_stiffness",
-                        format!("K3_{j}*(q{j} - qc_{j})^3"),
-                        vec![format!("K3_{j}"), format!("qc_{j}")],
+                        format!("K3_{joint}*(q{j} - qc_{joint})^3"),
+                        vec![format!("K3_{joint}"), format!("qc_{joint}")],
                         vec![a3, qc],
                     )
                 }
@@ -222,21 +223,21 @@ impl Named {
                 let [s, co]: [String; 2] = self.terms(j).try_into().ok()?;
                 (
                     "cogging",
-                    format!("Acog_{j}*{s} + Bcog_{j}*{co}"),
-                    vec![format!("Acog_{j}"), format!("Bcog_{j}")],
+                    format!("Acog_{joint}*{s} + Bcog_{joint}*{co}"),
+                    vec![format!("Acog_{joint}"), format!("Bcog_{joint}")],
                     vec![*c.first()?, *c.get(1)?],
                 )
             }
             Named::QuadraticDrag => (
                 "quadratic_drag",
-                format!("cd_{j}*qd{j}*abs(qd{j})"),
-                vec![format!("cd_{j}")],
+                format!("cd_{joint}*qd{j}*abs(qd{j})"),
+                vec![format!("cd_{joint}")],
                 vec![*c.first()?],
             ),
             Named::LoadFriction => (
                 "load_friction",
-                format!("mu_{j}*abs(tau{j})*sign(qd{j})"),
-                vec![format!("mu_{j}")],
+                format!("mu_{joint}*abs(tau{j})*sign(qd{j})"),
+                vec![format!("mu_{joint}")],
                 vec![*c.first()?],
             ),
         };
@@ -258,7 +259,7 @@ impl Named {
             .collect();
         Some(NamedEffect {
             name: format!("{key}_{joint}"),
-            torque,
+            torque: crate::names::expression_text(&torque, joints),
             parameters,
             values,
             bounds,
@@ -356,18 +357,18 @@ pub struct Structure {
 /// The one line of physics of a structure finding.
 pub const MEANING: &str = "the residual has structure the catalogue lacks: a sparse regression of it onto a library of functions of the joints' states (polynomials, q̇|q̇|, sign, |τ| sign(q̇), harmonics of q, the other joints' q̇ and τ), written as a user-defined effect";
 
-/// A name `structure_qj` and a parameter prefix `sj` for a structure on joint `j` that
-/// `plant` does not use yet (`structure_qj_2`, `sjv2`, … when it does).
+/// A name `structure_J` and a parameter prefix `s_J` for a structure on joint `j` (named
+/// J) that `plant` does not use yet (`structure_J_2`, `s_Jv2`, … when it does).
 pub fn free_names(plant: &crate::plant::Plant, j: usize) -> (String, String) {
     let joint = plant.model.joints[j];
     let taken = plant.known_names();
-    let mut prefix = format!("s{j}");
+    let mut prefix = format!("s_{joint}");
     let mut name = format!("structure_{joint}");
     let mut k = 2;
     while plant.expressions.iter().any(|x| x.name == name)
         || taken.iter().any(|t| t.starts_with(&format!("{prefix}_")))
     {
-        prefix = format!("s{j}v{k}");
+        prefix = format!("s_{joint}v{k}");
         name = format!("structure_{joint}_{k}");
         k += 1;
     }
@@ -635,7 +636,7 @@ mod tests {
             (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
         let free = [3usize];
-        let lib = library(3, &free, 6);
+        let lib = library(3, &free, &["q0", "q1", "q2", "q3", "q4", "q5"]);
         let texts: Vec<String> = lib.iter().map(|t| t.text.clone()).collect();
         let lead: Vec<bool> = lib.iter().map(|t| !t.catalogued).collect();
         let mut columns = vec![Vec::with_capacity(n); lib.len()];

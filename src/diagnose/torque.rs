@@ -363,7 +363,7 @@ pub fn diagnosis_with(
                     let own = |s: &str| {
                         plant
                             .parameters
-                            .get(&format!("{s}_{j}"))
+                            .get(&crate::names::parameter(s, plant.model.joints[j]))
                             .copied()
                             .filter(|v| *v > 0.0)
                     };
@@ -393,7 +393,11 @@ pub fn diagnosis_with(
                 }
             }
             if let (Some(e), Some(v)) = (effect, values) {
-                f.values = e.parameter_names().into_iter().zip(v).collect();
+                f.values = e
+                    .parameter_names(plant.model.joints)
+                    .into_iter()
+                    .zip(v)
+                    .collect();
                 f.bounds = f
                     .values
                     .iter()
@@ -406,7 +410,7 @@ pub fn diagnosis_with(
         // Structure outside the catalogue: the projected residual's sparse model on the
         // joint's own library terms, projected too ([`super::structure`]); linear in its
         // coefficients, so the refit of `--apply` fits it with the rest.
-        let lib = super::structure::library(j, &[j], m.joints.len());
+        let lib = super::structure::library(j, &[j], m.joints);
         let texts: Vec<String> = lib.iter().map(|t| t.text.clone()).collect();
         let lead: Vec<bool> = lib.iter().map(|t| !t.catalogued).collect();
         // The joint's torque at the rows for τ in a term: the model's, not the measured
@@ -446,7 +450,7 @@ pub fn diagnosis_with(
         let named = super::structure::named_fits(j, &e, &cols, &texts, span)
             .into_iter()
             .filter_map(|(named, c, _)| {
-                let effect = named.effect(j, m.joints[j], &c, true)?;
+                let effect = named.effect(j, m.joints, &c, true)?;
                 if plant.expressions.iter().any(|x| x.name == effect.name)
                     || effect
                         .parameters

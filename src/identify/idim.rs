@@ -14,6 +14,7 @@
 
 use crate::identify::identifiability::{base_parameters_at, BaseParameter, BaseParameters};
 use crate::measurement::Measurement;
+use crate::names;
 use crate::plant::Plant;
 use crate::signal::{butter_lowpass, decimate, decimation_indices, Differentiator};
 use anyhow::{bail, Context, Result};
@@ -157,7 +158,7 @@ pub fn observation(
             e.kind
                 .linear_symbols()
                 .iter()
-                .map(|s| format!("{s}_{}", e.joint)),
+                .map(|s| names::parameter(s, model.joints[e.joint])),
         );
     }
     // The nonlinear values each effect's columns are built at (the plant's).
@@ -167,7 +168,7 @@ pub fn observation(
             e.kind
                 .nonlinear_symbols()
                 .iter()
-                .map(|s| plant.value(&format!("{s}_{}", e.joint)))
+                .map(|s| plant.value(&names::parameter(s, model.joints[e.joint])))
                 .collect::<Result<Vec<f64>>>()
         })
         .collect::<Result<_>>()?;
@@ -906,7 +907,7 @@ pub fn refuse_still_joints(obs: &Observation, model: &generated::Model) -> Resul
         let own: Vec<&str> = obs
             .names
             .iter()
-            .filter(|n| n.rsplit('_').next() == Some(&j.to_string()))
+            .filter(|n| names::split_parameter(model.joints, n).is_some_and(|(_, k)| k == j))
             .filter(|n| !model.params.contains(&n.as_str()) && !n.starts_with("offset_"))
             .map(String::as_str)
             .collect();
@@ -943,7 +944,7 @@ pub fn nonlinear_parameters(plant: &Plant, config: &str) -> Result<Vec<String>> 
             e.kind
                 .nonlinear_symbols()
                 .iter()
-                .map(move |s| format!("{s}_{}", e.joint))
+                .map(move |s| names::parameter(s, plant.model.joints[e.joint]))
         })
         .fold(Vec::new(), |mut names: Vec<String>, n| {
             // A spring and a friction bias on one joint share its qeq.
@@ -1008,7 +1009,7 @@ pub fn separable_fit_rows(
     let bounds: Vec<Option<(f64, f64)>> = names
         .iter()
         .map(|n| {
-            let j: usize = n.strip_prefix("qeq_")?.parse().ok()?;
+            let j = names::parameter_joint(plant.model.joints, "qeq", n)?;
             let (lo, hi) = records
                 .iter()
                 .flat_map(|r| r.q.get(j).into_iter().flatten())
@@ -1063,7 +1064,7 @@ pub fn separable_fit_rows(
     let switch: Vec<Option<Vec<f64>>> = names
         .iter()
         .map(|n| {
-            let j: usize = n.strip_prefix("qeq_")?.parse().ok()?;
+            let j = names::parameter_joint(plant.model.joints, "qeq", n)?;
             let has = |k: crate::effects::EffectKind| {
                 plant.effects.iter().any(|e| e.kind == k && e.joint == j)
             };
@@ -1378,14 +1379,9 @@ fn explain_deficiency(
                 joints.push(r.joint);
             }
         }
-        // A column that is zero in these data: an effect parameter names its joint (`Fc_5`).
+        // A column that is zero in these data: an effect parameter names its joint (`Fc_q5`).
         if joints.len() == before {
-            if let Some(j) = n
-                .rsplit('_')
-                .next()
-                .and_then(|d| d.parse::<usize>().ok())
-                .filter(|&j| j < model.joints.len())
-            {
+            if let Some((_, j)) = names::split_parameter(model.joints, n) {
                 if !joints.contains(&j) {
                     joints.push(j);
                 }

@@ -215,9 +215,9 @@ impl JointProblem {
     /// [`INITIAL_POSITION_ROUNDS`] of them, or at the first round that does not lower the
     /// cost. No warm-up (horizons, predictor): near the steps' values there is no need, and
     /// far from them the fit can end in a local minimum where the parameters have absorbed
-    /// the initial positions' error — from the truth of the Freedom 6S with Fc_4 and Fc_3
+    /// the initial positions' error — from the truth of the Freedom 6S with Fc_q4 and Fc_q3
     /// 2 % (or 0.5 %) off the joint fit of k1 and k2 ended at 4.28e-4 with q5 of k2 at
-    /// 2.4 σ̂ (at the truth: 4.03e-4, every joint within 1.03 σ̂); with qeq_4 and G_5to4
+    /// 2.4 σ̂ (at the truth: 4.03e-4, every joint within 1.03 σ̂); with qeq_q4 and G_q5_to_q4
     /// 2 % off at 2.0e-3, 3.6–13.7 σ̂, and growing horizons or the predictor's stages
     /// before it did not reach the floor either (2.9e-3; 4.28e-4).
     /// The result's `statistics` are those of all the files.

@@ -130,7 +130,7 @@ fn plan_with(plant: &Plant, sequence: &str, occ: &Occurrence) -> Result<Vec<Step
             if !e.acts_with(conf.free) {
                 continue;
             }
-            for n in e.parameter_names() {
+            for n in e.parameter_names(model.joints) {
                 if !effect_done.contains(&n) {
                     effect_done.push(n.clone());
                     names.push(n);
@@ -816,12 +816,12 @@ mod tests {
     #[test]
     fn standard_errors_are_recorded_for_the_values_of_a_fit_at_the_floor() {
         let mut plant = Plant::new("planar2r", vec![]).unwrap();
-        for n in ["m1", "m2", "I2", "I1", "Kp_0"] {
+        for n in ["m1", "m2", "I2", "I1", "Kp_q0"] {
             plant.parameters.insert(n.into(), 1.0);
         }
         plant.standard_errors.insert("I1".into(), 9.0);
         plant.standard_errors.insert("gone".into(), 1.0);
-        let names: Vec<String> = ["m1", "m2", "I2", "I1", "Kp_0"].map(String::from).to_vec();
+        let names: Vec<String> = ["m1", "m2", "I2", "I1", "Kp_q0"].map(String::from).to_vec();
         let mut stats = Statistics {
             std_err: vec![0.1, f64::INFINITY, 0.3, 0.4, 0.5],
             at_bound: vec![false, false, false, true, false],
@@ -833,7 +833,7 @@ mod tests {
             .iter()
             .map(|(n, &v)| (n.as_str(), v))
             .collect();
-        assert_eq!(recorded, [("I2", 0.3), ("Kp_0", 0.5), ("m1", 0.1)]);
+        assert_eq!(recorded, [("I2", 0.3), ("Kp_q0", 0.5), ("m1", 0.1)]);
         stats.above_floor = vec!["q0 RMS 3.1 σ̂".into()];
         record_standard_errors(&mut plant, &names, &stats);
         assert!(plant.standard_errors.is_empty());

@@ -459,7 +459,6 @@ pub fn closedloop_command(
         );
     }
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
-    let nj = cl.plant.model.joints.len();
     let mut md = format!("# Closed-loop PD verification\n\nFile `{}`, plant {}, configuration {}, {} Hz, filter (4.7) a = {:?}, b = {:?}\n\n", spec.display(), cl.plant.name(), cl.spec.configuration, cl.spec.rate, cl.spec.filter.a, cl.spec.filter.b);
     for (k, set) in sets.iter().enumerate() {
         let run = cl.run(set)?;
@@ -470,7 +469,7 @@ pub fn closedloop_command(
             .collect();
         let meas = match measured.get(k) {
             Some(p) => {
-                let m = Measurement::read(p, nj)?;
+                let m = Measurement::read(p, cl.plant.model.joints)?;
                 for n in &m.notes {
                     crate::errln!("note: {n}");
                 }

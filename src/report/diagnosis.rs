@@ -251,7 +251,7 @@ pub fn torque_records(
 ) -> Result<(Vec<Measurement>, IdimOptions, String)> {
     let records = read_noted(
         &crate::measurement::expand_data_paths(data)?,
-        plant.model.joints.len(),
+        plant.model.joints,
     )?;
     let free = crate::util::configuration(plant.model, config)?
         .free
@@ -260,15 +260,15 @@ pub fn torque_records(
     Ok((records, idim, said))
 }
 
-/// The torque-measured records in `paths` ([`Measurement::read`], `nj` joints), what
-/// reading did to each printed as a note.
+/// The torque-measured records in `paths` ([`Measurement::read`], for a model whose joints
+/// are named `joints`), what reading did to each printed as a note.
 ///
 /// # Errors
 /// As [`Measurement::read`].
-pub fn read_noted(paths: &[PathBuf], nj: usize) -> Result<Vec<Measurement>> {
+pub fn read_noted(paths: &[PathBuf], joints: &[&str]) -> Result<Vec<Measurement>> {
     let mut records = Vec::new();
     for p in paths {
-        let m = Measurement::read(p, nj)?;
+        let m = Measurement::read(p, joints)?;
         for n in &m.notes {
             crate::errln!("note: {n}");
         }
@@ -859,7 +859,7 @@ pub fn refit_command(
     out: &Path,
 ) -> Result<()> {
     if names.is_empty() {
-        bail!("--params: name the parameters to refit, e.g. --params Ks_3,qeq_3");
+        bail!("--params: name the parameters to refit, e.g. --params Ks_q3,qeq_q3");
     }
     match inputs.load(plant)? {
         Data::Output { config, records } => {
@@ -960,7 +960,7 @@ pub fn plant_new(model: &str, effects: &[String], joints: &[String]) -> Result<P
         for &j in &js {
             let e = Effect::on(k, j);
             p.add_effect(e)?;
-            for (n, sym) in e.parameter_names().iter().zip(k.symbols()) {
+            for (n, sym) in e.parameter_names(p.model.joints).iter().zip(k.symbols()) {
                 p.parameters.entry(n.clone()).or_insert(neutral(sym, None));
             }
         }
@@ -1008,7 +1008,7 @@ pub fn effect_add(
     };
     let mut p = plant.clone();
     p.add_effect(e)?;
-    let names = e.parameter_names();
+    let names = e.parameter_names(m.joints);
     for (n, sym) in names.iter().zip(k.symbols()) {
         if !p.parameters.contains_key(n) {
             p.parameters.insert(n.clone(), neutral(sym, None));
@@ -1068,7 +1068,8 @@ fn set_and_save(
     out: &Path,
 ) -> Result<Plant> {
     let known = p.known_names();
-    for (n, v) in set {
+    for (given, v) in set {
+        let n = &p.current_name(given);
         if !known.contains(n) {
             bail!(
                 "--set {n}: the plant has no parameter '{n}' (the new effect's are {})",
@@ -1077,9 +1078,10 @@ fn set_and_save(
         }
         p.parameters.insert(n.clone(), *v);
     }
-    for (n, lo, hi) in bounds {
+    for (given, lo, hi) in bounds {
+        let n = &p.current_name(given);
         if !known.contains(n) {
-            bail!("--bound {n}: the plant has no parameter '{n}'");
+            bail!("--bound {given}: the plant has no parameter '{given}'");
         }
         if lo > hi {
             bail!("--bound {n}: lower {lo} is above upper {hi}");

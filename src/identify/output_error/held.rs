@@ -33,7 +33,7 @@ pub(crate) fn gain_scale_family(
 ) -> Option<Vec<usize>> {
     let model = plant.model;
     let gains_fitted = free.iter().all(|&j| {
-        let gain = format!("Kp_{j}");
+        let gain = crate::names::parameter("Kp", model.joints[j]);
         names.iter().zip(p).any(|(n, v)| *n == gain && *v != 0.0)
     });
     let scale_held_elsewhere = held.names.iter().chain(&held.exact).any(|n| {
@@ -166,7 +166,7 @@ pub(crate) fn scaled_ties(plant: &Plant, held_ties: &[String]) -> Vec<(String, f
 /// and I7_23 by 6 % and 3 % more than the other members, and z7 (the parallel-axis term
 /// m7·x7·z7 makes up for I7_13); solved over every fitted column, the least squares also
 /// leaked at least 1e-3 of the largest relative change (the threshold of
-/// [`moved_by_null_directions`]) into vs_4, which the statistics then called undetermined. Isolated c1 holds m7: x7 and y7 make up
+/// [`moved_by_null_directions`]) into vs_q4, which the statistics then called undetermined. Isolated c1 holds m7: x7 and y7 make up
 /// for it (m7·x7, m7·y7 scale), and without this part the statistics gave them finite
 /// standard errors, 220 % off the truth.
 pub(crate) fn gain_scale_direction(
@@ -203,7 +203,7 @@ pub(crate) fn gain_scale_direction(
 /// positions (a held tie, [`Problem::with_held_ties`]). Columns `cols` (∂r/∂p_j) scaled by
 /// `widths`, singular values below √1e-9 of the largest dropped; a column of zeros, which
 /// no data see, is its own null direction ([`moved_by_null_directions`]) and left out, so
-/// rounding does not tie it to anything (k1: vs_5 → 0).
+/// rounding does not tie it to anything (k1: vs_q5 → 0).
 pub(crate) fn rigid_body_make_up(
     cols: &[Vec<f64>],
     widths: &[f64],
@@ -241,8 +241,8 @@ pub(crate) fn rigid_body_make_up(
 /// (J v) w_i / (width_i ‖w‖²), w = v / width, so that J v = 0 exactly afterwards and
 /// directions orthogonal to w keep their columns. Why: the plant-gain scale is an exact
 /// symmetry of position data, but a finite-difference Jacobian sees it only to its own
-/// accuracy, and a member the data barely see (k1 of the Freedom 6S: Fs_5 at its bound
-/// with vs_5 → 0, a column of difference noise) can lift the family's direction above the
+/// accuracy, and a member the data barely see (k1 of the Freedom 6S: Fs_q5 at its bound
+/// with vs_q5 → 0, a column of difference noise) can lift the family's direction above the
 /// cut-off of [`covariance_statistics`], which then called the plant gains determined to
 /// a few ppm by data that cannot see their scale. Projected out, the family is a null
 /// direction of the statistics (its members undetermined), and every other parameter's
@@ -343,7 +343,11 @@ pub(crate) fn enters(
     let mut owners = plant
         .effects
         .iter()
-        .filter(|e| e.parameter_names().iter().any(|n| n == name))
+        .filter(|e| {
+            e.parameter_names(plant.model.joints)
+                .iter()
+                .any(|n| n == name)
+        })
         .peekable();
     let mut expressions = plant
         .expressions

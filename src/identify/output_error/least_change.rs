@@ -28,7 +28,7 @@ impl Problem {
     /// clamped to its bounds, and the move is kept by the same rule; if the cost rises,
     /// α* clamped to keep every member inside its bounds is tried.
     /// (An earlier α* = Σρ/Σρ² over the whole family was set by its worst-determined
-    /// member: k1's Fs_5 at 50 × its initial value, with vs_5 → 0, held the family at
+    /// member: k1's Fs_q5 at 50 × its initial value, with vs_q5 → 0, held the family at
     /// −50 %.) Where a held parameter breaks the symmetry the cost rises and the move is
     /// dropped.
     ///
@@ -228,23 +228,22 @@ pub fn scales_with_the_gain(model: &generated::Model, name: &str) -> bool {
     if model.inertial_symbols.contains(&name) {
         return name.starts_with('m') || name.starts_with('I');
     }
-    let Some((symbol, joint)) = name.rsplit_once('_') else {
+    let Some((symbol, _)) = crate::names::split_parameter(model.joints, name) else {
         return false;
     };
-    joint.parse::<usize>().is_ok()
-        && matches!(
-            symbol,
-            "Kp" | "Fv"
-                | "Fc"
-                | "Fs"
-                | "Fv_pos"
-                | "Fc_pos"
-                | "Fv_neg"
-                | "Fc_neg"
-                | "sigma0"
-                | "sigma1"
-                | "sigma2"
-                | "Ks"
-                | "offset"
-        )
+    matches!(
+        symbol,
+        "Kp" | "Fv"
+            | "Fc"
+            | "Fs"
+            | "Fv_pos"
+            | "Fc_pos"
+            | "Fv_neg"
+            | "Fc_neg"
+            | "sigma0"
+            | "sigma1"
+            | "sigma2"
+            | "Ks"
+            | "offset"
+    )
 }

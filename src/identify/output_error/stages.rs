@@ -113,7 +113,7 @@ impl Problem {
             .free
             .iter()
             .zip(ee.cutoffs())
-            .map(|(j, c)| format!("q{j} {c}"))
+            .map(|(&j, c)| format!("{} {c}", self.plant.model.joints[j]))
             .collect();
         format!(
             " (filter cut-offs {} of the Nyquist frequency)",

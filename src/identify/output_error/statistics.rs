@@ -23,8 +23,8 @@ pub const EQUAL_MINIMUM_STD_ERRORS: f64 = 2.0;
 /// the linearised standard errors describe only the kept minimum's neighbourhood, and a
 /// parameter that differs between the two by more than [`EQUAL_MINIMUM_STD_ERRORS`] of them
 /// is not identifiable from these data. The isolated step c4 of the Freedom 6S with the plant
-/// gains known: the kept fit (0.31497) had joint 2's Stribeck dip collapsed (Fs_2 = 1.0004
-/// Fc_2 at vs_2 = 0.46 rad/s) and called Fs_2 identifiable at ± 5.9e-6 N·m, 38 % below the
+/// gains known: the kept fit (0.31497) had joint 2's Stribeck dip collapsed (Fs_q2 = 1.0004
+/// Fc_q2 at vs_q2 = 0.46 rad/s) and called Fs_q2 identifiable at ± 5.9e-6 N·m, 38 % below the
 /// truth; the Stribeck re-seed's branch ended at 0.31499 with the dip near the truth's.
 #[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct OtherMinimum {
@@ -312,7 +312,7 @@ pub(crate) struct HeldColumns {
     /// −(JᵀJ)⁻¹ Jᵀ J_h. Why: JᵀJ is inverted with the plant-gain scale projected out, and
     /// J_h's share along that direction is the finite-difference Jacobian's error, which
     /// −(JᵀJ)⁻¹ Jᵀ J_h spreads over every parameter (k1 of the Freedom 6S at the truth:
-    /// qeq_4 ± 0.0155 rad, 6 %, from the held y7 and I7_13, against 4.6e-6 rad given them).
+    /// qeq_q4 ± 0.0155 rad, 6 %, from the held y7 and I7_13, against 4.6e-6 rad given them).
     pub make_up: Vec<Option<Vec<f64>>>,
     /// Held parameters that enter the fit without a recorded standard error (never fitted,
     /// or not determined where they were): taken as exact.
@@ -336,9 +336,9 @@ pub(crate) const EXACT_SYMMETRY: f64 = 1e-9;
 /// norms. Conservative: magnitude alone does not tell a real part from the Jacobian's own
 /// error, so the plant-gain direction is built without the latter
 /// ([`gain_scale_direction`]: on k1 of the Freedom 6S it moves z7, which makes up for the
-/// held tie I7_13, and no longer vs_4, which a least squares over every column had moved
+/// held tie I7_13, and no longer vs_q4, which a least squares over every column had moved
 /// by more than 1e-3 of the largest change). A direction that lives in zero
-/// columns (k1: Fs_5 with vs_5 → 0) leaves the others at rounding (≤ 2.4e-15), which
+/// columns (k1: Fs_q5 with vs_q5 → 0) leaves the others at rounding (≤ 2.4e-15), which
 /// must not count: divided by a tiny parameter's scale, rounding had looked like the
 /// largest change and made seven parameters "undetermined".
 fn moved_by_null_directions(
@@ -550,8 +550,8 @@ pub(crate) fn covariance_statistics(
     let held_information = held_information(&cols, &held, sigma);
     let mut correlation = vec![vec![0.0; n]; n];
     // An undetermined parameter's covariance is rounding amplified by the pseudo-inverse
-    // (k1 of the Freedom 6S: Fs_5 with vs_5 → 0 showed "correlation −1" with the
-    // well-determined qeq_5 one way and none the other): it has no correlation.
+    // (k1 of the Freedom 6S: Fs_q5 with vs_q5 → 0 showed "correlation −1" with the
+    // well-determined qeq_q5 one way and none the other): it has no correlation.
     let correlation_of = |cov: &DMatrix<f64>, i: usize, j: usize| {
         let d = (cov[(i, i)] * cov[(j, j)]).sqrt();
         if i == j {

@@ -8,7 +8,7 @@ use super::*;
 /// a start beyond 3.84, or a value within 2 standard errors, changes nothing.
 #[test]
 fn an_equally_good_minimum_elsewhere_takes_away_what_moved() {
-    let names: Vec<String> = ["Fs_2", "Fc_2", "vs_2"].map(String::from).to_vec();
+    let names: Vec<String> = ["Fs_q2", "Fc_q2", "vs_q2"].map(String::from).to_vec();
     let p = [0.0444, 0.04435, 0.455];
     let mut stats = Statistics {
         std_err: vec![5.85e-6, 3.1e-6, f64::INFINITY],
@@ -17,7 +17,7 @@ fn an_equally_good_minimum_elsewhere_takes_away_what_moved() {
     };
     let s_bar2 = 7.8e-5;
     let others = vec![
-        // Δχ² = 0.26: Fs_2 157 σ away, Fc_2 1.6 σ away.
+        // Δχ² = 0.26: Fs_q2 157 σ away, Fc_q2 1.6 σ away.
         (2, 2.06e-5, vec![0.04532, 0.04435 + 5.0e-6, 0.069]),
         // Δχ² = 3.9: a distinguishable minimum.
         (3, 3.9 * s_bar2, vec![0.0715, 0.0443, 0.019]),
@@ -28,11 +28,11 @@ fn an_equally_good_minimum_elsewhere_takes_away_what_moved() {
     assert_eq!(o.start, 2);
     assert!((o.chi2_difference - 2.06e-5 / 7.8e-5).abs() < 1e-12);
     assert_eq!(o.moved.len(), 1);
-    assert_eq!(o.moved[0].0, "Fs_2");
+    assert_eq!(o.moved[0].0, "Fs_q2");
     assert!((o.moved[0].2 - (0.04532 - 0.0444) / 5.85e-6).abs() < 1e-6);
     assert_eq!(stats.identifiable, [false, true, false]);
-    assert!((stats.other_minima_spread(0, "Fs_2") - 9.2e-4).abs() < 1e-12);
-    assert_eq!(stats.other_minima_spread(1, "Fc_2"), 0.0);
+    assert!((stats.other_minima_spread(0, "Fs_q2") - 9.2e-4).abs() < 1e-12);
+    assert_eq!(stats.other_minima_spread(1, "Fc_q2"), 0.0);
     // Without a noise scale nothing is compared.
     let mut again = Statistics {
         std_err: vec![5.85e-6, 3.1e-6, 1.0],
@@ -281,7 +281,7 @@ fn a_held_tie_is_propagated_with_its_bounds_spread_and_a_recorded_error_wins() {
         [("I7_13".to_string(), (hi - lo) / 12f64.sqrt())]
     );
     assert!(held_share(&held, false).contains(&("x7".to_string(), 1e-4)));
-    assert!(held.exact.contains(&"Kp_4".to_string()));
+    assert!(held.exact.contains(&"Kp_q4".to_string()));
     assert!(!held.names.contains(&"m7".to_string()) && !held.exact.contains(&"m7".to_string()));
     assert!(!held.names.contains(&"m2".to_string()) && !held.exact.contains(&"m2".to_string()));
 }

@@ -108,16 +108,16 @@ pub fn read_record_with_notes(
     for j in 0..nj {
         let name = model.joints[j];
         if conf.free.contains(&j) {
-            let qj = table.get(&format!("q{j}"))?.with_context(|| {
+            let qj = table.joint_column(model.joints, "q", j)?.with_context(|| {
                 format!(
-                    "{}: joint '{name}' is free in configuration '{}' but the file has no position column 'q{j}'",
+                    "{}: joint '{name}' is free in configuration '{}' but the file has no position column 'q_{name}'",
                     path.display(),
                     conf.name
                 )
             })?;
-            let tj = table.get(&format!("tau{j}"))?.with_context(|| {
+            let tj = table.joint_column(model.joints, "tau", j)?.with_context(|| {
                 format!(
-                    "{}: joint '{name}' is free in configuration '{}' but the file has no torque column 'tau{j}'",
+                    "{}: joint '{name}' is free in configuration '{}' but the file has no torque column 'tau_{name}'",
                     path.display(),
                     conf.name
                 )
@@ -126,7 +126,7 @@ pub fn read_record_with_notes(
             q.push(qj);
             tau.push(tj);
         } else {
-            let measured = table.get(&format!("q{j}"))?;
+            let measured = table.joint_column(model.joints, "q", j)?;
             if let Some(qj) = &measured {
                 let (lo, hi) = qj
                     .iter()

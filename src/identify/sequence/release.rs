@@ -35,7 +35,7 @@ impl StepRefit<'_> {
     /// ([`Problem::with_released`]): the sequential estimate with each earlier step's data
     /// summarised by its values and standard errors. Why: a value fitted within its standard
     /// error on an earlier step's data can still be off by more than a later configuration
-    /// tolerates — on the Freedom 6S, k2's qeq_3 (−1.9 %, 1.4 of its standard errors) alone
+    /// tolerates — on the Freedom 6S, k2's qeq_q3 (−1.9 %, 1.4 of its standard errors) alone
     /// leaves k4 at the truth of its own parameters 2.5–5.7 σ above the noise on q2..q5.
     /// The result is kept when its cost + prior term is lower than the fit's cost.
     ///

@@ -108,7 +108,7 @@ impl StepRefit<'_> {
         options.least_change = false;
         // The first fit's Stribeck branch was fitted with the rigid body held short of its
         // β: the friction may have absorbed the missing inertia (c6 of the Freedom 6S: the
-        // dip collapsed, Fs_0 = Fc_0, and the wide fit from there ended at 1.68 σ̂).
+        // dip collapsed, Fs_q0 = Fc_q0, and the wide fit from there ended at 1.68 σ̂).
         options.stribeck_reseed = problem.options().stribeck_reseed;
         let refit = |at: &Plant, options: OutputErrorOptions| -> Result<FitResult> {
             self.refit_problem(at, fit.names.clone(), options)
