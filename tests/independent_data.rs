@@ -238,12 +238,26 @@ fn hidden_case(
     start: &Plant,
     tag: &str,
     s: Spec,
+    expect: ((EffectKind, &str, Option<&str>), bool),
+    hidden: &[(&str, Within)],
+    bound: f64,
+) {
+    hidden_case_on(truth, start, tag, &[s], expect, hidden, bound)
+}
+
+/// [`hidden_case`] on several records of one configuration (`specs`, the first naming it).
+fn hidden_case_on(
+    truth: &Plant,
+    start: &Plant,
+    tag: &str,
+    specs: &[Spec],
     (expect, first_only): ((EffectKind, &str, Option<&str>), bool),
     hidden: &[(&str, Within)],
     bound: f64,
 ) {
-    let rec = record_of(truth, tag, &s);
-    let records = std::slice::from_ref(&rec);
+    let s = specs[0];
+    let owned: Vec<Record> = specs.iter().map(|x| record_of(truth, tag, x)).collect();
+    let records = owned.as_slice();
     let done = apply_all_significant(
         start,
         s.config,
@@ -512,6 +526,35 @@ fn hidden_stribeck_on_independent_data_c2() {
         &[
             ("Fs_q5", Within::Undetermined),
             ("vs_q5", Within::Undetermined),
+        ],
+        1.1,
+    );
+}
+
+/// The same hump where a record dwells near vs: with a slow sine (Table 4.4's J5-1, 0.5
+/// rad/s: the joint sticks and breaks away each half period, its speed passing slowly
+/// through vs) beside the chirp, Fs and vs no longer trade off and come back determined.
+#[test]
+fn hidden_stribeck_determined_where_a_record_dwells_near_vs_c2() {
+    let mut truth = common::appendix_d_coupled();
+    truth.parameters.insert("Fs_q5".into(), 0.1);
+    truth.parameters.insert("vs_q5".into(), 0.1);
+    let mut start = truth.clone();
+    start.parameters.insert("Fs_q5".into(), 0.02);
+    let chirp = hidden_spec("c2", "4.3", Some("J5"));
+    let slow = Spec {
+        seed: chirp.seed + 1,
+        ..hidden_spec("c2", "4.4", Some("J5-1"))
+    };
+    hidden_case_on(
+        &truth,
+        &start,
+        "stribeck-dwell",
+        &[chirp, slow],
+        ((EffectKind::Stribeck, "q5", None), true),
+        &[
+            ("Fs_q5", Within::Relative(0.02)),
+            ("vs_q5", Within::Relative(0.05)),
         ],
         1.1,
     );

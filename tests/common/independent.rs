@@ -134,6 +134,7 @@ impl Noise {
 }
 
 /// What to make: the excitation table and test, its length, the sensor.
+#[derive(Debug, Clone, Copy)]
 pub struct Spec<'a> {
     pub config: &'a str,
     pub table: &'a str,
