@@ -509,14 +509,21 @@ fn a_spring_rest_angle_off_is_found_and_refitted_c3() {
     );
 }
 
-/// A strong Stribeck hump in q5's LuGre friction that the starting plant lacks (c2).
-#[test]
-fn hidden_stribeck_on_independent_data_c2() {
+/// The truth with a strong Stribeck hump in q5's LuGre friction (Fs = 5 Fc, vs = 0.1
+/// rad/s), and the start without it (Fs = Fc).
+fn stribeck_truth_and_start() -> (Plant, Plant) {
     let mut truth = common::appendix_d_coupled();
     truth.parameters.insert("Fs_q5".into(), 0.1);
     truth.parameters.insert("vs_q5".into(), 0.1);
     let mut start = truth.clone();
     start.parameters.insert("Fs_q5".into(), 0.02);
+    (truth, start)
+}
+
+/// A strong Stribeck hump in q5's LuGre friction that the starting plant lacks (c2).
+#[test]
+fn hidden_stribeck_on_independent_data_c2() {
+    let (truth, start) = stribeck_truth_and_start();
     hidden_case(
         &truth,
         &start,
@@ -531,16 +538,47 @@ fn hidden_stribeck_on_independent_data_c2() {
     );
 }
 
+/// LuGre friction on q5 modelled as static (Stribeck with the same Fc, Fs, vs, and its σ2
+/// as viscous friction): the bristles' deflection before sliding, Fc/σ0 ≈ 0.09 rad at
+/// every reversal, is what the static law lacks. The diagnosis offers LuGre in the law's
+/// place, names it first and `--apply` takes q5 to the noise with σ0 back (c2).
+#[test]
+fn lugre_presliding_replaces_a_static_law_c2() {
+    let truth = common::appendix_d_coupled();
+    let mut start = truth.clone();
+    start
+        .effects
+        .retain(|e| !(e.kind == EffectKind::Lugre && e.joint == 5));
+    start
+        .add_effect(lockstep::effects::Effect::on(EffectKind::Stribeck, 5))
+        .unwrap();
+    start
+        .add_effect(lockstep::effects::Effect::on(EffectKind::Viscous, 5))
+        .unwrap();
+    let sigma2 = truth.parameters["sigma2_q5"];
+    start.parameters.insert("Fv_q5".into(), sigma2);
+    start.bounds.insert("Fv_q5".into(), (0.0, 10.0 * sigma2));
+    for s in ["sigma0_q5", "sigma1_q5", "sigma2_q5"] {
+        start.parameters.remove(s);
+        start.bounds.remove(s);
+    }
+    hidden_case(
+        &truth,
+        &start,
+        "lugre",
+        hidden_spec("c2", "4.3", Some("J5")),
+        ((EffectKind::Lugre, "q5", None), true),
+        &[("sigma0_q5", Within::Relative(0.05))],
+        1.1,
+    );
+}
+
 /// The same hump where a record dwells near vs: with a slow sine (Table 4.4's J5-1, 0.5
 /// rad/s: the joint sticks and breaks away each half period, its speed passing slowly
 /// through vs) beside the chirp, Fs and vs no longer trade off and come back determined.
 #[test]
 fn hidden_stribeck_determined_where_a_record_dwells_near_vs_c2() {
-    let mut truth = common::appendix_d_coupled();
-    truth.parameters.insert("Fs_q5".into(), 0.1);
-    truth.parameters.insert("vs_q5".into(), 0.1);
-    let mut start = truth.clone();
-    start.parameters.insert("Fs_q5".into(), 0.02);
+    let (truth, start) = stribeck_truth_and_start();
     let chirp = hidden_spec("c2", "4.3", Some("J5"));
     let slow = Spec {
         seed: chirp.seed + 1,

@@ -220,22 +220,20 @@ fn simulate_writes_joint_named_columns_and_the_commands_take_numbered_names_puma
         m.tau[2][k]
     );
     // `effect add --set` and `--bound` take the numbered name; the file holds the name.
+    let add_coulomb_q3 = |more: &[&str], out: &Path| {
+        let plant = s(&p);
+        let out = s(out);
+        let mut args = vec![
+            "effect", "add", "coulomb", "--joint", "q3", "--plant", &plant, "--out", &out,
+        ];
+        args.extend_from_slice(more);
+        lockstep(&args)
+    };
     let p2 = d.path().join("p2.toml");
-    let out = ok(&lockstep(&[
-        "effect",
-        "add",
-        "coulomb",
-        "--joint",
-        "q3",
-        "--plant",
-        &s(&p),
-        "--set",
-        "Fc_2=0.5",
-        "--bound",
-        "Fc_2=0:1",
-        "--out",
-        &s(&p2),
-    ]));
+    let out = ok(&add_coulomb_q3(
+        &["--set", "Fc_2=0.5", "--bound", "Fc_2=0:1"],
+        &p2,
+    ));
     assert!(out.contains("Fc_q3 = 0.5"), "{out}");
     let text = std::fs::read_to_string(&p2).unwrap();
     assert!(
@@ -245,19 +243,7 @@ fn simulate_writes_joint_named_columns_and_the_commands_take_numbered_names_puma
     // A numbered name of another joint: refused as written, nothing written.
     let p3 = d.path().join("p3.toml");
     fails(
-        &lockstep(&[
-            "effect",
-            "add",
-            "coulomb",
-            "--joint",
-            "q3",
-            "--plant",
-            &s(&p),
-            "--set",
-            "Fc_1=0.5",
-            "--out",
-            &s(&p3),
-        ]),
+        &add_coulomb_q3(&["--set", "Fc_1=0.5"], &p3),
         &["--set Fc_1: the plant has no parameter 'Fc_1' (the new effect's are Fc_q3)"],
     );
     assert!(!p3.exists());

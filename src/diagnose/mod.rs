@@ -150,9 +150,7 @@ impl Finding {
         }
         let mut p = plant.clone();
         if let Some(e) = self.effect {
-            if let Some(old) = self.replaces {
-                p.effects.retain(|x| !(x.joint == e.joint && x.kind == old));
-            }
+            replace_law(&mut p, e, self.replaces);
             p.add_effect(e)?;
         }
         if let Some(x) = &self.expression {
@@ -307,6 +305,25 @@ pub(crate) fn prefer_the_catalogue(findings: &mut Vec<Finding>) {
 
 /// The bounds a finding's refit gets about a value v: v ± (10 |v| + `pad`), a tenfold
 /// growth and a change of sign within reach, `pad` keeping a value near 0 free.
+/// Remove from `plant` what effect `e` replaces: the friction law `old` on its joint, and
+/// for LuGre, whose σ2 is the viscous friction, the joint's viscous effect too (its value
+/// is the candidate's σ2). The old parameters' values stay in the plant file's table
+/// only where another effect still uses them.
+pub(crate) fn replace_law(plant: &mut Plant, e: crate::effects::Effect, old: Option<EffectKind>) {
+    let Some(old) = old else { return };
+    let lugre = e.kind == EffectKind::Lugre;
+    plant.effects.retain(|x| {
+        !(x.joint == e.joint
+            && x.from.is_none()
+            && (x.kind == old || (lugre && x.kind == EffectKind::Viscous)))
+    });
+    if lugre {
+        let name = crate::names::parameter("Fv", plant.model.joints[e.joint]);
+        plant.parameters.remove(&name);
+        plant.bounds.remove(&name);
+    }
+}
+
 pub(crate) fn bounds_about(v: f64, pad: f64) -> (f64, f64) {
     (v - 10.0 * v.abs() - pad, v + 10.0 * v.abs() + pad)
 }

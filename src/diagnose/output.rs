@@ -33,7 +33,9 @@
 //! Catalogue (per free joint i; an effect the joint already has is not offered again):
 //! Coulomb (Fc_i), viscous (Fv_i), offset (offset_i), Stribeck/stiction (Fs_i above Fc_i,
 //! vs_i on a grid; on a LuGre or Stribeck joint the existing law's Fs_i, on a Coulomb joint
-//! the law replaced by Stribeck), cable-drag spring (Ks_i, qeq_i on a grid unless a friction
+//! the law replaced by Stribeck), LuGre in place of a Coulomb or Stribeck law (σ0_i on a
+//! grid of presliding deflections, screened from its own difference: no σ0 is neutral),
+//! cable-drag spring (Ks_i, qeq_i on a grid unless a friction
 //! bias fixes it), friction position bias (FrictionBias_i, qeq_i shared with the spring
 //! when there is one), an existing spring's or bias's equilibrium position off (qeq_i), tendon input coupling from each other free joint (G_{j→i}; where the
 //! plant has it, its gain off, either sign), and a plant-gain error (Kp_i; added as a gain
@@ -218,6 +220,10 @@ struct Candidate {
     /// A grid-scanned parameter (refitted in the confirmation, counted in ΔBIC): its
     /// name and range.
     grid: Option<(String, f64, f64)>,
+    /// The candidate at its size's `zero` is not the plant itself (a replacement with no
+    /// neutral value: LuGre for a static law); the screen then fits the residual with the
+    /// difference at `zero` plus the size's sensitivity there.
+    shifted: bool,
 }
 
 impl Candidate {
@@ -225,9 +231,7 @@ impl Candidate {
     fn plant(&self, base: &Plant, beta: f64) -> Result<Plant> {
         let mut p = base.clone();
         if let Some(e) = self.effect {
-            if let Some(old) = self.replaces {
-                p.effects.retain(|x| !(x.joint == e.joint && x.kind == old));
-            }
+            super::replace_law(&mut p, e, self.replaces);
             p.add_effect(e)?;
         }
         for (n, v) in &self.fixed {
@@ -237,6 +241,10 @@ impl Candidate {
         Ok(p)
     }
 }
+
+/// A candidate's sensitivity column of the stacked outputs to its size, and for a shifted
+/// candidate its difference from the plant at its zero.
+type Sensitivity = (Vec<f64>, Option<Vec<f64>>);
 
 /// Simulation of plants on the records, stacked into one output vector.
 struct Outputs {
@@ -375,11 +383,26 @@ pub fn diagnose_output(
     let coloured = not_white_joints(m, conf, &r, &segments);
     let cands = catalogue(plant, conf, records, &base)?;
     // Sensitivity columns, all candidates in parallel.
-    let columns: Vec<Option<Vec<f64>>> = cands
+    let columns: Vec<Option<Sensitivity>> = cands
         .par_iter()
         .map(|c| {
             let at = |b: f64| c.plant(plant, b).and_then(|p| out.simulate(&p));
             let s = &c.size;
+            // A shifted candidate: its difference from the plant at `zero`, and the central
+            // sensitivity there (its zero is no neutral point to difference from).
+            if c.shifted {
+                let y0 = at(s.zero).ok()?;
+                let plus = at(s.zero + s.step).ok()?;
+                let minus = at((s.zero - s.step).max(s.lo)).ok()?;
+                let width = s.zero + s.step - (s.zero - s.step).max(s.lo);
+                let offset: Vec<f64> = y0.iter().zip(&yhat).map(|(a, b)| a - b).collect();
+                let column = plus
+                    .iter()
+                    .zip(&minus)
+                    .map(|(a, b)| (a - b) / width)
+                    .collect();
+                return Some((column, Some(offset)));
+            }
             let plus = at(s.zero + s.step).ok()?;
             let (minus, width) = if s.zero - s.step >= s.lo {
                 match at(s.zero - s.step) {
@@ -389,15 +412,19 @@ pub fn diagnose_output(
             } else {
                 (yhat.clone(), s.step)
             };
-            Some(
+            Some((
                 plus.iter()
                     .zip(&minus)
                     .map(|(a, b)| (a - b) / width)
                     .collect(),
-            )
+                None,
+            ))
         })
         .collect();
-    let mut simulations = 1 + 2 * cands.len();
+    let mut simulations = 1 + cands
+        .iter()
+        .map(|c| 2 + usize::from(c.shifted))
+        .sum::<usize>();
     // Linear fits; a grid-scanned candidate keeps its best grid point.
     struct Linear {
         cand: Candidate,
@@ -408,15 +435,29 @@ pub fn diagnose_output(
     }
     let mut best: Vec<Linear> = Vec::new();
     for (c, col) in cands.into_iter().zip(columns) {
-        let Some(s) = col else { continue };
+        let Some((s, offset)) = col else { continue };
         let ss: f64 = s.iter().map(|x| x * x).sum();
         if ss <= 0.0 || !ss.is_finite() {
             continue;
         }
-        let sr: f64 = s.iter().zip(&r).map(|(a, b)| a * b).sum();
+        // What the size has to explain: the residual less a shifted candidate's own
+        // difference at its zero.
+        let rc: Vec<f64> = match &offset {
+            Some(o) => r.iter().zip(o).map(|(a, b)| a - b).collect(),
+            None => r.clone(),
+        };
+        if !rc.iter().all(|x| x.is_finite()) {
+            continue;
+        }
+        let sr: f64 = s.iter().zip(&rc).map(|(a, b)| a * b).sum();
         let beta = (c.size.zero + sr / ss).clamp(c.size.lo, c.size.hi);
         let d = beta - c.size.zero;
-        let sse: f64 = s.iter().zip(&r).map(|(a, b)| (b - d * a).powi(2)).sum();
+        let sse: f64 = s.iter().zip(&rc).map(|(a, b)| (b - d * a).powi(2)).sum();
+        // The column the candidate adds to the residual's joint model: its whole change.
+        let s = match offset {
+            Some(o) => o.iter().zip(&s).map(|(a, b)| a + d * b).collect(),
+            None => s,
+        };
         let p = 1 + usize::from(c.grid.is_some());
         match best
             .iter_mut()
@@ -471,7 +512,15 @@ pub fn diagnose_output(
                 (*lo, *hi)
             } else {
                 let v = values.iter().find(|x| x.0 == name).map_or(0.0, |x| x.1);
-                super::bounds_about(v, 1.0)
+                let (lo, hi) = super::bounds_about(v, 1.0);
+                // LuGre's stiffness and dampings are not negative, its vs positive.
+                if name.starts_with("sigma") {
+                    (lo.max(0.0), hi)
+                } else if name.starts_with("vs_") {
+                    (lo.max(1e-3 * v.abs()), hi)
+                } else {
+                    (lo, hi)
+                }
             }
         };
         f.bounds = values.iter().map(|(k, _)| range(k)).collect();
@@ -500,6 +549,8 @@ pub fn diagnose_output(
         let Ok(start) = lin.apply(plant) else {
             return (None, 0);
         };
+        // A replacement removes values (the viscous friction LuGre's σ2 takes over).
+        names.retain(|n| start.parameters.contains_key(n));
         // The candidate plant's own initial positions (a nuisance of each model).
         let Some(fit) = fit_from(&start, conf, names.clone(), records, &oe, options) else {
             return (None, 0);
@@ -1402,6 +1453,7 @@ fn catalogue(
                     fixed,
                     size: s,
                     grid,
+                    shifted: false,
                 }
             };
         if law.is_none() {
@@ -1467,6 +1519,7 @@ fn catalogue(
                     fixed: vec![],
                     size: size(name("Fs"), fs, dtau, fc, big),
                     grid: None,
+                    shifted: false,
                 };
                 if fs - fc > 0.05 * fc.abs() && vs > 1e-6 * vmax {
                     // The law already has a Stribeck hump: its level may be off.
@@ -1504,6 +1557,50 @@ fn catalogue(
                         vec![(name("Fc"), 0.0), (name("vs"), v)],
                         Some((name("vs"), vs_range.0, vs_range.1)),
                     ));
+                }
+            }
+        }
+        // LuGre for a static law (Coulomb or Stribeck): the bristles' deflection before
+        // sliding, z = g(v)/σ0 at steady state, shows as a compliance at every reversal
+        // (presliding: Canudas de Wit et al., IEEE TAC 40(3), 1995). The static curve is
+        // kept (Fc, Fs, vs; the joint's viscous friction becomes σ2), σ1 starts at 0, and
+        // σ0 is scanned where the deflection is 0.3 % to 10 % of the motion's span. No
+        // value of σ0 gives back the static law (it is the limit σ0 → ∞), so the candidate
+        // is screened from its own difference at each grid point (`shifted`).
+        if matches!(law, Some(K::Coulomb | K::Stribeck)) {
+            let fc = value("Fc")?;
+            let (fs, vs) = if law == Some(K::Stribeck) {
+                (value("Fs")?, value("vs")?)
+            } else {
+                (fc, 0.1 * vmax)
+            };
+            let fv = if has(K::Viscous) { value("Fv")? } else { 0.0 };
+            if fc > 0.0 && fs > 0.0 && vs > 0.0 {
+                for f in [0.003, 0.01, 0.03, 0.1] {
+                    let sigma0 = fc / (f * span);
+                    out.push(Candidate {
+                        name: "lugre".into(),
+                        replaces: law,
+                        shifted: true,
+                        ..add(
+                            K::Lugre,
+                            size(
+                                name("sigma0"),
+                                sigma0,
+                                0.2 * sigma0,
+                                fc / span,
+                                fc / (1e-3 * span),
+                            ),
+                            vec![
+                                (name("Fc"), fc),
+                                (name("Fs"), fs),
+                                (name("vs"), vs),
+                                (name("sigma1"), 0.0),
+                                (name("sigma2"), fv),
+                            ],
+                            None,
+                        )
+                    });
                 }
             }
         }
@@ -1549,6 +1646,7 @@ fn catalogue(
                 fixed: vec![],
                 size: size(name("qeq"), qeq, 0.01 * span, qeq_range.0, qeq_range.1),
                 grid: None,
+                shifted: false,
             });
         }
         if !has(K::FrictionBias) && (law.is_some() || has(K::Viscous)) {
@@ -1593,6 +1691,7 @@ fn catalogue(
                         reach,
                     ),
                     grid: None,
+                    shifted: false,
                 });
                 continue;
             }
@@ -1612,6 +1711,7 @@ fn catalogue(
                     100.0 * ratio,
                 ),
                 grid: None,
+                shifted: false,
             });
         }
         // Plant gain: an error of the existing gain, or a gain where there is none.
@@ -1627,6 +1727,7 @@ fn catalogue(
                 fixed: vec![],
                 size: size(name("Kp"), kp, 0.01 * kp.abs(), 0.1 * kp, 10.0 * kp),
                 grid: None,
+                shifted: false,
             });
         } else {
             out.push(add(
