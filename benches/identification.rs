@@ -169,6 +169,31 @@ fn real_arm(c: &mut Criterion) {
     g.bench_function("consistent", |b| {
         b.iter(|| consistent_parameters(&obs, &plant, &fit, &Default::default()).unwrap())
     });
+    // A friction position bias on q5 (its rest angle profiled on a grid, the bias factor by
+    // Levenberg–Marquardt, the linear values by least squares at each trial): the torque
+    // space's slowest refit, each trial rebuilding only the effects' columns.
+    let mut biased = plant.clone();
+    biased
+        .add_effect(lockstep::effects::Effect::on(
+            lockstep::effects::EffectKind::FrictionBias,
+            4,
+        ))
+        .unwrap();
+    biased.parameters.insert("FrictionBias_q5".into(), 1.0);
+    biased.parameters.insert("qeq_q5".into(), 0.0);
+    let random =
+        lockstep::identify::idim::random_motion_observation(&biased, "full", &locked_at, &opts)
+            .unwrap();
+    let linear = |p: &Plant, obs: &lockstep::identify::idim::Observation| {
+        lockstep::identify::idim::base_fit_with(p, obs, "full", &locked_at, Weighting::Ols, &random)
+            .map(|(fit, _)| fit)
+    };
+    g.bench_function("friction bias refit", |b| {
+        b.iter(|| {
+            lockstep::identify::idim::separable_fit(&biased, "full", records, &opts, &linear)
+                .unwrap()
+        })
+    });
     g.finish();
 }
 

@@ -184,3 +184,45 @@ fn a_hidden_friction_bias_is_named_added_and_refitted_in_torque_space() {
     within("FrictionBias_q0", v("FrictionBias_q0"), BIAS, 2.0);
     assert!((v("qeq_q0") - QEQ).abs() <= 0.01, "qeq_q0 {}", v("qeq_q0"));
 }
+
+/// A separable fit's trials rebuild only the effects' columns of an observation prepared
+/// once ([`lockstep::identify::idim::Prepared`]): at other values of vs, the bias and its
+/// rest angle, with the moving ends and a minimum speed trimming rows, the prepared
+/// observation is the one built from scratch, to the bit; a plant with other effects is
+/// refused.
+#[test]
+fn a_prepared_observation_at_other_values_is_the_one_built_afresh() {
+    use lockstep::identify::idim::{observation, IdimOptions, MinSpeed, Prepared};
+    use lockstep::plant::Plant;
+    let d = tempfile::tempdir().unwrap();
+    let data = record(d.path());
+    let records = vec![lockstep::measurement::Measurement::read(&data, &["q0"]).unwrap()];
+    let start = Plant::load(&plant(d.path(), "p.toml", true)).unwrap();
+    let opts = IdimOptions {
+        cutoff_hz: 30.0,
+        decimation: 5,
+        min_speed: Some(MinSpeed::FractionOfPeak(0.01)),
+        trim_moving_edges: true,
+        ..IdimOptions::default()
+    };
+    let prepared = Prepared::new(&start, "full", &records, &opts).unwrap();
+    let mut other = start.clone();
+    for (n, v) in [("vs_q0", VS), ("FrictionBias_q0", BIAS), ("qeq_q0", QEQ)] {
+        other.parameters.insert(n.into(), v);
+    }
+    let (a, b) = (
+        prepared.at(&other).unwrap(),
+        observation(&other, "full", &records, &opts).unwrap(),
+    );
+    assert_eq!(a.names, b.names);
+    assert_eq!(a.y, b.y);
+    assert_eq!(a.w, b.w);
+    assert_eq!(a.rows.len(), b.rows.len());
+    assert!(a.rows.len() < records[0].len() / 5, "rows trimmed");
+    // The biased columns differ from the start's (the trial did change them).
+    let at_start = prepared.at(&start).unwrap();
+    assert_ne!(at_start.w, a.w);
+    let without = Plant::load(&plant(d.path(), "q.toml", false)).unwrap();
+    let e = prepared.at(&without).unwrap_err().to_string();
+    assert!(e.contains("prepared for other effects"), "{e}");
+}

@@ -576,14 +576,16 @@ pub fn identify_idim(
     let conf = lockstep::util::configuration(plant.model, config)?;
     let locked_at = lockstep::identify::idim::locked_positions(&records);
     let sigma_of = std::sync::Mutex::new(Vec::new());
+    let random =
+        lockstep::identify::idim::random_motion_observation(&plant, config, &locked_at, &opts)?;
     let linear = |p: &Plant, obs: &lockstep::identify::idim::Observation| {
-        let (fit, sigma) = lockstep::identify::idim::base_fit(
+        let (fit, sigma) = lockstep::identify::idim::base_fit_with(
             p,
             obs,
             config,
             &locked_at,
-            &opts,
             weighting.into(),
+            &random,
         )?;
         *sigma_of.lock().unwrap_or_else(|e| e.into_inner()) = sigma;
         Ok(fit)

@@ -106,33 +106,77 @@ pub struct RowInfo {
     pub qdd: f64,
 }
 
-/// Build the decimated observation of `plant` on `records`, configuration `config`.
+/// Build the decimated observation of `plant` on `records`, configuration `config`
+/// ([`Prepared::new`], then [`Prepared::at`] the plant's values).
 ///
 /// # Errors
 /// Unknown configuration; a record too short for the filters; a record with fewer joints
-/// than the model; a cut-off at or above the Nyquist frequency.
+/// than the model; a cut-off at or above the Nyquist frequency; an effect the inverse model
+/// does not take; a value not finite after filtering and differentiating.
 pub fn observation(
     plant: &Plant,
     config: &str,
     records: &[Measurement],
     opts: &IdimOptions,
 ) -> Result<Observation> {
+    Prepared::new(plant, config, records, opts)?.at(plant)
+}
+
+/// The part of an observation that does not depend on the values of the plant's effects:
+/// the filtered positions and their derivatives, the torques, the rigid-body and
+/// user-defined-effect columns (decimated), the rows and which of them the trims keep.
+/// Built once; [`Prepared::at`] adds the effects' columns at a plant's values, which is all
+/// a separable fit's trial of nonlinear values (a rest angle, a Stribeck speed, a friction
+/// bias) changes: each effect column is non-zero on its own joint's rows only, so a trial
+/// filters and decimates a few columns instead of every one (on the TX40 record 24 of 510).
+pub struct Prepared<'a> {
+    records: &'a [Measurement],
+    conf: &'static generated::Configuration,
+    opts: IdimOptions,
+    /// Per record: filtered q of every joint, q̇ and q̈ of the free joints, the interior
+    /// samples the rows come from and the decimated ones.
+    signals: Vec<PreparedRecord>,
+    /// Names of the rigid-body columns, then of the user-defined effects' columns.
+    rigid_names: Vec<String>,
+    expression_names: Vec<String>,
+    /// The plant's effects and expressions the columns were built for (checked by `at`).
+    effects: Vec<crate::effects::Effect>,
+    expressions: Vec<String>,
+    /// Stacked over every record and free joint (before the trims).
+    y: Vec<f64>,
+    rigid: Vec<Vec<f64>>,
+    expression: Vec<Vec<f64>>,
+    rows: Vec<RowInfo>,
+    /// The rows the trims keep (moving ends, window, minimum speed); `None`: all.
+    keep: Option<Vec<usize>>,
+}
+
+struct PreparedRecord {
+    qf: Vec<Vec<f64>>,
+    qd: Vec<Vec<f64>>,
+    qdd: Vec<Vec<f64>>,
+    interior: Vec<usize>,
+    /// Decimated rows per free joint.
+    nout: usize,
+}
+
+/// The effects on the free joints of `conf`, with the nonlinear values their columns are
+/// built at and, per free joint, its friction position bias (factor, qeq).
+struct EffectSetup<'p> {
+    effects: Vec<&'p crate::effects::Effect>,
+    names: Vec<String>,
+    nonlinear: Vec<Vec<f64>>,
+    bias: Vec<Option<(f64, f64)>>,
+}
+
+fn effect_setup<'p>(plant: &'p Plant, conf: &generated::Configuration) -> Result<EffectSetup<'p>> {
     let model = plant.model;
-    let conf = crate::util::configuration(model, config)?;
-    let nj = model.joints.len();
-    let nf = conf.free.len();
-    let np = model.params.len();
-    // Columns: rigid-body parameters present in this configuration, then effects on free joints.
-    let mut names: Vec<String> = conf
-        .params_present
-        .iter()
-        .map(|&j| model.params[j].to_string())
-        .collect();
     let effects: Vec<_> = plant
         .effects
         .iter()
         .filter(|e| conf.free.contains(&e.joint))
         .collect();
+    let mut names = Vec::new();
     for e in &effects {
         if e.kind == crate::effects::EffectKind::Backlash {
             bail!(
@@ -193,7 +237,7 @@ pub fn observation(
     }
     // Per free joint, its friction position bias (FrictionBias, qeq): the factor on its
     // friction columns below qeq (thesis 4.3.5, as the simulator applies it).
-    let bias: Vec<Option<(f64, f64)>> = conf
+    let bias = conf
         .free
         .iter()
         .map(|&j| {
@@ -204,241 +248,456 @@ pub fn observation(
                 .map(|(_, nl)| (nl[0], nl[1]))
         })
         .collect();
-    // User-defined effects: one column per parameter, ∂u/∂θ (the effect linear in θ).
-    let columns = expression_columns(plant, conf.free)?;
-    for c in &columns {
-        names.push(c.name.clone());
+    Ok(EffectSetup {
+        effects,
+        names,
+        nonlinear,
+        bias,
+    })
+}
+
+/// The first non-finite value among `columns` (name, values) of free joint `a`'s rows of
+/// record `m` (`interior` the samples they come from), as the error that names it.
+fn refuse_non_finite(
+    m: &Measurement,
+    model: &generated::Model,
+    joint: usize,
+    interior: &[usize],
+    columns: &[(&str, &[f64])],
+) -> Result<()> {
+    let bad = |v: &[f64]| v.iter().position(|x| !x.is_finite());
+    let Some((r, what)) = columns
+        .iter()
+        .find_map(|(name, v)| bad(v).map(|r| (r, *name)))
+    else {
+        return Ok(());
+    };
+    let nj = model.joints.len();
+    let n = m.len();
+    let k = interior[r];
+    // The sample that overflowed: the largest position of any joint.
+    let (jmax, kmax) = (0..nj)
+        .flat_map(|j| (0..n).map(move |k| (j, k)))
+        .max_by(|x, y| m.q[x.0][x.1].abs().total_cmp(&m.q[y.0][y.1].abs()))
+        .unwrap_or((0, 0));
+    bail!(
+        "{}: row {} (t = {} s), joint {}: {what} is not finite after filtering and differentiating the positions; the largest position in the file is {} = {:e} at row {} (a value near the float limit, or a spike)",
+        m.file.display(),
+        k + 2,
+        m.t[k],
+        model.joints[joint],
+        names::column("q", model.joints[jmax]),
+        m.q[jmax][kmax],
+        kmax + 2
+    );
+}
+
+/// `x` decimated ×`r` (`nout` samples); a column of zeros passes as zeros.
+fn decimated(x: &[f64], r: usize, nout: usize) -> Option<Vec<f64>> {
+    if x.iter().all(|v| *v == 0.0) {
+        Some(vec![0.0; nout])
+    } else {
+        decimate(x, r)
     }
-    let ncol = names.len();
-    let mut y_all: Vec<f64> = Vec::new();
-    let mut w_cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
-    let mut rows = Vec::new();
-    // Per record, the spans at its ends the filters' start-up spoils: (from, to) in s.
-    let mut spoiled: Vec<Vec<(f64, f64)>> = Vec::new();
-    for (ri, m) in records.iter().enumerate() {
-        if m.q.len() < nj {
-            bail!(
-                "{}: has {} joints, model '{}' needs {nj}",
-                m.file.display(),
-                m.q.len(),
-                model.name
-            );
-        }
-        let dt = m.dt();
-        let fs = 1.0 / dt;
-        if !(opts.cutoff_hz > 0.0 && (opts.cutoff_hz < fs / 2.0 || opts.cutoff_hz == f64::INFINITY))
-        {
-            bail!(
-                "{}: filter cut-off {} Hz must lie between 0 and the Nyquist frequency {} Hz",
-                m.file.display(),
-                opts.cutoff_hz,
-                fs / 2.0
-            );
-        }
-        // Below one cycle per record the filter removes the motion itself (and its
-        // coefficients lose every significant digit): q̈ is then noise or overflow.
-        let span = m.t[m.len() - 1] - m.t[0];
-        if opts.cutoff_hz * span < 1.0 {
-            bail!(
-                "{}: filter cut-off {} Hz is below one cycle per record (1/{span:.3} s = {:.4} Hz): it would remove the motion the fit needs",
-                m.file.display(),
-                opts.cutoff_hz,
-                1.0 / span
-            );
-        }
-        let bw = opts
-            .cutoff_hz
-            .is_finite()
-            .then(|| butter_lowpass(opts.filter_order, opts.cutoff_hz / (fs / 2.0)));
-        let n = m.len();
-        // Central differences drop EDGE samples at each end; filtfilt pads 3·order samples;
-        // decimate's 8th-order Chebyshev pads 3·8 samples at the decimated rate.
-        let min_len = 2 * EDGE + 3 * 8 * opts.decimation.max(1);
-        let too_short = || {
-            anyhow::anyhow!(
-                "{}: too few samples ({n}) for the filters and decimation ×{} (need more than {min_len})",
-                m.file.display(),
-                opts.decimation,
-            )
-        };
-        if n <= min_len {
-            return Err(too_short());
-        }
-        // Filtered q of every joint (locked ones too: their positions enter the kernels).
-        let qf: Vec<Vec<f64>> = (0..nj)
-            .map(|j| match &bw {
-                Some(bw) => bw.filtfilt(&m.q[j]).ok_or_else(too_short),
-                None => Ok(m.q[j].clone()),
-            })
-            .collect::<Result<_>>()?;
-        let (qd, qdd): (Vec<Vec<f64>>, Vec<Vec<f64>>) = conf
-            .free
+}
+
+impl<'a> Prepared<'a> {
+    /// Prepare `records` for the observations of plants with `plant`'s effects and
+    /// user-defined effects in configuration `config`.
+    ///
+    /// # Errors
+    /// As [`observation`].
+    pub fn new(
+        plant: &Plant,
+        config: &str,
+        records: &'a [Measurement],
+        opts: &IdimOptions,
+    ) -> Result<Prepared<'a>> {
+        let model = plant.model;
+        let conf = crate::util::configuration(model, config)?;
+        let nj = model.joints.len();
+        let nf = conf.free.len();
+        let np = model.params.len();
+        // The effects are checked here too (an effect IDIM cannot take stops before the
+        // records are filtered).
+        effect_setup(plant, conf)?;
+        let rigid_names: Vec<String> = conf
+            .params_present
             .iter()
-            .map(|&j| opts.differentiator.derivatives(&qf[j], dt))
-            .unzip();
-        // Rows of this record: for each free joint a, interior sample k ∈ [2, n − 3] (where
-        // both central differences are defined; the end values are one-sided).
-        let interior: Vec<usize> = (EDGE..n - EDGE).collect();
-        let ni = interior.len();
-        let mut yr = vec![vec![0.0; ni]; nf];
-        let mut wr = vec![vec![vec![0.0; ni]; ncol]; nf];
-        let mut yk = vec![0.0; nf * np];
-        let mut qk = vec![0.0; nj];
-        let mut qdk = vec![0.0; nf];
-        let mut qddk = vec![0.0; nf];
-        for (r, &k) in interior.iter().enumerate() {
-            for j in 0..nj {
-                qk[j] = qf[j][k];
-            }
-            for a in 0..nf {
-                qdk[a] = qd[a][k];
-                qddk[a] = qdd[a][k];
-            }
-            (conf.regressor)(&qk, &qdk, &qddk, &mut yk);
-            for a in 0..nf {
-                yr[a][r] = m.tau[conf.free[a]][k];
-                let mut c = 0;
-                for &j in conf.params_present {
-                    wr[a][c][r] = yk[a * np + j];
-                    c += 1;
-                }
-                let below = bias[a].map_or(
-                    1.0,
-                    |(b, qeq)| if qf[conf.free[a]][k] < qeq { b } else { 1.0 },
+            .map(|&j| model.params[j].to_string())
+            .collect();
+        // User-defined effects: one column per parameter, ∂u/∂θ (the effect linear in θ).
+        let columns = expression_columns(plant, conf.free)?;
+        let expression_names: Vec<String> = columns.iter().map(|c| c.name.clone()).collect();
+        let nrigid = rigid_names.len();
+        let ncol = nrigid + columns.len();
+        let mut y_all: Vec<f64> = Vec::new();
+        let mut w_cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
+        let mut rows = Vec::new();
+        let mut signals = Vec::new();
+        // Per record, the spans at its ends the filters' start-up spoils: (from, to) in s.
+        let mut spoiled: Vec<Vec<(f64, f64)>> = Vec::new();
+        for (ri, m) in records.iter().enumerate() {
+            if m.q.len() < nj {
+                bail!(
+                    "{}: has {} joints, model '{}' needs {nj}",
+                    m.file.display(),
+                    m.q.len(),
+                    model.name
                 );
-                for (e, nl) in effects.iter().zip(&nonlinear) {
-                    let vals = match e.kind.regressor_at(qf[e.joint][k], qd[a][k], qdd[a][k], nl) {
-                        Some(v) if e.joint == conf.free[a] => v,
-                        _ => vec![0.0; e.kind.linear_symbols().len()],
-                    };
+            }
+            let dt = m.dt();
+            let fs = 1.0 / dt;
+            if !(opts.cutoff_hz > 0.0
+                && (opts.cutoff_hz < fs / 2.0 || opts.cutoff_hz == f64::INFINITY))
+            {
+                bail!(
+                    "{}: filter cut-off {} Hz must lie between 0 and the Nyquist frequency {} Hz",
+                    m.file.display(),
+                    opts.cutoff_hz,
+                    fs / 2.0
+                );
+            }
+            // Below one cycle per record the filter removes the motion itself (and its
+            // coefficients lose every significant digit): q̈ is then noise or overflow.
+            let span = m.t[m.len() - 1] - m.t[0];
+            if opts.cutoff_hz * span < 1.0 {
+                bail!(
+                    "{}: filter cut-off {} Hz is below one cycle per record (1/{span:.3} s = {:.4} Hz): it would remove the motion the fit needs",
+                    m.file.display(),
+                    opts.cutoff_hz,
+                    1.0 / span
+                );
+            }
+            let bw = opts
+                .cutoff_hz
+                .is_finite()
+                .then(|| butter_lowpass(opts.filter_order, opts.cutoff_hz / (fs / 2.0)));
+            let n = m.len();
+            // Central differences drop EDGE samples at each end; filtfilt pads 3·order
+            // samples; decimate's 8th-order Chebyshev pads 3·8 samples at the decimated rate.
+            let min_len = 2 * EDGE + 3 * 8 * opts.decimation.max(1);
+            let too_short = || {
+                anyhow::anyhow!(
+                    "{}: too few samples ({n}) for the filters and decimation ×{} (need more than {min_len})",
+                    m.file.display(),
+                    opts.decimation,
+                )
+            };
+            if n <= min_len {
+                return Err(too_short());
+            }
+            // Filtered q of every joint (locked ones too: their positions enter the kernels).
+            let qf: Vec<Vec<f64>> = (0..nj)
+                .map(|j| match &bw {
+                    Some(bw) => bw.filtfilt(&m.q[j]).ok_or_else(too_short),
+                    None => Ok(m.q[j].clone()),
+                })
+                .collect::<Result<_>>()?;
+            let (qd, qdd): (Vec<Vec<f64>>, Vec<Vec<f64>>) = conf
+                .free
+                .iter()
+                .map(|&j| opts.differentiator.derivatives(&qf[j], dt))
+                .unzip();
+            // Rows of this record: for each free joint a, interior sample k ∈ [2, n − 3]
+            // (where both central differences are defined; the end values are one-sided).
+            let interior: Vec<usize> = (EDGE..n - EDGE).collect();
+            let ni = interior.len();
+            let mut yr = vec![vec![0.0; ni]; nf];
+            let mut wr = vec![vec![vec![0.0; ni]; ncol]; nf];
+            let mut yk = vec![0.0; nf * np];
+            let mut qk = vec![0.0; nj];
+            let mut qdk = vec![0.0; nf];
+            let mut qddk = vec![0.0; nf];
+            for (r, &k) in interior.iter().enumerate() {
+                for j in 0..nj {
+                    qk[j] = qf[j][k];
+                }
+                for a in 0..nf {
+                    qdk[a] = qd[a][k];
+                    qddk[a] = qdd[a][k];
+                }
+                (conf.regressor)(&qk, &qdk, &qddk, &mut yk);
+                for a in 0..nf {
+                    yr[a][r] = m.tau[conf.free[a]][k];
+                    for (c, &j) in conf.params_present.iter().enumerate() {
+                        wr[a][c][r] = yk[a * np + j];
+                    }
+                    for (i, col) in columns.iter().enumerate() {
+                        if col.joints.contains(&conf.free[a]) {
+                            wr[a][nrigid + i][r] =
+                                col.value(&qk, (&qd, &qdd), conf.free, (&m.t, &m.tau), k);
+                        }
+                    }
+                }
+            }
+            // A value the float format cannot carry through the filter and the differences
+            // (a 1e308 cell) would make the least squares meaningless: name the first one.
+            for a in 0..nf {
+                let named: Vec<String> = rigid_names
+                    .iter()
+                    .chain(&expression_names)
+                    .map(|n| format!("regressor column '{n}'"))
+                    .collect();
+                let mut cols: Vec<(&str, &[f64])> = vec![("the torque", &yr[a])];
+                cols.extend(
+                    named
+                        .iter()
+                        .map(String::as_str)
+                        .zip(wr[a].iter().map(Vec::as_slice)),
+                );
+                refuse_non_finite(m, model, conf.free[a], &interior, &cols)?;
+            }
+            spoiled.push(if opts.trim_moving_edges {
+                moving_edges(m, (&qd, dt), opts)
+            } else {
+                Vec::new()
+            });
+            // Parallel decimation.
+            let idx: Vec<usize> = decimation_indices(ni, opts.decimation.max(1))
+                .map(|i| interior[i])
+                .collect();
+            let nout = idx.len();
+            // Every (joint, column) pair in parallel; a column that is zero on a joint's
+            // rows (another joint's effect, a link beyond it) decimates to zeros.
+            let decimated_cols: Vec<Option<Vec<f64>>> = {
+                use rayon::prelude::*;
+                (0..nf * (ncol + 1))
+                    .into_par_iter()
+                    .map(|i| {
+                        let (a, c) = (i / (ncol + 1), i % (ncol + 1));
+                        let x = if c == ncol { &yr[a] } else { &wr[a][c] };
+                        decimated(x, opts.decimation, nout)
+                    })
+                    .collect()
+            };
+            let mut decimated_cols = decimated_cols.into_iter();
+            for a in 0..nf {
+                let mut of_joint: Vec<Vec<f64>> = (0..=ncol)
+                    .map(|_| decimated_cols.next().flatten().ok_or_else(too_short))
+                    .collect::<Result<_>>()?;
+                let yd = of_joint.pop().ok_or_else(too_short)?;
+                y_all.extend_from_slice(&yd);
+                for (c, wd) in of_joint.into_iter().enumerate() {
+                    w_cols[c].extend_from_slice(&wd);
+                }
+                for &k in &idx {
+                    rows.push(RowInfo {
+                        record: ri,
+                        t: m.t[k],
+                        joint: conf.free[a],
+                        q: qf[conf.free[a]][k],
+                        qd: qd[a][k],
+                        qdd: qdd[a][k],
+                    });
+                }
+            }
+            signals.push(PreparedRecord {
+                qf,
+                qd,
+                qdd,
+                interior,
+                nout,
+            });
+        }
+        let keep = trimmed_rows(&rows, &spoiled, opts, model)?;
+        let expression = w_cols.split_off(nrigid);
+        Ok(Prepared {
+            records,
+            conf,
+            opts: *opts,
+            signals,
+            rigid_names,
+            expression_names,
+            effects: plant.effects.clone(),
+            expressions: plant.expressions.iter().map(|x| x.name.clone()).collect(),
+            y: y_all,
+            rigid: w_cols,
+            expression,
+            rows,
+            keep,
+        })
+    }
+
+    /// The observation of `plant` (the plant prepared for, or one that differs from it
+    /// only in values): columns rigid body, effects, user-defined effects; the effects'
+    /// columns built at `plant`'s values.
+    ///
+    /// # Errors
+    /// `plant` has other effects or user-defined effects than the one prepared for; an
+    /// effect's value missing or out of its range; a column not finite; a record too short
+    /// for the decimation.
+    pub fn at(&self, plant: &Plant) -> Result<Observation> {
+        let model = plant.model;
+        let conf = self.conf;
+        let same_expressions = plant
+            .expressions
+            .iter()
+            .map(|x| &x.name)
+            .eq(self.expressions.iter());
+        if plant.effects != self.effects || !same_expressions {
+            bail!(
+                "{}: the observation was prepared for other effects; prepare it again",
+                plant.name()
+            );
+        }
+        let setup = effect_setup(plant, conf)?;
+        let nf = conf.free.len();
+        let neff = setup.names.len();
+        // Per effect column, stacked like the rows: zero except on its own joint's rows.
+        let total = self.y.len();
+        let mut effect_cols = vec![vec![0.0; total]; neff];
+        let mut offset = 0;
+        for (m, s) in self.records.iter().zip(&self.signals) {
+            let ni = s.interior.len();
+            let too_short = || {
+                anyhow::anyhow!(
+                    "{}: too few samples ({}) for the decimation ×{}",
+                    m.file.display(),
+                    m.len(),
+                    self.opts.decimation
+                )
+            };
+            // (effect column, free joint a, its values at the interior samples)
+            let mut built: Vec<(usize, usize, Vec<f64>)> = Vec::new();
+            let mut c0 = 0;
+            for (e, nl) in setup.effects.iter().zip(&setup.nonlinear) {
+                let width = e.kind.linear_symbols().len();
+                let Some(a) = conf.free.iter().position(|&j| j == e.joint) else {
+                    c0 += width;
+                    continue;
+                };
+                let mut cols = vec![vec![0.0; ni]; width];
+                for (r, &k) in s.interior.iter().enumerate() {
+                    let below =
+                        setup.bias[a]
+                            .map_or(1.0, |(b, qeq)| if s.qf[e.joint][k] < qeq { b } else { 1.0 });
                     let factor = if e.kind.is_biased_friction() {
                         below
                     } else {
                         1.0
                     };
-                    for v in vals {
-                        wr[a][c][r] = v * factor;
-                        c += 1;
+                    if let Some(v) =
+                        e.kind
+                            .regressor_at(s.qf[e.joint][k], s.qd[a][k], s.qdd[a][k], nl)
+                    {
+                        for (col, x) in cols.iter_mut().zip(v) {
+                            col[r] = x * factor;
+                        }
                     }
                 }
-                for col in &columns {
-                    if col.joints.contains(&conf.free[a]) {
-                        wr[a][c][r] = col.value(&qk, (&qd, &qdd), conf.free, (&m.t, &m.tau), k);
-                    }
-                    c += 1;
+                for (i, col) in cols.into_iter().enumerate() {
+                    built.push((c0 + i, a, col));
                 }
+                c0 += width;
             }
-        }
-        // A value the float format cannot carry through the filter and the differences
-        // (a 1e308 cell) would make the least squares meaningless: name the first one.
-        for a in 0..nf {
-            let bad = |v: &[f64]| v.iter().position(|x| !x.is_finite());
-            let found = bad(&yr[a])
-                .map(|r| (r, "the torque".to_string()))
-                .or_else(|| {
-                    (0..ncol).find_map(|c| {
-                        bad(&wr[a][c]).map(|r| (r, format!("regressor column '{}'", names[c])))
-                    })
-                });
-            if let Some((r, what)) = found {
-                let k = interior[r];
-                // The sample that overflowed: the largest position of any joint.
-                let (jmax, kmax) = (0..nj)
-                    .flat_map(|j| (0..n).map(move |k| (j, k)))
-                    .max_by(|x, y| m.q[x.0][x.1].abs().total_cmp(&m.q[y.0][y.1].abs()))
-                    .unwrap_or((0, 0));
-                bail!(
-                    "{}: row {} (t = {} s), joint {}: {what} is not finite after filtering and differentiating the positions; the largest position in the file is q{jmax} = {:e} at row {} (a value near the float limit, or a spike)",
-                    m.file.display(),
-                    k + 2,
-                    m.t[k],
-                    model.joints[conf.free[a]],
-                    m.q[jmax][kmax],
-                    kmax + 2
-                );
+            for (c, a, col) in &built {
+                let name = format!("regressor column '{}'", setup.names[*c]);
+                refuse_non_finite(m, model, conf.free[*a], &s.interior, &[(&name, col)])?;
             }
+            let decimated_cols: Vec<Option<Vec<f64>>> = {
+                use rayon::prelude::*;
+                built
+                    .par_iter()
+                    .map(|(_, _, x)| decimated(x, self.opts.decimation, s.nout))
+                    .collect()
+            };
+            for ((c, a, _), d) in built.iter().zip(decimated_cols) {
+                let d = d.ok_or_else(too_short)?;
+                let from = offset + a * s.nout;
+                effect_cols[*c][from..from + s.nout].copy_from_slice(&d);
+            }
+            offset += nf * s.nout;
         }
-        spoiled.push(if opts.trim_moving_edges {
-            moving_edges(m, (&qd, dt), opts)
-        } else {
-            Vec::new()
-        });
-        // Parallel decimation.
-        let idx: Vec<usize> = decimation_indices(ni, opts.decimation.max(1))
-            .map(|i| interior[i])
+        let names: Vec<String> = self
+            .rigid_names
+            .iter()
+            .chain(&setup.names)
+            .chain(&self.expression_names)
+            .cloned()
             .collect();
-        // Every (joint, column) pair in parallel; a column that is zero on a joint's rows
-        // (another joint's effect, a link beyond it) decimates to zeros.
-        let decimated: Vec<Option<Vec<f64>>> = {
-            use rayon::prelude::*;
-            let nout = idx.len();
-            (0..nf * (ncol + 1))
-                .into_par_iter()
-                .map(|i| {
-                    let (a, c) = (i / (ncol + 1), i % (ncol + 1));
-                    let x = if c == ncol { &yr[a] } else { &wr[a][c] };
-                    if x.iter().all(|v| *v == 0.0) {
-                        Some(vec![0.0; nout])
-                    } else {
-                        decimate(x, opts.decimation)
-                    }
-                })
-                .collect()
+        let columns: Vec<&Vec<f64>> = self
+            .rigid
+            .iter()
+            .chain(&effect_cols)
+            .chain(&self.expression)
+            .collect();
+        let (y, rows, w) = match &self.keep {
+            None => (
+                self.y.clone(),
+                self.rows.clone(),
+                DMatrix::from_fn(total, names.len(), |i, c| columns[c][i]),
+            ),
+            Some(keep) => (
+                keep.iter().map(|&i| self.y[i]).collect(),
+                keep.iter().map(|&i| self.rows[i]).collect(),
+                DMatrix::from_fn(keep.len(), names.len(), |i, c| columns[c][keep[i]]),
+            ),
         };
-        let mut decimated = decimated.into_iter();
-        for a in 0..nf {
-            let mut of_joint: Vec<Vec<f64>> = (0..=ncol)
-                .map(|_| decimated.next().flatten().ok_or_else(too_short))
-                .collect::<Result<_>>()?;
-            let yd = of_joint.pop().ok_or_else(too_short)?;
-            y_all.extend_from_slice(&yd);
-            for (c, wd) in of_joint.into_iter().enumerate() {
-                w_cols[c].extend_from_slice(&wd);
-            }
-            for &k in &idx {
-                rows.push(RowInfo {
-                    record: ri,
-                    t: m.t[k],
-                    joint: conf.free[a],
-                    q: qf[conf.free[a]][k],
-                    qd: qd[a][k],
-                    qdd: qdd[a][k],
-                });
-            }
-        }
+        Ok(Observation {
+            names,
+            y: DVector::from_vec(y),
+            w,
+            rows,
+        })
     }
+}
+
+/// The rows (indices into `rows`) the trims keep: the spans a record's moving ends spoil
+/// (`spoiled`, per record), the time window, the minimum speed; `None` when none applies.
+///
+/// # Errors
+/// A window that holds no row; a joint with no row above the minimum speed.
+fn trimmed_rows(
+    rows: &[RowInfo],
+    spoiled: &[Vec<(f64, f64)>],
+    opts: &IdimOptions,
+    model: &generated::Model,
+) -> Result<Option<Vec<usize>>> {
+    let mut keep: Option<Vec<usize>> = None;
+    let all = || (0..rows.len()).collect::<Vec<usize>>();
     if spoiled.iter().any(|s| !s.is_empty()) {
-        let keep: Vec<usize> = (0..rows.len())
-            .filter(|&i| {
-                let r = &rows[i];
-                !spoiled[r.record].iter().any(|&(a, b)| r.t >= a && r.t <= b)
-            })
-            .collect();
-        keep_rows(&keep, &mut y_all, &mut w_cols, &mut rows);
+        keep = Some(
+            all()
+                .into_iter()
+                .filter(|&i| {
+                    let r = &rows[i];
+                    !spoiled[r.record].iter().any(|&(a, b)| r.t >= a && r.t <= b)
+                })
+                .collect(),
+        );
     }
     if let Some((from, to)) = opts.window {
-        let keep: Vec<usize> = (0..rows.len())
+        let kept: Vec<usize> = keep
+            .unwrap_or_else(all)
+            .into_iter()
             .filter(|&i| rows[i].t >= from && rows[i].t <= to)
             .collect();
-        if keep.is_empty() {
+        if kept.is_empty() {
             bail!("the window {from} s to {to} s holds no sample of the records");
         }
-        keep_rows(&keep, &mut y_all, &mut w_cols, &mut rows);
+        keep = Some(kept);
     }
     if let Some(min) = opts.min_speed {
-        let mut peak = vec![0.0f64; nj];
-        for r in &rows {
+        let current = keep.unwrap_or_else(all);
+        let mut peak = vec![0.0f64; model.joints.len()];
+        for &i in &current {
+            let r = &rows[i];
             peak[r.joint] = peak[r.joint].max(r.qd.abs());
         }
         let threshold = |j: usize| match min {
             MinSpeed::Absolute(v) => v,
             MinSpeed::FractionOfPeak(f) => f * peak[j],
         };
-        let keep: Vec<usize> = (0..rows.len())
+        let kept: Vec<usize> = current
+            .into_iter()
             .filter(|&i| rows[i].qd.abs() >= threshold(rows[i].joint))
             .collect();
-        for j in conf.free.iter().copied() {
-            if !keep.iter().any(|&i| rows[i].joint == j) {
+        let mut joints: Vec<usize> = rows.iter().map(|r| r.joint).collect();
+        joints.sort_unstable();
+        joints.dedup();
+        for j in joints {
+            if !kept.iter().any(|&i| rows[i].joint == j) {
                 bail!(
                     "no row of joint {} moves faster than the minimum speed {}: lower it",
                     model.joints[j],
@@ -446,16 +705,9 @@ pub fn observation(
                 );
             }
         }
-        keep_rows(&keep, &mut y_all, &mut w_cols, &mut rows);
+        keep = Some(kept);
     }
-    let r = y_all.len();
-    let w = DMatrix::from_fn(r, ncol, |i, c| w_cols[c][i]);
-    Ok(Observation {
-        names,
-        y: DVector::from_vec(y_all),
-        w,
-        rows,
-    })
+    Ok(keep)
 }
 
 /// A record's end is in motion when some free joint's speed there exceeds this share of its
@@ -504,16 +756,6 @@ fn moving_edges(
         }
     }
     out
-}
-
-/// Keep the observation rows `keep` (indices, ascending) of y, every column of W and the
-/// row descriptions.
-fn keep_rows(keep: &[usize], y: &mut Vec<f64>, w_cols: &mut [Vec<f64>], rows: &mut Vec<RowInfo>) {
-    *y = keep.iter().map(|&i| y[i]).collect();
-    for c in w_cols.iter_mut() {
-        *c = keep.iter().map(|&i| c[i]).collect();
-    }
-    *rows = keep.iter().map(|&i| rows[i]).collect();
 }
 
 /// The regressor column of one parameter of a user-defined effect: ∂u/∂θ, which reads no
@@ -857,9 +1099,27 @@ pub fn base_fit(
     opts: &IdimOptions,
     weighting: Weighting,
 ) -> Result<(Fit, Vec<(usize, f64)>)> {
+    let random = random_motion_observation(plant, config, locked_at, opts)?;
+    base_fit_with(plant, obs, config, locked_at, weighting, &random)
+}
+
+/// [`base_fit`] with the random motion's observation `random` given
+/// ([`random_motion_observation`] of a plant with the same effects): the structural
+/// grouping does not change with the effects' nonlinear values, so a separable fit builds
+/// it once for all its trials.
+///
+/// # Errors
+/// As [`base_fit`].
+pub fn base_fit_with(
+    plant: &Plant,
+    obs: &Observation,
+    config: &str,
+    locked_at: &[Vec<f64>],
+    weighting: Weighting,
+    random: &Observation,
+) -> Result<(Fit, Vec<(usize, f64)>)> {
     let conf = crate::util::configuration(plant.model, config)?;
     refuse_still_joints(obs, plant.model)?;
-    let random = random_motion_observation(plant, config, locked_at, opts)?;
     let values = plant.values_with_barycentric()?;
     weighted_least_squares_base(
         obs,
@@ -868,7 +1128,7 @@ pub fn base_fit(
         locked_at,
         &|n| values.get(n).copied(),
         weighting,
-        Some(&random),
+        Some(random),
     )
 }
 
@@ -1027,13 +1287,16 @@ pub fn separable_fit_rows(
             }
         }
     };
+    // The records filtered, differentiated and the rigid body's columns built once: a
+    // trial rebuilds only the effects' columns.
+    let prepared = Prepared::new(plant, config, records, opts)?;
     let at = |u: &[f64]| -> Result<(Plant, Observation, Fit, DVector<f64>)> {
         let mut p = plant.clone();
         for (n, &x) in names.iter().zip(u) {
             p.parameters
                 .insert(n.clone(), if log(n) { x.exp() } else { x });
         }
-        let obs = rows(observation(&p, config, records, opts)?);
+        let obs = rows(prepared.at(&p)?);
         let fit = linear(&p, &obs)?;
         let th = DVector::from_column_slice(&fit.theta);
         let r = &obs.y - &obs.w * th;
@@ -1060,7 +1323,7 @@ pub fn separable_fit_rows(
     // projected residual is flat between samples and jumps across them, so it is profiled
     // on a grid of the joint's measured positions (19 quantiles, then 7 points between the
     // best one's neighbours) and held in the Levenberg–Marquardt steps. Each point rebuilds
-    // the observation: on the TX40 record about 0.6 s.
+    // the effects' columns of the prepared observation.
     let switch: Vec<Option<Vec<f64>>> = names
         .iter()
         .map(|n| {

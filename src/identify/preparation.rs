@@ -543,8 +543,9 @@ fn band_by_cross_validation(
     // too), compared on the odd blocks in the reference band, its columns built at the
     // fitted nonlinear values.
     let held_out_error = |o: &IdimOptions, reference: &IdimOptions| -> Result<f64> {
+        let random = idim::random_motion_observation(plant, config, &locked_at, o)?;
         let linear = |p: &Plant, obs: &Observation| {
-            Ok(idim::base_fit(p, obs, config, &locked_at, o, idim::Weighting::Ols)?.0)
+            Ok(idim::base_fit_with(p, obs, config, &locked_at, idim::Weighting::Ols, &random)?.0)
         };
         let training = |obs: Observation| split(&obs).0;
         let fitted = idim::separable_fit_rows(plant, config, records, o, &linear, &training)?;

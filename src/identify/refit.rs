@@ -334,14 +334,18 @@ fn refit_torque_of(
         None => {
             // Every parameter: the linear ones by least squares on the base parameters, a
             // spring's rest angle or a Stribeck speed by variable projection around them.
+            let random = crate::identify::idim::random_motion_observation(
+                plant, conf_name, &locked_at, options,
+            )
+            .map_err(|e| anyhow!("refitting in torque space: {e:#}"))?;
             let linear = |p: &Plant, obs: &crate::identify::idim::Observation| {
-                crate::identify::idim::base_fit(
+                crate::identify::idim::base_fit_with(
                     p,
                     obs,
                     conf_name,
                     &locked_at,
-                    options,
                     crate::identify::idim::Weighting::Ols,
+                    &random,
                 )
                 .map(|(fit, _)| fit)
             };
