@@ -122,12 +122,20 @@ pub fn configuration_values(
     Ok(names)
 }
 
-/// The history text of applying `finding`, e.g. "added spring on q3", "added
-/// input_coupling from q5 to q4", "refitted gain (Kp off) on q2".
+/// The history text of applying `finding`, e.g. "added spring on q3", "replaced coulomb
+/// by stribeck on q5", "added input_coupling from q5 to q4", "refitted gain (Kp off) on
+/// q2".
 pub fn change_text(finding: &Finding) -> String {
     match (&finding.effect, &finding.from) {
         (Some(e), Some(from)) => format!("added {} from {from} to {}", e.kind, finding.joint),
-        (Some(_), None) => format!("added {} on {}", finding.name, finding.joint),
+        (Some(e), None) => match finding.replaces {
+            Some(old) if e.kind == EffectKind::Lugre => format!(
+                "replaced {old} (and viscous friction, now σ2) by {} on {}",
+                finding.name, finding.joint
+            ),
+            Some(old) => format!("replaced {old} by {} on {}", finding.name, finding.joint),
+            None => format!("added {} on {}", finding.name, finding.joint),
+        },
         (None, _) => match &finding.expression {
             Some(x) => format!(
                 "added {} on {} (user-defined effect {})",
@@ -594,6 +602,37 @@ fn prune(mut plant: Plant, steps: &[LoopStep]) -> (Plant, Vec<String>) {
 mod tests {
     use super::no_effect_size;
     use crate::effects::{Effect, EffectKind};
+
+    /// A replacement's history text names what it replaced.
+    #[test]
+    fn a_replacement_is_recorded_as_one() {
+        use super::super::Finding;
+        let finding = |kind: EffectKind, replaces: Option<EffectKind>| Finding {
+            effect: Some(Effect::on(kind, 5)),
+            replaces,
+            ..Finding::new(
+                "q5",
+                kind.to_string(),
+                Some(kind),
+                None,
+                vec![],
+                (0.0, 1.0, 1.0, 1),
+            )
+        };
+        let text = |f: &Finding| super::change_text(f);
+        assert_eq!(
+            text(&finding(EffectKind::Lugre, Some(EffectKind::Stribeck))),
+            "replaced stribeck (and viscous friction, now σ2) by lugre on q5"
+        );
+        assert_eq!(
+            text(&finding(EffectKind::Stribeck, Some(EffectKind::Coulomb))),
+            "replaced coulomb by stribeck on q5"
+        );
+        assert_eq!(
+            text(&finding(EffectKind::Spring, None)),
+            "added spring on q5"
+        );
+    }
 
     /// The size an added effect is pruned on, and its no-effect value.
     #[test]
