@@ -702,8 +702,16 @@ fn from_ten_percent_off(tag: &str, s: Spec, hidden: (EffectKind, &[usize]), join
         .iter()
         .position(|&n| n == first.joint)
         .unwrap();
+    // An effect of the kind acting on joint j (an input coupling: one into j, which
+    // `Plant::has_effect` does not count).
+    let has = |j: usize| {
+        done.plant
+            .effects
+            .iter()
+            .any(|e| e.kind == hidden.0 && e.joint == j)
+    };
     assert!(
-        done.plant.has_effect(first_joint, hidden.0) || !named,
+        has(first_joint) || !named,
         "{tag}: no {} on {}",
         hidden.0,
         first.joint
@@ -713,7 +721,7 @@ fn from_ten_percent_off(tag: &str, s: Spec, hidden: (EffectKind, &[usize]), join
             "{tag}: {} on {}: {}",
             hidden.0,
             truth.model.joints[j],
-            done.plant.has_effect(j, hidden.0)
+            has(j)
         );
     }
 }
@@ -748,7 +756,9 @@ fn from_a_start_ten_percent_off_the_bias_is_found_c7() {
 }
 
 /// From a start 10 % off (every rigid-body value and q4's and q5's friction), the tendon
-/// couplings missing in both directions (k1).
+/// couplings missing in both directions (k1). Measured (41 min, sharing the machine with a
+/// build): the coupling q4 → q5 first (77.7 %, ΔBIC −2394), then q5 → q4; nothing missing at
+/// 1.002 σ (G_q5_to_q4 −0.20345, truth −0.20362).
 #[test]
 #[ignore = "slow end-to-end diagnosis (minutes); cargo test --release -- --ignored"]
 fn from_a_start_ten_percent_off_the_coupling_is_found_k1() {
