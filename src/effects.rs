@@ -333,19 +333,15 @@ impl Effect {
     /// friction on joint `q1` has `["Fv_q1"]`; an input coupling from `q6` to `q5` has
     /// `["G_q6_to_q5"]`.
     pub fn parameter_names(&self, joints: &[&str]) -> Vec<String> {
-        let name = |k: usize| joints.get(k).copied().unwrap_or("?");
-        match self.from {
-            Some(from) => vec![names::coupling_gain(name(from), name(self.joint))],
-            None => self
-                .kind
-                .symbols()
-                .iter()
-                .map(|s| names::parameter(s, name(self.joint)))
-                .collect(),
-        }
+        self.kind
+            .symbols()
+            .iter()
+            .map(|s| self.parameter_name(s, joints))
+            .collect()
     }
 
-    /// The name of this effect's parameter `symbol` (one of [`EffectKind::symbols`]).
+    /// The name of this effect's parameter `symbol` (one of [`EffectKind::symbols`]; an
+    /// input coupling's one, `G`, is named by both joints).
     pub fn parameter_name(&self, symbol: &str, joints: &[&str]) -> String {
         let name = |k: usize| joints.get(k).copied().unwrap_or("?");
         match self.from {

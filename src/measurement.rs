@@ -247,11 +247,17 @@ impl Table {
     /// # Errors
     /// [`DataError::MissingColumn`] naming the columns present, or as [`Table::get`].
     pub fn need(&self, name: &str) -> Result<Vec<f64>, DataError> {
-        self.get(name)?.ok_or_else(|| DataError::MissingColumn {
+        self.get(name)?.ok_or_else(|| self.missing(name, ""))
+    }
+
+    /// Column `name` is missing: the error naming the columns present, after `alternative`
+    /// (another name that would have served, with its separator, or empty).
+    fn missing(&self, name: &str, alternative: &str) -> DataError {
+        DataError::MissingColumn {
             file: self.file.clone(),
             column: self.own_name(name),
             available: format!(
-                "{}: {}",
+                "{alternative}{}: {}",
                 if self.what == "column" {
                     "the header has"
                 } else {
@@ -263,7 +269,7 @@ impl Table {
                     .collect::<Vec<_>>()
                     .join(", ")
             ),
-        })
+        }
     }
 
     /// Column `signal` (`q`, `qd`, `tau`, `qref`, …) of joint `j` of a model whose joints
@@ -308,26 +314,11 @@ impl Table {
         j: usize,
     ) -> Result<Vec<f64>, DataError> {
         self.joint_column(joints, signal, j)?.ok_or_else(|| {
-            let named = crate::names::column(signal, joints[j]);
             let numbered = crate::names::numbered_column(signal, j);
-            match self.need(&named) {
-                Err(DataError::MissingColumn {
-                    file,
-                    column,
-                    available,
-                }) => DataError::MissingColumn {
-                    file,
-                    column,
-                    available: format!(
-                        "or '{numbered}', numbered from 0 as earlier versions wrote; {available}"
-                    ),
-                },
-                Err(e) => e,
-                Ok(_) => DataError::Record {
-                    file: self.file.clone(),
-                    reason: format!("column '{named}' unreadable"),
-                },
-            }
+            self.missing(
+                &crate::names::column(signal, joints[j]),
+                &format!("or '{numbered}', numbered from 0 as earlier versions wrote; "),
+            )
         })
     }
 

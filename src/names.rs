@@ -22,11 +22,15 @@ pub fn numbered_column(signal: &str, index: usize) -> String {
 /// The joint a column name belongs to, for `signal`: `tau_q3` (by name) or `tau2` (numbered,
 /// from 0); `None` for a column of another signal or an unknown joint.
 pub fn column_joint(joints: &[&str], signal: &str, name: &str) -> Option<usize> {
-    let rest = name.strip_prefix(signal)?;
-    if let Some(joint) = rest.strip_prefix('_') {
-        return joints.iter().position(|j| *j == joint);
+    joint_after(joints, name.strip_prefix(signal)?).filter(|&k| k < joints.len())
+}
+
+/// The joint that follows a signal's prefix: `_J` by name, or a numbered index (unchecked).
+fn joint_after(joints: &[&str], rest: &str) -> Option<usize> {
+    match rest.strip_prefix('_') {
+        Some(joint) => joints.iter().position(|j| *j == joint),
+        None => index(rest),
     }
-    index(rest).filter(|&k| k < joints.len())
 }
 
 /// Parameter `symbol` of joint `joint`: `Fc_q3`.
@@ -101,19 +105,10 @@ pub const STATE_SIGNALS: [&str; 5] = ["qdd", "qd", "q", "tau", "z"];
 /// other name. The numbered form is returned with an unchecked index (the parser names
 /// the range).
 pub fn state_variable(joints: &[&str], name: &str) -> Option<(&'static str, usize)> {
-    for signal in STATE_SIGNALS {
-        let Some(rest) = name.strip_prefix(signal) else {
-            continue;
-        };
-        if let Some(joint) = rest.strip_prefix('_') {
-            if let Some(k) = joints.iter().position(|j| *j == joint) {
-                return Some((signal, k));
-            }
-        } else if let Some(k) = index(rest) {
-            return Some((signal, k));
-        }
-    }
-    None
+    STATE_SIGNALS.into_iter().find_map(|signal| {
+        let k = joint_after(joints, name.strip_prefix(signal)?)?;
+        Some((signal, k))
+    })
 }
 
 /// `text`, an expression, with its numbered state variables (`q2`, `qd2`, `tau2`) written

@@ -286,17 +286,19 @@ pub fn coupled_motor_candidates(
         for b in a + 1..nf {
             let (ja, jb) = (conf.free[a], conf.free[b]);
             let (qa, qb) = (m.joints[ja], m.joints[jb]);
+            let (fvm, fm, jm) = (
+                names::pair_parameter("Fvm", qa, qb),
+                names::pair_parameter("Fm", qa, qb),
+                names::pair_parameter("Jm", qa, qb),
+            );
             let friction = UserCandidate {
                 spec: ExpressionSpec {
                     name: format!("coupled_motor_{qa}_{qb}"),
                     joints: vec![qa.to_string(), qb.to_string()],
                     torque: format!(
-                        "Fvm_{qa}_{qb}*(qd_{qa} + qd_{qb}) + Fm_{qa}_{qb}*sign(qd_{qa} + qd_{qb})"
+                        "{fvm}*(qd_{qa} + qd_{qb}) + {fm}*sign(qd_{qa} + qd_{qb})"
                     ),
-                    parameters: vec![
-                        names::pair_parameter("Fvm", qa, qb),
-                        names::pair_parameter("Fm", qa, qb),
-                    ],
+                    parameters: vec![fvm, fm],
                 },
                 meaning: format!(
                     "a motor driving {qa} and {qb} through a differential: its viscous and Coulomb friction at the motor's speed qd_a + qd_b, taken from both"
@@ -308,8 +310,8 @@ pub fn coupled_motor_candidates(
                 spec: ExpressionSpec {
                     name: format!("coupled_rotor_{qa}_{qb}"),
                     joints: vec![qa.to_string(), qb.to_string()],
-                    torque: format!("Jm_{qa}_{qb}*(qdd_{qa} + qdd_{qb})"),
-                    parameters: vec![names::pair_parameter("Jm", qa, qb)],
+                    torque: format!("{jm}*(qdd_{qa} + qdd_{qb})"),
+                    parameters: vec![jm],
                 },
                 meaning: format!(
                     "a motor driving {qa} and {qb} through a differential: its rotor's inertia at the motor's acceleration qdd_a + qdd_b, taken from both"

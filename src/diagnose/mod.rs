@@ -303,12 +303,10 @@ pub(crate) fn prefer_the_catalogue(findings: &mut Vec<Finding>) {
     }
 }
 
-/// The bounds a finding's refit gets about a value v: v ± (10 |v| + `pad`), a tenfold
-/// growth and a change of sign within reach, `pad` keeping a value near 0 free.
 /// Remove from `plant` what effect `e` replaces: the friction law `old` on its joint, and
-/// for LuGre, whose σ2 is the viscous friction, the joint's viscous effect too (its value
-/// is the candidate's σ2). The old parameters' values stay in the plant file's table
-/// only where another effect still uses them.
+/// for LuGre, whose σ2 is the viscous friction, the joint's viscous effect and its value
+/// too (the candidate's σ2 carries it). The replaced law's values stay: its Fc, Fs and vs
+/// are the new law's.
 pub(crate) fn replace_law(plant: &mut Plant, e: crate::effects::Effect, old: Option<EffectKind>) {
     let Some(old) = old else { return };
     let lugre = e.kind == EffectKind::Lugre;
@@ -324,6 +322,8 @@ pub(crate) fn replace_law(plant: &mut Plant, e: crate::effects::Effect, old: Opt
     }
 }
 
+/// The bounds a finding's refit gets about a value v: v ± (10 |v| + `pad`), a tenfold
+/// growth and a change of sign within reach, `pad` keeping a value near 0 free.
 pub(crate) fn bounds_about(v: f64, pad: f64) -> (f64, f64) {
     (v - 10.0 * v.abs() - pad, v + 10.0 * v.abs() + pad)
 }

@@ -388,36 +388,28 @@ pub fn diagnose_output(
         .map(|c| {
             let at = |b: f64| c.plant(plant, b).and_then(|p| out.simulate(&p));
             let s = &c.size;
-            // A shifted candidate: its difference from the plant at `zero`, and the central
-            // sensitivity there (its zero is no neutral point to difference from).
-            if c.shifted {
-                let y0 = at(s.zero).ok()?;
-                let plus = at(s.zero + s.step).ok()?;
-                let minus = at((s.zero - s.step).max(s.lo)).ok()?;
-                let width = s.zero + s.step - (s.zero - s.step).max(s.lo);
-                let offset: Vec<f64> = y0.iter().zip(&yhat).map(|(a, b)| a - b).collect();
-                let column = plus
-                    .iter()
-                    .zip(&minus)
-                    .map(|(a, b)| (a - b) / width)
-                    .collect();
-                return Some((column, Some(offset)));
-            }
             let plus = at(s.zero + s.step).ok()?;
-            let (minus, width) = if s.zero - s.step >= s.lo {
+            let (minus, width, offset) = if c.shifted {
+                // Its difference from the plant at `zero`, and the central sensitivity there
+                // (its zero is no neutral point to difference from).
+                let lo = (s.zero - s.step).max(s.lo);
+                let y0 = at(s.zero).ok()?;
+                let offset = y0.iter().zip(&yhat).map(|(a, b)| a - b).collect();
+                (at(lo).ok()?, s.zero + s.step - lo, Some(offset))
+            } else if s.zero - s.step >= s.lo {
                 match at(s.zero - s.step) {
-                    Ok(v) => (v, 2.0 * s.step),
-                    Err(_) => (yhat.clone(), s.step),
+                    Ok(v) => (v, 2.0 * s.step, None),
+                    Err(_) => (yhat.clone(), s.step, None),
                 }
             } else {
-                (yhat.clone(), s.step)
+                (yhat.clone(), s.step, None)
             };
             Some((
                 plus.iter()
                     .zip(&minus)
                     .map(|(a, b)| (a - b) / width)
                     .collect(),
-                None,
+                offset,
             ))
         })
         .collect();
@@ -1181,10 +1173,11 @@ fn coupled_motor_candidates(
                 Variant {
                     name: format!("coupled_motor_{qa}_{qb}"),
                     joints: [qa.to_string(), qb.to_string()],
-                    param: names::pair_parameter("Fm", qa, qb),
                     torque: format!(
-                        "Fm_{qa}_{qb}*tanh((qd_{qa} + qd_{qb})/{COUPLED_MOTOR_EPSILON})"
+                        "{}*tanh((qd_{qa} + qd_{qb})/{COUPLED_MOTOR_EPSILON})",
+                        names::pair_parameter("Fm", qa, qb)
                     ),
+                    param: names::pair_parameter("Fm", qa, qb),
                     meaning: "a motor driving both joints through a differential: its friction, at the motor's speed qd_a + qd_b, is taken from both",
                     label: format!("coupled-motor friction ({qa} + {qb})"),
                     size: 1e-3 * if command > 0.0 { command } else { 1.0 },
@@ -1192,8 +1185,11 @@ fn coupled_motor_candidates(
                 Variant {
                     name: format!("coupled_rotor_{qa}_{qb}"),
                     joints: [qa.to_string(), qb.to_string()],
+                    torque: format!(
+                        "{}*(qdd_{qa} + qdd_{qb})",
+                        names::pair_parameter("Jm", qa, qb)
+                    ),
                     param: names::pair_parameter("Jm", qa, qb),
-                    torque: format!("Jm_{qa}_{qb}*(qdd_{qa} + qdd_{qb})"),
                     meaning: "a motor driving both joints through a differential: its rotor's inertia, at the motor's acceleration qdd_a + qdd_b, is taken from both",
                     label: format!("coupled-motor inertia ({qa} + {qb})"),
                     size: 1e-3 * if d > 0.0 && d.is_finite() { d } else { 1.0 },

@@ -202,7 +202,7 @@ fn effect_setup<'p>(plant: &'p Plant, conf: &generated::Configuration) -> Result
             e.kind
                 .linear_symbols()
                 .iter()
-                .map(|s| names::parameter(s, model.joints[e.joint])),
+                .map(|s| e.parameter_name(s, model.joints)),
         );
     }
     // The nonlinear values each effect's columns are built at (the plant's).
@@ -212,7 +212,7 @@ fn effect_setup<'p>(plant: &'p Plant, conf: &generated::Configuration) -> Result
             e.kind
                 .nonlinear_symbols()
                 .iter()
-                .map(|s| plant.value(&names::parameter(s, model.joints[e.joint])))
+                .map(|s| plant.value(&e.parameter_name(s, model.joints)))
                 .collect::<Result<Vec<f64>>>()
         })
         .collect::<Result<_>>()?;
@@ -330,6 +330,12 @@ impl<'a> Prepared<'a> {
         let columns = expression_columns(plant, conf.free)?;
         let expression_names: Vec<String> = columns.iter().map(|c| c.name.clone()).collect();
         let nrigid = rigid_names.len();
+        // The columns as a finite-value error names them.
+        let named: Vec<String> = rigid_names
+            .iter()
+            .chain(&expression_names)
+            .map(|n| format!("regressor column '{n}'"))
+            .collect();
         let ncol = nrigid + columns.len();
         let mut y_all: Vec<f64> = Vec::new();
         let mut w_cols: Vec<Vec<f64>> = vec![Vec::new(); ncol];
@@ -434,11 +440,6 @@ impl<'a> Prepared<'a> {
             // A value the float format cannot carry through the filter and the differences
             // (a 1e308 cell) would make the least squares meaningless: name the first one.
             for a in 0..nf {
-                let named: Vec<String> = rigid_names
-                    .iter()
-                    .chain(&expression_names)
-                    .map(|n| format!("regressor column '{n}'"))
-                    .collect();
                 let mut cols: Vec<(&str, &[f64])> = vec![("the torque", &yr[a])];
                 cols.extend(
                     named
@@ -1204,7 +1205,7 @@ pub fn nonlinear_parameters(plant: &Plant, config: &str) -> Result<Vec<String>> 
             e.kind
                 .nonlinear_symbols()
                 .iter()
-                .map(move |s| names::parameter(s, plant.model.joints[e.joint]))
+                .map(move |s| e.parameter_name(s, plant.model.joints))
         })
         .fold(Vec::new(), |mut names: Vec<String>, n| {
             // A spring and a friction bias on one joint share its qeq.
