@@ -9,7 +9,7 @@
 //! algorithm on random samples), and the truth's own torques.
 
 mod common;
-use common::{lockstep, ok};
+use common::{identify_idim, lockstep, ok};
 use lockstep::identify::idim::{observation, predict, IdimOptions};
 use lockstep::measurement::Measurement;
 use lockstep::plant::Plant;
@@ -90,17 +90,11 @@ fn a_rank_deficient_regressor_is_fitted_on_its_base_parameters() {
         s(&run),
     ]));
     let fitted = d.path().join("fitted.toml");
-    let out = ok(&lockstep(&[
-        "identify",
-        "idim",
-        "--plant",
-        s(&start),
-        "--data",
-        s(&run),
-        "--out",
-        s(&fitted),
-        "--allow-inconsistent",
-    ]));
+    let out = ok(&identify_idim(
+        &start,
+        &run,
+        &["--out", s(&fitted), "--allow-inconsistent"],
+    ));
 
     // As many base parameters as the independent rank computation finds, plus the two
     // viscous coefficients.

@@ -9,7 +9,7 @@
 //! measurement noise.
 
 mod common;
-use common::{lockstep, ok};
+use common::{identify_idim, lockstep, ok};
 use std::path::{Path, PathBuf};
 
 fn emps() -> (Vec<String>, Vec<Vec<f64>>) {
@@ -45,14 +45,7 @@ fn write(dir: &Path, name: &str, header: &[String], rows: &[Vec<f64>]) -> PathBu
 /// what the run printed on standard error.
 fn fit(data: &Path) -> (Vec<(String, f64, f64)>, String) {
     let plant = Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants/emps_symmetric.toml");
-    let o = lockstep(&[
-        "identify",
-        "idim",
-        "--plant",
-        plant.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-    ]);
+    let o = identify_idim(&plant, data, &[]);
     let out = ok(&o);
     let values = out
         .lines()
@@ -144,19 +137,11 @@ fn repeats_and_stale_rows_are_said_and_a_gap_is_refused() {
     // Ten samples missing: refused, naming where.
     let mut gapped = rows.clone();
     gapped.drain(3000..3010);
-    let o = lockstep(&[
-        "identify",
-        "idim",
-        "--plant",
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("model/plants/emps_symmetric.toml")
-            .to_str()
-            .unwrap(),
-        "--data",
-        write(d.path(), "gapped", &header, &gapped)
-            .to_str()
-            .unwrap(),
-    ]);
+    let o = identify_idim(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("model/plants/emps_symmetric.toml"),
+        &write(d.path(), "gapped", &header, &gapped),
+        &[],
+    );
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -242,16 +227,7 @@ fn a_610_hz_oscillator_keeps_its_resonance_and_a_fast_record_is_simulated() {
     let data = oscillator(d.path());
     let plant = d.path().join("oscillator_plant.toml");
     let fitted = d.path().join("fitted.toml");
-    let o = lockstep(&[
-        "identify",
-        "idim",
-        "--plant",
-        plant.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-        "--out",
-        fitted.to_str().unwrap(),
-    ]);
+    let o = identify_idim(&plant, &data, &["--out", fitted.to_str().unwrap()]);
     let out = ok(&o);
     let said = String::from_utf8_lossy(&o.stderr);
     eprintln!("{said}{out}");

@@ -7,7 +7,7 @@
 //! refits it.
 
 mod common;
-use common::{lockstep, ok};
+use common::{identify_idim, lockstep, ok};
 use std::path::{Path, PathBuf};
 
 const RATE: f64 = 1000.0;
@@ -105,16 +105,7 @@ fn value(out: &str, name: &str) -> f64 {
 /// `identify idim` of `plant` on `data`, the fit written to `out`: its standard output (its
 /// errors shown if it failed).
 fn identify(plant: &Path, data: &Path, out: &Path) -> String {
-    let o = lockstep(&[
-        "identify",
-        "idim",
-        "--plant",
-        plant.to_str().unwrap(),
-        "--data",
-        data.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let o = identify_idim(plant, data, &["--out", out.to_str().unwrap()]);
     let printed = ok(&o);
     eprintln!("{}{printed}", String::from_utf8_lossy(&o.stderr));
     printed

@@ -20,6 +20,8 @@ use lockstep::measurement::Measurement;
 use lockstep::plant::Plant;
 use std::path::Path;
 
+mod common;
+
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
@@ -282,13 +284,7 @@ fn bad_input_on_the_tx40_is_one_line_and_writes_nothing() {
     let plant = root().join("model/plants/tx40_figaroh.toml");
     let out = d.path().join("fit.toml");
     let run = |plant: &Path, data: &Path, extra: &[&str]| {
-        let mut args = vec![
-            "identify",
-            "idim",
-            "--plant",
-            plant.to_str().unwrap(),
-            "--data",
-            data.to_str().unwrap(),
+        let mut more = vec![
             "--min-speed",
             "1%",
             "--weighting",
@@ -297,11 +293,8 @@ fn bad_input_on_the_tx40_is_one_line_and_writes_nothing() {
             "--out",
             out.to_str().unwrap(),
         ];
-        args.extend_from_slice(extra);
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_lockstep"))
-            .args(&args)
-            .output()
-            .unwrap();
+        more.extend_from_slice(extra);
+        let o = common::identify_idim(plant, data, &more);
         assert!(!o.status.success());
         let err = String::from_utf8_lossy(&o.stderr).into_owned();
         let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error")).collect();

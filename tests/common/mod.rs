@@ -34,6 +34,14 @@ pub fn lockstep(args: &[&str]) -> std::process::Output {
         .unwrap()
 }
 
+/// `lockstep identify idim --plant plant --data data` followed by `more` (`--out`, options).
+pub fn identify_idim(plant: &Path, data: &Path, more: &[&str]) -> std::process::Output {
+    let (plant, data) = (plant.to_str().unwrap(), data.to_str().unwrap());
+    let mut args = vec!["identify", "idim", "--plant", plant, "--data", data];
+    args.extend_from_slice(more);
+    lockstep(&args)
+}
+
 /// The standard output of a run that must have succeeded (its output and errors shown if not).
 pub fn ok(o: &std::process::Output) -> String {
     assert!(
