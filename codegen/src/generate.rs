@@ -2,7 +2,7 @@
 
 use crate::dynamics::{config_dynamics, ConfigDynamics, Tree};
 use crate::emit::{lit, EmitError, Ops};
-use crate::graph::{Graph, Inputs};
+use crate::graph::{Direction, Graph, Inputs};
 use crate::model::{Configuration, Model};
 use crate::symbolic::{self, user_symbol, Vars};
 use proc_macro2::{Ident, Span, TokenStream};
@@ -369,8 +369,22 @@ fn config_module(
     let t0 = Instant::now();
     let free = &conf.free;
     let nf = free.len();
-    let cd = config_dynamics(sm.model, &sm.vars, &sm.tree, &sm.params, &sm.p_sym, free);
+    let mut cd = config_dynamics(sm.model, &sm.vars, &sm.tree, &sm.params, &sm.p_sym, free);
     let present = check_configuration(sm, &cd, conf)?;
+    // The state derivatives of the inverse dynamics at fixed q̈, beside D (one body: they
+    // share most intermediates), for the sensitivities of forward dynamics:
+    // ∂q̈/∂x = D⁻¹ (∂Q/∂x − ∂τ/∂x).
+    let mut derivatives: Vec<Atom> = Vec::with_capacity(3 * nf * nf);
+    for a in 0..nf {
+        derivatives.extend(cd.d[a].iter().cloned());
+        let tau_a = cd.tau[a].clone();
+        for &k in free {
+            derivatives.push(cd.graph.derivative(&tau_a, Direction::Joint(k)));
+        }
+        for &k in free {
+            derivatives.push(cd.graph.derivative(&tau_a, Direction::Velocity(k)));
+        }
+    }
     let mut ops = Vec::new();
     let flat = |m: &Vec<Vec<Atom>>| -> Vec<Atom> { m.iter().flatten().cloned().collect() };
     let nj_ts = quote!(super::NJ);
@@ -415,6 +429,16 @@ fn config_module(
             quote!([f64; NF]),
             cd.tau.clone(),
             (nf, 0),
+        ),
+        (
+            "dynamics_derivatives",
+            "Row a: [D_a (NF), ∂τ_a/∂q_F (NF), ∂τ_a/∂q̇_F (NF)], τ_F = D q̈ + C q̇ + φ at fixed \
+             q̈ (thesis 3.5): the state derivatives of forward dynamics are \
+             ∂q̈/∂x = D⁻¹ (∂Q/∂x − ∂τ/∂x), Q the applied torques. NF × 3NF.",
+            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF], p: &[f64; #np_ts]),
+            quote!([[f64; 3 * NF]; NF]),
+            derivatives,
+            (nf, 3 * nf),
         ),
         (
             "regressor",
@@ -563,6 +587,10 @@ fn config_module(
             pub(crate) fn forward_dynamics_dyn(q: &[f64], qd: &[f64], tau: &[f64], p: &[f64], out: &mut [f64]) {
                 out.copy_from_slice(&forward_dynamics(q.try_into().unwrap(), qd.try_into().unwrap(), tau.try_into().unwrap(), p.try_into().unwrap()));
             }
+            pub(crate) fn dynamics_derivatives_dyn(q: &[f64], qd: &[f64], qdd: &[f64], p: &[f64], out: &mut [f64]) {
+                let m = dynamics_derivatives(q.try_into().unwrap(), qd.try_into().unwrap(), qdd.try_into().unwrap(), p.try_into().unwrap());
+                out.copy_from_slice(m.as_flattened());
+            }
             pub(crate) fn regressor_dyn(q: &[f64], qd: &[f64], qdd: &[f64], out: &mut [f64]) {
                 let m = regressor(q.try_into().unwrap(), qd.try_into().unwrap(), qdd.try_into().unwrap());
                 out.copy_from_slice(m.as_flattened());
@@ -577,6 +605,7 @@ fn config_module(
                 gravity: gravity_dyn,
                 inverse_dynamics: inverse_dynamics_dyn,
                 forward_dynamics: forward_dynamics_dyn,
+                dynamics_derivatives: dynamics_derivatives_dyn,
                 regressor: regressor_dyn,
             };
         }

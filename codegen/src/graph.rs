@@ -6,7 +6,7 @@
 //!   `x − x` cancels and constant rotations by ±π/2 become permutations without operations.
 //! - Identical definitions are shared (hash-consing, also up to sign and a numeric factor):
 //!   common subexpressions across kernels and passes cost nothing twice.
-//! - Derivatives (∂/∂q_k, ∂/∂p_j, d/dt) are taken in forward mode through the graph, one
+//! - Derivatives (∂/∂q_k, ∂/∂q̇_k, ∂/∂p_j, d/dt) are taken in forward mode through the graph, one
 //!   intermediate at a time, with structural zeros skipped by dependency sets.
 //! - Emission walks only what an output needs, in creation order (a topological order): one
 //!   `let` per intermediate, branch-free and allocation-free.
@@ -37,6 +37,8 @@ pub struct Inputs {
 pub enum Direction {
     /// ∂/∂q_k.
     Joint(usize),
+    /// ∂/∂q̇_k (q, q̈ held).
+    Velocity(usize),
     /// ∂/∂p_j.
     Param(usize),
     /// d/dt along the free joints' velocities and accelerations.
@@ -211,6 +213,7 @@ impl Graph {
                 add(v.c[k]);
                 add(v.q[k]);
             }
+            Direction::Velocity(k) => add(v.qd[k]),
             Direction::Param(j) => add(i.p[j]),
             Direction::Time => {
                 for &k in &i.free {
@@ -237,6 +240,7 @@ impl Graph {
             };
         };
         let rate = match dir {
+            Direction::Velocity(j) if j == k && s == v.qd[k] => return Atom::num(1),
             Direction::Joint(j) if j == k => Atom::num(1),
             Direction::Time if i.free.contains(&k) => {
                 if s == v.qd[k] {

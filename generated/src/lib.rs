@@ -12,6 +12,7 @@
 //! | `gravity(q, p)` | `[f64; NF]` | φ_F(q) (3.4) |
 //! | `inverse_dynamics(q, qd, qdd, p)` | `[f64; NF]` | τ_F = D q̈ + C q̇ + φ (3.5) |
 //! | `forward_dynamics(q, qd, tau, p)` | `[f64; NF]` | q̈_F = D⁻¹(τ − C q̇ − φ) (Cholesky) |
+//! | `dynamics_derivatives(q, qd, qdd, p)` | `[[f64; 3NF]; NF]` | [D, ∂τ_F/∂q_F, ∂τ_F/∂q̇_F] at fixed q̈ |
 //! | `regressor(q, qd, qdd)` | `[[f64; NP]; NF]` | τ_F = Y_F p |
 //!
 //! `q` is the full joint vector `[f64; NJ]` (rad or m); `qd`, `qdd`, `tau` hold the free
@@ -54,6 +55,9 @@ pub struct Configuration {
     pub inverse_dynamics: StateKernel,
     /// q̈_F: `(q[NJ], qd[NF], tau[NF], p[NP], out[NF])`.
     pub forward_dynamics: StateKernel,
+    /// Row a of `[D_FF | ∂τ_F/∂q_F | ∂τ_F/∂q̇_F]` at fixed q̈ (τ_F the inverse dynamics):
+    /// `(q[NJ], qd[NF], qdd[NF], p[NP], out[NF·3NF])`.
+    pub dynamics_derivatives: StateKernel,
     /// Y_F: `(q[NJ], qd[NF], qdd[NF], out[NF·NP])`.
     pub regressor: RegressorKernel,
 }

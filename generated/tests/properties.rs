@@ -1,6 +1,7 @@
 //! Properties every generated model must have, over random states and random physically
 //! consistent parameters (proptest): D symmetric positive definite; Ḋ − 2C skew-symmetric;
-//! energy conserved by frictionless RK4; locked configurations are the full model's rows and
+//! energy conserved by frictionless RK4; the generated state derivatives of τ equal
+//! differences of τ; locked configurations are the full model's rows and
 //! columns with the locked velocities zeroed.
 
 mod support;
@@ -74,6 +75,59 @@ proptest! {
                     let s = n[a * nf + b] + n[b * nf + a];
                     prop_assert!(s.abs() <= 1e-7 * scale, "{} {}: N + Nᵀ = {s:e} at ({a}, {b})", m.name, c.name);
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn dynamics_derivatives_equal_differences_of_inverse_dynamics(m in models(), seed in any::<u64>()) {
+        // An independent reference: ∂τ/∂q by Richardson-extrapolated central differences of
+        // the inverse-dynamics kernel (error O(δ⁴)), ∂τ/∂q̇ by a central difference (exact up
+        // to rounding: τ is quadratic in q̇), D from the mass-matrix kernel.
+        let mut rng = Rng(seed | 1);
+        let p = random_params(m, &mut rng);
+        for c in m.configurations {
+            let nf = c.free.len();
+            let (q, qd) = state(&mut rng, m.joints.len(), nf);
+            let qdd: Vec<f64> = (0..nf).map(|_| rng.uniform(-5.0, 5.0)).collect();
+            let mut got = vec![0.0; 3 * nf * nf];
+            (c.dynamics_derivatives)(&q, &qd, &qdd, &p, &mut got);
+            let tau = |q: &[f64], qd: &[f64]| {
+                let mut t = vec![0.0; nf];
+                (c.inverse_dynamics)(q, qd, &qdd, &p, &mut t);
+                t
+            };
+            let central = |b: usize, velocity: bool, h: f64| {
+                let (mut qp, mut qm, mut vp, mut vm) = (q.clone(), q.clone(), qd.clone(), qd.clone());
+                if velocity {
+                    vp[b] += h;
+                    vm[b] -= h;
+                } else {
+                    qp[c.free[b]] += h;
+                    qm[c.free[b]] -= h;
+                }
+                let (tp, tm) = (tau(&qp, &vp), tau(&qm, &vm));
+                (0..nf).map(|a| (tp[a] - tm[a]) / (2.0 * h)).collect::<Vec<f64>>()
+            };
+            let mut d = vec![0.0; nf * nf];
+            (c.mass_matrix)(&q, &p, &mut d);
+            let mut want = vec![0.0; 3 * nf * nf];
+            for b in 0..nf {
+                let (coarse, fine) = (central(b, false, 2e-3), central(b, false, 1e-3));
+                let velocity = central(b, true, 1e-3);
+                for a in 0..nf {
+                    want[a * 3 * nf + b] = d[a * nf + b];
+                    want[a * 3 * nf + nf + b] = (4.0 * fine[a] - coarse[a]) / 3.0;
+                    want[a * 3 * nf + 2 * nf + b] = velocity[a];
+                }
+            }
+            let scale = want.iter().fold(1e-3f64, |s, x| s.max(x.abs()));
+            for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                prop_assert!(
+                    (g - w).abs() <= 1e-8 * scale,
+                    "{} {}: entry ({}, {}) is {g:e}, differences give {w:e}",
+                    m.name, c.name, i / (3 * nf), i % (3 * nf)
+                );
             }
         }
     }
