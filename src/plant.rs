@@ -1089,6 +1089,106 @@ impl Plant {
         })
     }
 
+    /// What parameter `name` is in the simulator of configuration `conf`
+    /// ([`Plant::simulator`]), for its sensitivities
+    /// ([`crate::simulation::PlantModel::predict_at_with_sensitivities`]): an effect's value
+    /// on a free joint, an input coupling's share, or an inertial value (an inertial symbol of
+    /// the model file or a barycentric parameter) as its direction ∂p/∂θ in the barycentric
+    /// parameters. The direction is a central difference of [`Plant::barycentric`], exact up
+    /// to rounding: each barycentric parameter is at most quadratic in any one symbol
+    /// (I_O = I_c + m (c·c) E − m c cᵀ, Appendix D). Every effect that names the value takes
+    /// it (a joint's `qeq` is its spring's and its friction bias's); one that acts in no
+    /// effect of `conf` moves nothing.
+    ///
+    /// # Errors
+    /// `name` is not a parameter of the plant, or one whose derivative is not implemented (a
+    /// user-defined effect's, backlash, asymmetric friction).
+    pub fn sensitivity_parameter(
+        &self,
+        name: &str,
+        conf: &generated::Configuration,
+    ) -> Result<crate::simulation::PlantParameter> {
+        use crate::simulation::{EffectValue as V, PlantParameter};
+        let m = self.model;
+        let name = self.current_name(name);
+        let free_index = |j: usize| conf.free.iter().position(|&k| k == j);
+        let mut found = PlantParameter::default();
+        let mut named = false;
+        // Couplings are numbered as the simulator pushes them: the acting ones in order.
+        let mut coupling = 0;
+        for e in &self.effects {
+            let acts = e.acts_with(conf.free);
+            let index = e
+                .kind
+                .symbols()
+                .iter()
+                .position(|s| e.parameter_name(s, m.joints) == name);
+            let this_coupling = coupling;
+            if e.kind == EffectKind::InputCoupling && acts {
+                coupling += 1;
+            }
+            let Some(index) = index else { continue };
+            named = true;
+            let Some(a) = free_index(e.joint).filter(|_| acts) else {
+                continue;
+            };
+            let values: &[V] = match e.kind {
+                EffectKind::Viscous => &[V::Viscous],
+                EffectKind::Coulomb => &[V::Coulomb],
+                EffectKind::Offset => &[V::Offset],
+                EffectKind::Gain => &[V::Gain],
+                EffectKind::Stribeck => &[V::StribeckFc, V::StribeckFs, V::StribeckVs],
+                EffectKind::Lugre => &[V::Sigma0, V::Sigma1, V::Sigma2, V::LuGreFc, V::LuGreFs, V::LuGreVs],
+                EffectKind::Spring => &[V::SpringStiffness, V::SpringRest],
+                EffectKind::FrictionBias => &[V::BiasFactor, V::BiasRest],
+                EffectKind::Armature => &[V::Armature],
+                EffectKind::InputCoupling => {
+                    found.couplings.push(this_coupling);
+                    continue;
+                }
+                EffectKind::Backlash | EffectKind::AsymmetricFriction => bail!(
+                    "{}: no sensitivity for '{name}' ({} is not differentiated; use finite differences)",
+                    self.name(),
+                    e.kind
+                ),
+            };
+            found.effects.push((a, values[index]));
+        }
+        if named {
+            return Ok(found);
+        }
+        let inertial =
+            m.inertial_symbols.contains(&name.as_str()) || m.params.contains(&name.as_str());
+        let Some(&value) = self.parameters.get(&name).filter(|_| inertial) else {
+            bail!(
+                "{}: no sensitivity for '{name}': not an effect's or an inertial value of the plant{}",
+                self.name(),
+                if self.expressions.iter().any(|x| x.expression.parameters.contains(&name)) {
+                    " (a user-defined effect's values are not differentiated; use finite differences)"
+                } else {
+                    ""
+                }
+            );
+        };
+        let delta = 1e-3 * value.abs().max(1e-2);
+        let at = |v: f64| -> Result<Vec<f64>> {
+            let mut plant = self.clone();
+            plant.parameters.insert(name.clone(), v);
+            plant.barycentric(Some(conf))
+        };
+        let (up, down) = (at(value + delta)?, at(value - delta)?);
+        Ok(PlantParameter {
+            inertial: up
+                .iter()
+                .zip(&down)
+                .enumerate()
+                .filter(|(_, (u, d))| u != d)
+                .map(|(k, (u, d))| (k, (u - d) / (2.0 * delta)))
+                .collect(),
+            ..PlantParameter::default()
+        })
+    }
+
     /// The user-defined effect `x` on joint `j` compiled for a simulation with free joints
     /// `free`: parameter values and the locked joints' positions `q_locked` (NJ) folded in,
     /// the locked joints' velocities, commands and deflections 0.

@@ -28,10 +28,12 @@ use generated::Configuration;
 mod etdrk4;
 mod friction;
 mod input;
+mod sensitivity;
 pub use etdrk4::phi1234;
 use etdrk4::EtdScratch;
 pub use friction::*;
 pub use input::*;
+pub use sensitivity::*;
 
 /// A user-defined torque term on one free joint ([`crate::expression`]), compiled with the
 /// plant's parameter values and the locked joints' states folded in

@@ -175,6 +175,12 @@ pub struct OutputErrorArgs {
     #[arg(long, default_value_t = 100)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub max_iter: usize,
+    /// Jacobian of the simulated positions: sensitivities (integrated beside the state: one simulation per file) or differences (one per file and parameter). Default: sensitivities
+    ///
+    /// Where sensitivities are not available (the etdrk4 integrator, user-defined effects, backlash) differences are used.
+    #[arg(long)]
+    #[arg(help_heading = "Output error: cost, integration and stopping")]
+    pub jacobian: Option<lockstep::identify::output_error::JacobianMethod>,
     /// Finite-difference Jacobian at most every N iterations, Broyden updates between. Default: 4 for the coupled method, 1 for the isolated
     ///
     /// A step that did not lower the cost, and the end of every stage, take a fresh one; both optimisers. 1: finite differences at every iteration.
@@ -353,6 +359,9 @@ impl OutputErrorArgs {
         o.seed = self.seed;
         if let Some(n) = self.jacobian_refresh {
             o.jacobian_refresh = n;
+        }
+        if let Some(j) = self.jacobian {
+            o.jacobian = j;
         }
         if let Some(h) = &self.horizons {
             let horizons = positive_list(

@@ -16,6 +16,7 @@ pub(super) const FIELD_FLAGS: &[(&str, &[&str])] = &[
     ("max_iter", &["max_iter"]),
     ("starts", &["starts"]),
     ("seed", &["seed"]),
+    ("jacobian", &["jacobian"]),
     ("jacobian_refresh", &["jacobian_refresh"]),
     ("horizons", &["horizons"]),
     ("segments", &["segments"]),

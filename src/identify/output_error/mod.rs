@@ -52,6 +52,7 @@ pub use options::*;
 mod held;
 mod least_change;
 mod scaling;
+mod sensitivities;
 mod stages;
 pub(crate) use held::*;
 pub use least_change::*;
@@ -622,11 +623,35 @@ impl Problem {
             .simulator(self.conf.name, &r.q_all, ConsistencyPolicy::Warn)
             .map_err(|e| TrialFailure::NotConfigured(r.file.clone(), format!("{e:#}")))?;
         sim.model.integrator = self.options.integrator;
+        let (x0, input, max_speed) = self.start_of(&sim.model, r);
+        sim.model
+            .predict_at(
+                x0,
+                self.options.h,
+                &input,
+                self.predictor.map(|omega| (omega, r.q.as_slice())),
+                &r.t,
+                max_speed,
+            )
+            .map_err(|d| {
+                let j = plant.model.joints[self.conf.free[d.joint]];
+                TrialFailure::Diverged(r.file.clone(), d.message(&format!("'{j}'")))
+            })
+    }
+
+    /// Where record `r` starts in simulator `sim`: the free joints at rest at the record's
+    /// positions, or moving at its initial velocities with LuGre's deflections of steady
+    /// sliding; its torques as the simulation holds them; the divergence bound on |q̇|.
+    fn start_of<'r>(
+        &self,
+        sim: &crate::simulation::PlantModel,
+        r: &'r Record,
+    ) -> (State, InputSignal<'r>, f64) {
         let mut x0 = State::at_rest(self.conf.free.iter().map(|&j| r.q_all[j]).collect());
         if let Some(qd0) = &r.qd0 {
             for (a, &v) in qd0.iter().enumerate() {
                 x0.qd[a] = v;
-                if let Some(lugre) = sim.model.terms[a].lugre {
+                if let Some(lugre) = sim.terms[a].lugre {
                     x0.z[a] = lugre.sliding_deflection(v);
                 }
             }
@@ -637,21 +662,11 @@ impl Problem {
             tau: &r.tau,
             hold: self.options.hold.unwrap_or(r.hold),
         };
-        sim.model
-            .predict_at(
-                x0,
-                self.options.h,
-                &input,
-                self.predictor.map(|omega| (omega, r.q.as_slice())),
-                &r.t,
-                self.options
-                    .max_speed
-                    .unwrap_or_else(|| DEFAULT_MAX_SPEED.max(DIVERGENCE_FACTOR * r.peak_speed())),
-            )
-            .map_err(|d| {
-                let j = plant.model.joints[self.conf.free[d.joint]];
-                TrialFailure::Diverged(r.file.clone(), d.message(&format!("'{j}'")))
-            })
+        let max_speed = self
+            .options
+            .max_speed
+            .unwrap_or_else(|| DEFAULT_MAX_SPEED.max(DIVERGENCE_FACTOR * r.peak_speed()));
+        (x0, input, max_speed)
     }
 
     /// Weighted residuals √w_k λ_a (y − ŷ) of one record into `out`.
@@ -822,6 +837,21 @@ impl Residuals for Problem {
                 .map_err(|e| TrialFailure::EquationError(format!("{e:#}")));
         }
         Ok(self.residuals_of(&self.trajectories(p)?))
+    }
+
+    /// By sensitivities where the problem allows ([`Problem::sensitivity_columns`]), else
+    /// by finite differences.
+    fn jacobian_columns(&self, stencil: &Stencil) -> Vec<Vec<f64>> {
+        self.sensitivity_columns(stencil)
+            .unwrap_or_else(|| finite_difference_columns(self, stencil))
+    }
+
+    fn jacobian_simulations(&self, n: usize) -> usize {
+        if self.sensitivities_apply() {
+            1
+        } else {
+            n
+        }
     }
 
     fn prior_weight(&self) -> Option<&[f64]> {

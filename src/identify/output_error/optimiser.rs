@@ -430,7 +430,7 @@ impl<'a> Evaluator<'a> {
         });
         self.context
             .evaluations
-            .fetch_add(x.len(), Ordering::Relaxed);
+            .fetch_add(p.jacobian_simulations(x.len()), Ordering::Relaxed);
         columns
     }
 

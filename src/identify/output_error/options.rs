@@ -37,6 +37,44 @@ impl TimeWeighting {
     }
 }
 
+/// How the Jacobian of the simulated residuals is formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JacobianMethod {
+    /// Forward sensitivities: every file simulated once with S = ∂x/∂θ stepped beside the
+    /// state ([`crate::simulation::PlantModel::predict_at_with_sensitivities`]), the exact
+    /// derivative of the discrete simulation; finite differences where they are not
+    /// available (the ETDRK4 integrator, user-defined effects, backlash, the equation
+    /// error's residuals).
+    #[default]
+    Sensitivities,
+    /// Forward finite differences, one simulation of every file per fitted parameter
+    /// ([`OutputErrorOptions::fd_step`]).
+    Differences,
+}
+
+impl std::str::FromStr for JacobianMethod {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "sensitivities" => Ok(JacobianMethod::Sensitivities),
+            "differences" => Ok(JacobianMethod::Differences),
+            _ => Err(format!(
+                "expected `sensitivities` or `differences`, got `{s}`"
+            )),
+        }
+    }
+}
+
+impl std::fmt::Display for JacobianMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            JacobianMethod::Sensitivities => "sensitivities",
+            JacobianMethod::Differences => "differences",
+        })
+    }
+}
+
 /// Settings of an output-error fit.
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct OutputErrorOptions {
@@ -74,6 +112,10 @@ pub struct OutputErrorOptions {
     pub seed: u64,
     /// Finite-difference step in the scaled parameters (fraction of the bound width).
     pub fd_step: f64,
+    /// How the Jacobian is formed ([`JacobianMethod`]). A report written before this field
+    /// existed was run with finite differences.
+    #[serde(default = "differences")]
+    pub jacobian: JacobianMethod,
     /// A finite-difference Jacobian (one simulation per parameter) at most every this many
     /// Levenberg–Marquardt iterations of a stage; between them Broyden's rank-one update
     /// from the step just taken (Dennis & Schnabel, *Numerical Methods for Unconstrained
@@ -241,6 +283,11 @@ impl OutputErrorOptions {
     }
 }
 
+/// What a report without [`OutputErrorOptions::jacobian`] was run with.
+fn differences() -> JacobianMethod {
+    JacobianMethod::Differences
+}
+
 /// The presets: the only home of the output-error defaults. The CLI (`identify sequence
 /// --preset isolated|coupled`), the benches and the tests start from one of them and change fields.
 impl OutputErrorOptions {
@@ -263,6 +310,7 @@ impl OutputErrorOptions {
             starts: 1,
             seed: 1,
             fd_step: 1e-6,
+            jacobian: JacobianMethod::Sensitivities,
             jacobian_refresh: 1,
             horizons: vec![0.05, 0.1, 0.25, 0.5, 1.0],
             segments: Vec::new(),

@@ -82,6 +82,23 @@ pub struct Stencil<'a> {
     pub central: bool,
 }
 
+/// [`Residuals::jacobian_columns`] by finite differences: n columns of length m, all
+/// simulated in parallel; a column whose simulation fails is retried with the opposite
+/// step, then left zero.
+pub fn finite_difference_columns<R: Residuals + ?Sized>(r: &R, stencil: &Stencil) -> Vec<Vec<f64>> {
+    (0..stencil.x.len())
+        .into_par_iter()
+        .map(|i| {
+            let at = |step: f64| {
+                let mut xi = stencil.x.to_vec();
+                xi[i] += step;
+                r.residuals(&(stencil.p_of)(&xi))
+            };
+            difference_column(&at, stencil.r0, stencil.steps[i], stencil.central)
+        })
+        .collect()
+}
+
 /// The residuals of a fit at physical parameters, its scaled coordinates u ∈ [0, 1]ⁿ,
 /// finite-difference Jacobian columns and the prior's rows.
 pub trait Residuals: Sync {
@@ -119,21 +136,15 @@ pub trait Residuals: Sync {
         plant.set_values(s.names, p);
         plant
     }
-    /// Finite-difference Jacobian ∂r/∂x by `stencil` ([`Stencil`]): n columns of length m,
-    /// all simulated in parallel. A column whose simulation fails is retried with the
-    /// opposite step, then left zero.
+    /// Jacobian ∂r/∂x at `stencil`'s point ([`Stencil`]): n columns of length m; by default
+    /// [`finite_difference_columns`].
     fn jacobian_columns(&self, stencil: &Stencil) -> Vec<Vec<f64>> {
-        (0..stencil.x.len())
-            .into_par_iter()
-            .map(|i| {
-                let at = |step: f64| {
-                    let mut xi = stencil.x.to_vec();
-                    xi[i] += step;
-                    self.residuals(&(stencil.p_of)(&xi))
-                };
-                difference_column(&at, stencil.r0, stencil.steps[i], stencil.central)
-            })
-            .collect()
+        finite_difference_columns(self, stencil)
+    }
+    /// Simulations one Jacobian of `n` columns cost, counted in a fit's evaluations (n by
+    /// finite differences).
+    fn jacobian_simulations(&self, n: usize) -> usize {
+        n
     }
     /// The prior's weight per parameter (its rows' diagonal), if the fit has a prior.
     fn prior_weight(&self) -> Option<&[f64]> {

@@ -1,0 +1,138 @@
+//! The Jacobian of a configuration's output error by forward sensitivities
+//! ([`JacobianMethod::Sensitivities`]): every file simulated once with S = ∂x/∂θ stepped
+//! beside the state ([`crate::simulation::PlantModel::predict_at_with_sensitivities`]), the
+//! residuals' columns −√w_k λ_a ∂q̂_a,k/∂θ, and the chain rule to the solver's coordinates.
+
+use super::*;
+use crate::simulation::PlantParameter;
+
+impl Problem {
+    /// Whether this problem's Jacobian is taken by sensitivities: the method asks for them,
+    /// the residuals are simulated by RK4, and every fitted value has derivatives
+    /// ([`Plant::sensitivity_parameter`]).
+    pub(crate) fn sensitivities_apply(&self) -> bool {
+        self.options.jacobian == JacobianMethod::Sensitivities
+            && self.equation_error.is_none()
+            && self.options.integrator == Integrator::Rk4
+            && self
+                .names
+                .iter()
+                .all(|name| self.plant.sensitivity_parameter(name, self.conf).is_ok())
+    }
+
+    /// ∂r/∂x at `stencil`'s point by sensitivities, or None where they are not available
+    /// (the Jacobian method is differences, the equation error's stage, the ETDRK4
+    /// integrator, a fitted value or an effect without derivatives, a file that does not
+    /// simulate): the caller then takes finite differences.
+    ///
+    /// The solver's coordinates x map to the physical values by `stencil.p_of`, affine in
+    /// each coordinate except where Fs meets Fc ([`scaled_to_physical`]): ∂p/∂x is taken by
+    /// differences of that map with the stencil's steps (no simulation; exact on the
+    /// affine pieces).
+    pub(crate) fn sensitivity_columns(&self, stencil: &Stencil) -> Option<Vec<Vec<f64>>> {
+        if !self.sensitivities_apply() {
+            return None;
+        }
+        let n = self.names.len();
+        let p = (stencil.p_of)(stencil.x);
+        let plant = self.plant_at(&p);
+        let params: Vec<PlantParameter> = self
+            .names
+            .iter()
+            .map(|name| plant.sensitivity_parameter(name, self.conf).ok())
+            .collect::<Option<_>>()?;
+        // ∂p_k/∂x_i, row i.
+        let dp_dx: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let mut xi = stencil.x.to_vec();
+                xi[i] += stencil.steps[i];
+                let pi = (stencil.p_of)(&xi);
+                pi.iter()
+                    .zip(&p)
+                    .map(|(a, b)| (a - b) / stencil.steps[i])
+                    .collect()
+            })
+            .collect();
+        // ∂r/∂p per file, stacked in the residuals' order.
+        let per_file: Vec<Vec<Vec<f64>>> = self
+            .records
+            .par_iter()
+            .enumerate()
+            .map(|(ri, r)| self.record_sensitivities(&plant, ri, r, &params))
+            .collect::<Option<_>>()?;
+        let m = self.m;
+        let mut dr_dp = vec![vec![0.0; m]; n];
+        let mut at = 0;
+        for cols in &per_file {
+            let len = cols.first().map_or(0, Vec::len);
+            for (k, col) in cols.iter().enumerate() {
+                dr_dp[k][at..at + len].copy_from_slice(col);
+            }
+            at += len;
+        }
+        Some(
+            (0..n)
+                .map(|i| {
+                    let mut col = vec![0.0; m];
+                    for (k, d) in dp_dx[i].iter().enumerate() {
+                        if *d != 0.0 {
+                            for (c, g) in col.iter_mut().zip(&dr_dp[k]) {
+                                *c += d * g;
+                            }
+                        }
+                    }
+                    col
+                })
+                .collect(),
+        )
+    }
+
+    /// ∂r/∂θ of file `ri` (one column per parameter, the file's residuals in
+    /// [`Problem::record_residuals`]'s order), or None where the file cannot be simulated
+    /// with sensitivities.
+    fn record_sensitivities(
+        &self,
+        plant: &Plant,
+        ri: usize,
+        r: &Record,
+        params: &[PlantParameter],
+    ) -> Option<Vec<Vec<f64>>> {
+        let sim = plant
+            .simulator(self.conf.name, &r.q_all, ConsistencyPolicy::Warn)
+            .ok()?
+            .model;
+        let mut sim = sim;
+        sim.integrator = self.options.integrator;
+        let (x0, input, max_speed) = self.start_of(&sim, r);
+        let s0 = r
+            .qd0
+            .as_ref()
+            .map(|_| sim.sliding_start_tangent(&x0, params));
+        let s = sim
+            .predict_at_with_sensitivities(
+                (x0, s0.as_deref()),
+                self.options.h,
+                &input,
+                self.predictor.map(|omega| (omega, r.q.as_slice())),
+                &r.t,
+                max_speed,
+                params,
+            )
+            .ok()?;
+        Some(
+            s.q.iter()
+                .map(|dq| {
+                    let mut col = Vec::new();
+                    for (a, lam) in self.lambda.iter().enumerate() {
+                        for (k, &sw) in self.sqrt_w[ri].iter().enumerate() {
+                            if sw > 0.0 {
+                                col.push(-sw * lam * dq[a][k]);
+                            }
+                        }
+                    }
+                    col
+                })
+                .collect(),
+        )
+    }
+}

@@ -1,0 +1,871 @@
+//! Forward sensitivities of a simulation: the state x = (q_F, q̇_F, z_F) and its derivative
+//! S = ∂x/∂θ with respect to the plant's values θ stepped together by the same RK4, so that S
+//! is the exact derivative of the discrete simulation (internal numerical differentiation,
+//! Bock 1981; Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.6), the derivative that
+//! finite differences of the simulated outputs approximate, at the cost of one augmented
+//! simulation for every parameter at once.
+//!
+//! Each RK4 stage evaluates f(t, x, θ) and the stage's tangent
+//! K = ∂f/∂x S_stage + ∂f/∂θ, with S_stage the tangent of the stage's state. The rigid body's
+//! part comes from the generated kernels: from (D + A) q̈ = Q(x, θ) − h(q, q̇) (A the
+//! armatures), with τ(q, q̇, q̈) = D q̈ + h the inverse dynamics at fixed q̈ (thesis 3.5),
+//!
+//! ∂q̈/∂x = (D + A)⁻¹ (∂Q/∂x − ∂τ/∂x) (`dynamics_derivatives`, one CSE body with D),
+//! ∂q̈/∂p = −(D + A)⁻¹ Y_F(q, q̇, q̈) for the barycentric parameters (the regressor, τ = Y p),
+//!
+//! and the effects' derivatives (Q = Kp τ' − b F(q̇, z) − Ks (q − qeq) − offset, LuGre's
+//! ż(q̇, z), thesis 3.3–3.9 and 4.3.5) are analytic here. A step split where a friction position
+//! bias switches ([`PlantModel::rk4_with_events`]) is differentiated with its switch: the
+//! switch fraction θ_s moves with the parameters by the implicit function theorem on the
+//! trial step's cubic Hermite interpolant, and the two sub-steps' lengths and start times
+//! carry that tangent (∂/∂h and ∂/∂t of an RK4 step, the input's rate included).
+//!
+//! Outputs at the sample times are the simulator's cubic Hermite (q) and linear (q̇)
+//! interpolation of the step ends, so their tangents are the same combinations of S.
+//!
+//! Not covered (an [`SensitivityError::Unsupported`] names them; use finite differences):
+//! user-defined effects, backlash, the ETDRK4 integrator.
+
+use super::*;
+
+/// A value of one effect of a free joint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EffectValue {
+    /// Plant gain Kp.
+    Gain,
+    /// Viscous friction Fv.
+    Viscous,
+    /// Coulomb friction Fc.
+    Coulomb,
+    /// Constant offset.
+    Offset,
+    /// Static Stribeck Fc.
+    StribeckFc,
+    /// Static Stribeck Fs.
+    StribeckFs,
+    /// Static Stribeck vs.
+    StribeckVs,
+    /// LuGre σ0.
+    Sigma0,
+    /// LuGre σ1.
+    Sigma1,
+    /// LuGre σ2.
+    Sigma2,
+    /// LuGre Fc.
+    LuGreFc,
+    /// LuGre Fs.
+    LuGreFs,
+    /// LuGre vs.
+    LuGreVs,
+    /// Cable-drag spring stiffness Ks.
+    SpringStiffness,
+    /// Cable-drag spring rest angle qeq.
+    SpringRest,
+    /// Friction position bias factor.
+    BiasFactor,
+    /// Friction position bias switch position qeq.
+    BiasRest,
+    /// Armature inertia Ia.
+    Armature,
+}
+
+/// A value θ of a [`PlantModel`] a sensitivity is taken with respect to: what it moves in the
+/// simulator. One named value can move several things (a joint's `qeq` is both its spring's
+/// rest angle and its friction bias's switch, thesis 3.9 and 4.3.5); one that moves nothing
+/// here (an effect of a locked joint) has sensitivity 0.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PlantParameter {
+    /// A direction in the barycentric parameters p: the nonzero entries of ∂p/∂θ as
+    /// (index into p, value); an inertial symbol of the model file moves up to ten.
+    pub inertial: Vec<(usize, f64)>,
+    /// Values of effects of free joints: (free index, value).
+    pub effects: Vec<(usize, EffectValue)>,
+    /// Input couplings whose share G it is (indices into [`PlantModel::couplings`]).
+    pub couplings: Vec<usize>,
+}
+
+/// Why sensitivities could not be integrated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SensitivityError {
+    /// The simulation itself diverged.
+    #[error(transparent)]
+    Divergence(#[from] Divergence),
+    /// The plant holds something whose derivative is not implemented.
+    #[error("sensitivities are not available for {0} (use finite differences)")]
+    Unsupported(String),
+}
+
+/// A simulation and its sensitivities at the output times.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensitivities {
+    /// The states at the output times, as [`PlantModel::simulate_at`] returns them.
+    pub trajectory: Trajectory,
+    /// ∂q/∂θ_j at the output times, `q[j][a][k]` (parameter j, free joint a, time k).
+    pub q: Vec<Vec<Vec<f64>>>,
+    /// ∂q̇/∂θ_j at the output times, `qd[j][a][k]`.
+    pub qd: Vec<Vec<Vec<f64>>>,
+}
+
+/// Work space of the tangent computations (row-major, P = number of parameters).
+struct TangentScratch {
+    p: usize,
+    /// `[D | ∂τ/∂q | ∂τ/∂q̇]`, NF × 3NF.
+    dd: Vec<f64>,
+    /// Cholesky factor of D + A, NF × NF (lower, row-major).
+    l: Vec<f64>,
+    /// The regressor Y_F, NF × NP (when an inertial direction is fitted).
+    y: Vec<f64>,
+    /// Stage tangents K1..K4, 3NF × P each, and the stage state tangent.
+    kt: [Vec<f64>; 4],
+    sx: Vec<f64>,
+    /// Stage time tangents (P).
+    st: Vec<f64>,
+    /// Input rates dτ/dt at the three stage times (NF each) and the coupled rate.
+    rate: [Vec<f64>; 3],
+    rate_c: Vec<f64>,
+    /// Per joint: ∂Q/∂q, ∂Q/∂q̇, ∂Q/∂z, ∂ż/∂q̇, ∂ż/∂z.
+    joint: Vec<[f64; 5]>,
+    /// Tangent copies at the start of a step split at a bias switch.
+    start: Vec<f64>,
+    /// The tangents of a split step's start time, of its rest and of its sub-step (P each).
+    times: Vec<f64>,
+    zero: Vec<f64>,
+}
+
+impl PlantModel {
+    /// Whether [`PlantModel::simulate_at_with_sensitivities`] covers this plant; the reason
+    /// when not.
+    pub fn sensitivities_unsupported(&self) -> Option<String> {
+        if self.integrator != Integrator::Rk4 {
+            return Some(format!("the {} integrator", self.integrator));
+        }
+        for (i, t) in self.terms.iter().enumerate() {
+            if !t.extra.is_empty() {
+                return Some(format!("the user-defined effect '{}'", t.extra[0].name));
+            }
+            if t.backlash != 0.0 {
+                return Some(format!("backlash (free joint {i})"));
+            }
+        }
+        None
+    }
+
+    /// The tangent S₀ = ∂x₀/∂θ (3NF × P, row-major) of a start whose LuGre deflections are
+    /// those of steady sliding at its velocities, z₀ = g(q̇₀) sign(q̇₀)/σ0
+    /// ([`LuGre::sliding_deflection`]; positions and velocities do not move with θ):
+    /// ∂z₀/∂σ0 = −z₀/σ0, ∂z₀/∂(Fc, Fs, vs) = ∂g/∂(Fc, Fs, vs) sign(q̇₀)/σ0.
+    pub fn sliding_start_tangent(&self, x0: &State, params: &[PlantParameter]) -> Vec<f64> {
+        let (nf, np) = (self.nf(), params.len());
+        let mut s0 = vec![0.0; 3 * nf * np];
+        for (j, param) in params.iter().enumerate() {
+            for &(a, value) in &param.effects {
+                let (Some(l), v) = (self.terms[a].lugre, x0.qd[a]) else {
+                    continue;
+                };
+                if v == 0.0 || l.sigma0 <= 0.0 {
+                    continue;
+                }
+                let e = (-(v / l.vs).powi(2)).exp();
+                let dg = match value {
+                    EffectValue::Sigma0 => {
+                        s0[(2 * nf + a) * np + j] += -l.sliding_deflection(v) / l.sigma0;
+                        continue;
+                    }
+                    EffectValue::LuGreFc => 1.0 - e,
+                    EffectValue::LuGreFs => e,
+                    EffectValue::LuGreVs => (l.fs - l.fc) * e * 2.0 * v * v / l.vs.powi(3),
+                    _ => continue,
+                };
+                s0[(2 * nf + a) * np + j] += dg * v.signum() / l.sigma0;
+            }
+        }
+        s0
+    }
+
+    /// [`PlantModel::predict_at`] with the sensitivities of the outputs to `params`: the
+    /// state and S = ∂x/∂θ stepped together (module doc), the outputs' tangents by the same
+    /// interpolation as the outputs. The trajectory is the one `predict_at` returns, bit for
+    /// bit. `x0` = (the start, its tangent S₀ (3NF × P, row-major) or None where the start
+    /// does not move with θ; [`PlantModel::sliding_start_tangent`]).
+    ///
+    /// # Errors
+    /// [`SensitivityError::Divergence`] as [`PlantModel::simulate`];
+    /// [`SensitivityError::Unsupported`] for what [`PlantModel::sensitivities_unsupported`]
+    /// names.
+    #[allow(clippy::too_many_arguments)]
+    pub fn predict_at_with_sensitivities(
+        &self,
+        (x0, s0): (State, Option<&[f64]>),
+        h: f64,
+        input: &InputSignal,
+        observer: Option<(f64, &[Vec<f64>])>,
+        times: &[f64],
+        max_speed: f64,
+        params: &[PlantParameter],
+    ) -> Result<Sensitivities, SensitivityError> {
+        if let Some(why) = self.sensitivities_unsupported() {
+            return Err(SensitivityError::Unsupported(why));
+        }
+        let nf = self.nf();
+        let np = params.len();
+        let mut out = Sensitivities {
+            trajectory: Trajectory {
+                t: times.to_vec(),
+                q: vec![Vec::with_capacity(times.len()); nf],
+                qd: vec![Vec::with_capacity(times.len()); nf],
+                z: vec![Vec::with_capacity(times.len()); nf],
+            },
+            q: vec![vec![Vec::with_capacity(times.len()); nf]; np],
+            qd: vec![vec![Vec::with_capacity(times.len()); nf]; np],
+        };
+        let Some(&t_start) = times.first() else {
+            return Ok(out);
+        };
+        let t_end = *times.last().unwrap_or(&t_start);
+        let steps = ((t_end - t_start) / h - 1e-9).ceil().max(0.0) as usize;
+        let mut w = Scratch::new(nf, &self.q_locked);
+        let mut tw = TangentScratch {
+            p: np,
+            dd: vec![0.0; 3 * nf * nf],
+            l: vec![0.0; nf * nf],
+            y: vec![0.0; nf * self.p.len()],
+            kt: std::array::from_fn(|_| vec![0.0; 3 * nf * np]),
+            sx: vec![0.0; 3 * nf * np],
+            st: vec![0.0; np],
+            rate: std::array::from_fn(|_| vec![0.0; nf]),
+            rate_c: vec![0.0; nf],
+            joint: vec![[0.0; 5]; nf],
+            start: vec![0.0; 3 * nf * np],
+            times: vec![0.0; 3 * np],
+            zero: vec![0.0; np],
+        };
+        let measured = observer
+            .filter(|(omega, _)| *omega > 0.0)
+            .map(|(omega, y)| {
+                w.injection = Some((2.0 * omega, omega * omega));
+                InputSignal {
+                    t0: input.t0,
+                    dt: input.dt,
+                    tau: y,
+                    hold: Hold::Linear,
+                }
+            });
+        let mut x = x0;
+        let mut prev = x.clone();
+        let mut s = vec![0.0; 3 * nf * np];
+        if let Some(s0) = s0 {
+            s.copy_from_slice(s0);
+        }
+        let mut s_prev = s.clone();
+        let mut next_out = 0;
+        let push = |out: &mut Sensitivities,
+                    (a, sa): (&State, &[f64]),
+                    (b, sb): (&State, &[f64]),
+                    (ta, tb, t): (f64, f64, f64)| {
+            let hh = tb - ta;
+            let s = if hh > 0.0 {
+                ((t - ta) / hh).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            let (h00, h10, h01, h11) = (
+                2.0 * s * s * s - 3.0 * s * s + 1.0,
+                s * s * s - 2.0 * s * s + s,
+                -2.0 * s * s * s + 3.0 * s * s,
+                s * s * s - s * s,
+            );
+            let tr = &mut out.trajectory;
+            for i in 0..nf {
+                tr.q[i].push(h00 * a.q[i] + h10 * hh * a.qd[i] + h01 * b.q[i] + h11 * hh * b.qd[i]);
+                tr.qd[i].push(a.qd[i] + s * (b.qd[i] - a.qd[i]));
+                tr.z[i].push(a.z[i] + s * (b.z[i] - a.z[i]));
+                let (rq, rv) = (i * np, (nf + i) * np);
+                for j in 0..np {
+                    out.q[j][i].push(
+                        h00 * sa[rq + j]
+                            + h10 * hh * sa[rv + j]
+                            + h01 * sb[rq + j]
+                            + h11 * hh * sb[rv + j],
+                    );
+                    out.qd[j][i].push(sa[rv + j] + s * (sb[rv + j] - sa[rv + j]));
+                }
+            }
+        };
+        while next_out < times.len() && times[next_out] <= t_start + 1e-9 * h {
+            push(&mut out, (&x, &s), (&x, &s), (t_start, t_start, t_start));
+            next_out += 1;
+        }
+        for n in 0..steps {
+            let t = t_start + n as f64 * h;
+            let t1 = (t_start + (n + 1) as f64 * h).min(t_end.max(t));
+            let hs = t1 - t;
+            prev.copy_from(&x);
+            s_prev.copy_from_slice(&s);
+            self.rk4_events_tangent(
+                (&mut x, &mut s),
+                (t, hs),
+                (input, measured.as_ref()),
+                params,
+                &mut w,
+                &mut tw,
+            );
+            self.check_step((&prev, &w.tau[0]), &x, t1, h, max_speed)?;
+            while next_out < times.len() && times[next_out] <= t1 + 1e-9 * h {
+                push(
+                    &mut out,
+                    (&prev, &s_prev),
+                    (&x, &s),
+                    (t, t1, times[next_out]),
+                );
+                next_out += 1;
+            }
+        }
+        Ok(out)
+    }
+
+    /// [`PlantModel::rk4_with_events`] with the tangent `s` (3NF × P) stepped beside the
+    /// state: the same arithmetic on the state, and a split step's switch differentiated.
+    /// A step that does not switch (nearly all) costs one tangent step; the start-time and
+    /// length tangents and the input's rates are formed only after a switch.
+    fn rk4_events_tangent(
+        &self,
+        (x, s): (&mut State, &mut [f64]),
+        (t, h): (f64, f64),
+        (input, measured): (&InputSignal, Option<&InputSignal>),
+        params: &[PlantParameter],
+        w: &mut Scratch,
+        tw: &mut TangentScratch,
+    ) {
+        let np = tw.p;
+        // The stage inputs, and with `rates` their time derivatives (one-sided as the
+        // samples are taken: `at` is right-continuous, `before` left-continuous).
+        let load = |t0: f64, hs: f64, rates: bool, w: &mut Scratch, tw: &mut TangentScratch| {
+            w.time = [t0, t0 + hs / 2.0, t0 + hs];
+            input.at(t0, &mut w.tau[0]);
+            input.at(t0 + hs / 2.0, &mut w.tau[1]);
+            input.before(t0 + hs, &mut w.tau[2]);
+            if let Some(y) = measured {
+                y.at(t0, &mut w.y[0]);
+                y.at(t0 + hs / 2.0, &mut w.y[1]);
+                y.before(t0 + hs, &mut w.y[2]);
+            }
+            if rates {
+                let d = 1e-7 * input.dt.max(1e-12);
+                for (s, &ts) in w.time.iter().enumerate() {
+                    let other = &mut tw.rate_c;
+                    if s < 2 {
+                        input.at(ts + d, other);
+                        for (r, (o, a)) in tw.rate[s].iter_mut().zip(other.iter().zip(&w.tau[s])) {
+                            *r = (o - a) / d;
+                        }
+                    } else {
+                        input.before(ts - d, other);
+                        for (r, (o, a)) in tw.rate[s].iter_mut().zip(other.iter().zip(&w.tau[s])) {
+                            *r = (a - o) / d;
+                        }
+                    }
+                }
+            }
+        };
+        let mut any = false;
+        for (i, term) in self.terms.iter().enumerate() {
+            w.sides[i] = term.bias.map(|(_, qeq)| x.q[i] < qeq);
+            any |= w.sides[i].is_some();
+        }
+        if !any {
+            load(t, h, false, w, tw);
+            self.rk4_tangent((x, s), h, None, params, w, tw);
+            return;
+        }
+        let (mut t0, mut rest) = (t, h);
+        // The tangents of the start time and of the rest of the step: 0 until a switch.
+        let mut split = false;
+        let mut times = std::mem::take(&mut tw.times);
+        let mut start = std::mem::take(&mut w.start);
+        let mut done = false;
+        for _ in 0..8 {
+            start.copy_from(x);
+            tw.start.copy_from_slice(s);
+            load(t0, rest, split, w, tw);
+            let moving = split.then_some((&times[..np], &times[np..2 * np]));
+            self.rk4_tangent((x, s), rest, moving, params, w, tw);
+            let mut first = f64::INFINITY;
+            let mut first_joint = 0;
+            for (i, term) in self.terms.iter().enumerate() {
+                w.crossing[i] = f64::INFINITY;
+                if let (Some(below), Some((_, qeq))) = (w.sides[i], term.bias) {
+                    if (x.q[i] < qeq) != below {
+                        w.crossing[i] = hermite_crossing(&start, x, i, rest, qeq);
+                        if w.crossing[i] < first {
+                            first = w.crossing[i];
+                            first_joint = i;
+                        }
+                    }
+                }
+            }
+            if first.is_infinite() {
+                done = true;
+                break;
+            }
+            if !split {
+                times.iter_mut().for_each(|v| *v = 0.0);
+                split = true;
+            }
+            let (dt0, rest_tangents) = times.split_at_mut(np);
+            let (drest, dhs) = rest_tangents.split_at_mut(np);
+            // The switch fraction's tangent: H(θ) = qeq on the trial step's Hermite
+            // interpolant of the joint's position, H(θ) = h00 q0 + h10 m0 + h01 q1 + h11 m1
+            // with m = rest·q̇ at either end.
+            let i = first_joint;
+            let nf = self.nf();
+            let th = first;
+            let (h00, h10, h01, h11) = (
+                2.0 * th.powi(3) - 3.0 * th * th + 1.0,
+                th.powi(3) - 2.0 * th * th + th,
+                -2.0 * th.powi(3) + 3.0 * th * th,
+                th.powi(3) - th * th,
+            );
+            let (d00, d10, d01, d11) = (
+                6.0 * th * th - 6.0 * th,
+                3.0 * th * th - 4.0 * th + 1.0,
+                -6.0 * th * th + 6.0 * th,
+                3.0 * th * th - 2.0 * th,
+            );
+            let slope =
+                d00 * start.q[i] + d10 * rest * start.qd[i] + d01 * x.q[i] + d11 * rest * x.qd[i];
+            let (rq, rv) = (i * np, (nf + i) * np);
+            for j in 0..np {
+                let dqeq = if params[j].effects.contains(&(i, EffectValue::BiasRest)) {
+                    1.0
+                } else {
+                    0.0
+                };
+                let dh_interp = h00 * tw.start[rq + j]
+                    + h10 * (drest[j] * start.qd[i] + rest * tw.start[rv + j])
+                    + h01 * s[rq + j]
+                    + h11 * (drest[j] * x.qd[i] + rest * s[rv + j]);
+                let dtheta = if slope != 0.0 {
+                    (dqeq - dh_interp) / slope
+                } else {
+                    0.0
+                };
+                dhs[j] = dtheta * rest + th * drest[j];
+            }
+            x.copy_from(&start);
+            s.copy_from_slice(&tw.start);
+            let hs = first * rest;
+            if hs > 1e-12 * h {
+                load(t0, hs, true, w, tw);
+                self.rk4_tangent((x, s), hs, Some((dt0, dhs)), params, w, tw);
+            }
+            for k in 0..nf {
+                if w.crossing[k] <= first + 1e-9 {
+                    w.sides[k] = w.sides[k].map(|below| !below);
+                }
+            }
+            t0 += hs;
+            rest -= hs;
+            for j in 0..np {
+                dt0[j] += dhs[j];
+                drest[j] -= dhs[j];
+            }
+            if rest <= 1e-12 * h {
+                done = true;
+                break;
+            }
+        }
+        w.start = start;
+        if !done {
+            // At most 8 switches per step, then the rest as is (as the simulator).
+            load(t0, rest, true, w, tw);
+            let (dt0, rest_tangents) = times.split_at(np);
+            self.rk4_tangent(
+                (x, s),
+                rest,
+                Some((dt0, &rest_tangents[..np])),
+                params,
+                w,
+                tw,
+            );
+        }
+        tw.times = times;
+    }
+
+    /// One RK4 step of `h` ([`PlantModel::rk4_in_place`]'s arithmetic on `x`) with the
+    /// tangent `s` (3NF × P): K_i the stage tangents, and where the step's start time and
+    /// length move with θ (`dt0`, `dh`, P each; a step split at a switch) their terms.
+    fn rk4_tangent(
+        &self,
+        (x, s): (&mut State, &mut [f64]),
+        h: f64,
+        moving: Option<(&[f64], &[f64])>,
+        params: &[PlantParameter],
+        w: &mut Scratch,
+        tw: &mut TangentScratch,
+    ) {
+        let np = tw.p;
+        let n3 = 3 * self.nf();
+        let mut k = std::mem::take(&mut w.k);
+        let mut stage = std::mem::take(&mut w.stage);
+        let tau = std::mem::take(&mut w.tau);
+        let mut kt = std::mem::take(&mut tw.kt);
+        let mut sx = std::mem::take(&mut tw.sx);
+        let mut st = std::mem::take(&mut tw.st);
+        let zero = std::mem::take(&mut tw.zero);
+        let (dt0, dh) = moving.unwrap_or((&zero, &zero));
+        let moving = moving.is_some();
+        let time = w.time;
+        // The stage tangent sx = s + c·K_prev + (dh·c')·k_prev, st = dt0 + c'·dh.
+        let stage_tangent =
+            |sx: &mut [f64], st: &mut [f64], c: f64, cd: f64, kp: Option<(&[f64], &State)>| {
+                match kp {
+                    None => sx.copy_from_slice(s),
+                    Some((kt_prev, k_prev)) => {
+                        for ((o, a), b) in sx.iter_mut().zip(s.iter()).zip(kt_prev) {
+                            *o = a + c * b;
+                        }
+                        if moving {
+                            let kv = k_prev.q.iter().chain(&k_prev.qd).chain(&k_prev.z);
+                            for (r, kr) in kv.enumerate() {
+                                for j in 0..np {
+                                    sx[r * np + j] += cd * dh[j] * kr;
+                                }
+                            }
+                        }
+                    }
+                }
+                for j in 0..np {
+                    st[j] = dt0[j] + cd * dh[j];
+                }
+            };
+        // Stage 1.
+        stage_tangent(&mut sx, &mut st, 0.0, 0.0, None);
+        self.stage_with_tangent(
+            (time[0], x, &tau[0]),
+            0,
+            (&sx, &st, moving),
+            params,
+            w,
+            tw,
+            &mut k[0],
+            &mut kt[0],
+        );
+        x.axpy_into(h / 2.0, &k[0], &mut stage);
+        stage_tangent(&mut sx, &mut st, h / 2.0, 0.5, Some((&kt[0], &k[0])));
+        let (k0, rest) = kt.split_at_mut(1);
+        self.stage_with_tangent(
+            (time[1], &stage, &tau[1]),
+            1,
+            (&sx, &st, moving),
+            params,
+            w,
+            tw,
+            &mut k[1],
+            &mut rest[0],
+        );
+        x.axpy_into(h / 2.0, &k[1], &mut stage);
+        stage_tangent(&mut sx, &mut st, h / 2.0, 0.5, Some((&rest[0], &k[1])));
+        let (k1, rest2) = rest.split_at_mut(1);
+        self.stage_with_tangent(
+            (time[1], &stage, &tau[1]),
+            1,
+            (&sx, &st, moving),
+            params,
+            w,
+            tw,
+            &mut k[2],
+            &mut rest2[0],
+        );
+        x.axpy_into(h, &k[2], &mut stage);
+        stage_tangent(&mut sx, &mut st, h, 1.0, Some((&rest2[0], &k[2])));
+        let (k2, k3) = rest2.split_at_mut(1);
+        self.stage_with_tangent(
+            (time[2], &stage, &tau[2]),
+            2,
+            (&sx, &st, moving),
+            params,
+            w,
+            tw,
+            &mut k[3],
+            &mut k3[0],
+        );
+        let c = h / 6.0;
+        let comb = |y: &mut [f64], a: &[f64], b: &[f64], cc: &[f64], d: &[f64]| {
+            for i in 0..y.len() {
+                y[i] += c * (a[i] + 2.0 * b[i] + 2.0 * cc[i] + d[i]);
+            }
+        };
+        // The tangent first (it reads the stage derivatives k, not x).
+        let (a, b, cc, d) = (&k0[0], &k1[0], &k2[0], &k3[0]);
+        for e in 0..s.len() {
+            s[e] += c * (a[e] + 2.0 * b[e] + 2.0 * cc[e] + d[e]);
+        }
+        if moving {
+            let sum = |f: fn(&State) -> &Vec<f64>| -> Vec<f64> {
+                (0..self.nf())
+                    .map(|i| f(&k[0])[i] + 2.0 * f(&k[1])[i] + 2.0 * f(&k[2])[i] + f(&k[3])[i])
+                    .collect()
+            };
+            let ksum: Vec<f64> = sum(|k| &k.q)
+                .into_iter()
+                .chain(sum(|k| &k.qd))
+                .chain(sum(|k| &k.z))
+                .collect();
+            for r in 0..n3 {
+                for j in 0..np {
+                    s[r * np + j] += dh[j] / 6.0 * ksum[r];
+                }
+            }
+        }
+        comb(&mut x.q, &k[0].q, &k[1].q, &k[2].q, &k[3].q);
+        comb(&mut x.qd, &k[0].qd, &k[1].qd, &k[2].qd, &k[3].qd);
+        comb(&mut x.z, &k[0].z, &k[1].z, &k[2].z, &k[3].z);
+        w.k = k;
+        w.stage = stage;
+        w.tau = tau;
+        tw.kt = kt;
+        tw.sx = sx;
+        tw.st = st;
+        tw.zero = zero;
+    }
+
+    /// f at one stage into `k` ([`PlantModel::derivative_into`] and the output injection,
+    /// as RK4 evaluates it) and its tangent K = ∂f/∂x sx + ∂f/∂t st + ∂f/∂θ into `kt`
+    /// (3NF × P); `stage` indexes the stage inputs (0: t, 1: t + h/2, 2: t + h).
+    #[allow(clippy::too_many_arguments)]
+    fn stage_with_tangent(
+        &self,
+        (t, x, tau): (f64, &State, &[f64]),
+        stage: usize,
+        (sx, st, moving): (&[f64], &[f64], bool),
+        params: &[PlantParameter],
+        w: &mut Scratch,
+        tw: &mut TangentScratch,
+        k: &mut State,
+        kt: &mut [f64],
+    ) {
+        let nf = self.nf();
+        let np = tw.p;
+        self.derivative_into((t, x, tau), &[], w, k);
+        w.inject(x, stage, k);
+        // ∂Q/∂x and ż's derivatives per joint (diagonal: each joint's effects read its own
+        // state), with the bias side locked as the step runs.
+        for i in 0..nf {
+            let term = &self.terms[i];
+            let (v, z) = (x.qd[i], x.z[i]);
+            let below = w.sides.get(i).copied().flatten();
+            let b = self.bias_factor(i, x.q[i], below);
+            let mut df_dv = term.viscous;
+            if let Some(sb) = &term.stribeck {
+                if v != 0.0 {
+                    df_dv += friction::stribeck_slope(sb.fc, sb.fs, sb.vs, v) * v.signum();
+                }
+            }
+            let (mut df_dz, mut dzd_dv, mut dzd_dz) = (0.0, 0.0, 0.0);
+            if let Some(l) = &term.lugre {
+                let (dfv, dzv, dzz) = l.slopes(v, z);
+                df_dv += dfv;
+                dzd_dv = dzv;
+                dzd_dz = dzz;
+                df_dz = l.sigma0 + l.sigma1 * dzz;
+            }
+            let dq_dq = -term.spring.map_or(0.0, |(ks, _)| ks);
+            tw.joint[i] = [dq_dq, -b * df_dv, -b * df_dz, dzd_dv, dzd_dz];
+        }
+        // [D | ∂τ/∂q | ∂τ/∂q̇] at q̈, and the Cholesky factor of D + A.
+        (self.conf.dynamics_derivatives)(&w.q_full, &x.qd, &k.qd, &self.p, &mut tw.dd);
+        for a in 0..nf {
+            for c in 0..=a {
+                let mut v =
+                    tw.dd[a * 3 * nf + c] + if a == c { self.terms[a].armature } else { 0.0 };
+                for m in 0..c {
+                    v -= tw.l[a * nf + m] * tw.l[c * nf + m];
+                }
+                tw.l[a * nf + c] = if a == c {
+                    v.sqrt()
+                } else {
+                    v / tw.l[c * nf + c]
+                };
+            }
+        }
+        let inertial = params.iter().any(|p| !p.inertial.is_empty());
+        if inertial {
+            (self.conf.regressor)(&w.q_full, &x.qd, &k.qd, &mut tw.y);
+        }
+        if moving {
+            self.coupled_command(&tw.rate[stage], &mut tw.rate_c);
+        }
+        let (q0, v0, z0) = (0, nf * np, 2 * nf * np);
+        // Right-hand side of (D + A) K_v = R into the K_v block of kt.
+        for a in 0..nf {
+            let ja = tw.joint[a];
+            let row = &tw.dd[a * 3 * nf..(a + 1) * 3 * nf];
+            let out = &mut kt[v0 + a * np..v0 + (a + 1) * np];
+            for (j, o) in out.iter_mut().enumerate() {
+                *o = ja[2] * sx[z0 + a * np + j];
+            }
+            for bj in 0..nf {
+                let cq = if a == bj { ja[0] } else { 0.0 } - row[nf + bj];
+                let cv = if a == bj { ja[1] } else { 0.0 } - row[2 * nf + bj];
+                let (sq, sv) = (
+                    &sx[q0 + bj * np..q0 + (bj + 1) * np],
+                    &sx[v0 + bj * np..v0 + (bj + 1) * np],
+                );
+                for j in 0..np {
+                    out[j] += cq * sq[j] + cv * sv[j];
+                }
+            }
+            if moving {
+                let dq_dt = self.terms[a].gain * tw.rate_c[a];
+                for j in 0..np {
+                    out[j] += dq_dt * st[j];
+                }
+            }
+        }
+        // K_z: ż's tangent.
+        for a in 0..nf {
+            let ja = tw.joint[a];
+            for j in 0..np {
+                kt[z0 + a * np + j] = if self.terms[a].lugre.is_some() {
+                    ja[3] * sx[v0 + a * np + j] + ja[4] * sx[z0 + a * np + j]
+                } else {
+                    0.0
+                };
+            }
+        }
+        // ∂Q/∂θ and ∂ż/∂θ.
+        for (j, param) in params.iter().enumerate() {
+            if !param.inertial.is_empty() {
+                for a in 0..nf {
+                    let y = &tw.y[a * self.p.len()..(a + 1) * self.p.len()];
+                    let f: f64 = param.inertial.iter().map(|&(m, d)| y[m] * d).sum();
+                    kt[v0 + a * np + j] -= f;
+                }
+            }
+            for &c in &param.couplings {
+                let c = self.couplings[c];
+                kt[v0 + c.to * np + j] += self.terms[c.to].gain * tau[c.from];
+            }
+            for &(i, value) in &param.effects {
+                let (dq, dz) = self.effect_forcing(i, value, x, k, w);
+                kt[v0 + i * np + j] += dq;
+                kt[z0 + i * np + j] += dz;
+            }
+        }
+        // Solve (D + A) K_v = R (the rows of R are P-vectors).
+        for a in 0..nf {
+            for m in 0..a {
+                let l = tw.l[a * nf + m];
+                let (lo, hi) = kt.split_at_mut(v0 + a * np);
+                let src = &lo[v0 + m * np..v0 + (m + 1) * np];
+                for (o, s) in hi[..np].iter_mut().zip(src) {
+                    *o -= l * s;
+                }
+            }
+            let d = tw.l[a * nf + a];
+            for o in &mut kt[v0 + a * np..v0 + (a + 1) * np] {
+                *o /= d;
+            }
+        }
+        for a in (0..nf).rev() {
+            for m in a + 1..nf {
+                let l = tw.l[m * nf + a];
+                let (lo, hi) = kt.split_at_mut(v0 + m * np);
+                let src = &hi[..np];
+                for (o, s) in lo[v0 + a * np..v0 + (a + 1) * np].iter_mut().zip(src) {
+                    *o -= l * s;
+                }
+            }
+            let d = tw.l[a * nf + a];
+            for o in &mut kt[v0 + a * np..v0 + (a + 1) * np] {
+                *o /= d;
+            }
+        }
+        // K_q = S_v, and the output injection's −L1 S_q, −L2 S_q.
+        kt[q0..v0].copy_from_slice(&sx[v0..z0]);
+        if let Some((l1, l2)) = w.injection {
+            for e in 0..nf * np {
+                kt[q0 + e] -= l1 * sx[q0 + e];
+                kt[v0 + e] -= l2 * sx[q0 + e];
+            }
+        }
+    }
+
+    /// ∂Q_i/∂θ (the right-hand side of the velocity equation; the armature's −q̈_i) and
+    /// ∂ż_i/∂θ for value `value` of free joint `i`'s effects at state `x` (derivative `k`).
+    fn effect_forcing(
+        &self,
+        i: usize,
+        value: EffectValue,
+        x: &State,
+        k: &State,
+        w: &Scratch,
+    ) -> (f64, f64) {
+        use EffectValue as E;
+        let term = &self.terms[i];
+        let (q, v, z) = (x.q[i], x.qd[i], x.z[i]);
+        let below = w.sides.get(i).copied().flatten();
+        let b = self.bias_factor(i, q, below);
+        let sign = crate::effects::sign(v);
+        // The Stribeck curve's partials: ∂g/∂Fc = 1 − e, ∂g/∂Fs = e,
+        // ∂g/∂vs = (Fs − Fc) e 2v²/vs³, e = exp(−(v/vs)²).
+        let curve = |fc: f64, fs: f64, vs: f64| {
+            let e = (-(v / vs).powi(2)).exp();
+            [1.0 - e, e, (fs - fc) * e * 2.0 * v * v / (vs * vs * vs)]
+        };
+        match value {
+            E::Gain => (w.tau_c[i], 0.0),
+            E::Viscous => (-b * v, 0.0),
+            E::Coulomb => (-b * sign, 0.0),
+            E::Offset => (-1.0, 0.0),
+            E::StribeckFc | E::StribeckFs | E::StribeckVs => match &term.stribeck {
+                Some(s) => {
+                    let g = curve(s.fc, s.fs, s.vs);
+                    let n = [E::StribeckFc, E::StribeckFs, E::StribeckVs]
+                        .iter()
+                        .position(|&e| e == value)
+                        .unwrap_or(0);
+                    (-b * g[n] * sign, 0.0)
+                }
+                None => (0.0, 0.0),
+            },
+            E::Sigma0 | E::Sigma1 | E::Sigma2 | E::LuGreFc | E::LuGreFs | E::LuGreVs => {
+                let Some(l) = &term.lugre else {
+                    return (0.0, 0.0);
+                };
+                let g = l.g(v);
+                let zd = v - l.sigma0 * v.abs() * z / g;
+                // ż = v − σ0 |v| z / g(v): ∂ż/∂σ0 = −|v| z / g, ∂ż/∂g = σ0 |v| z / g².
+                let (dzd, df_extra) = match value {
+                    E::Sigma0 => (-v.abs() * z / g, z),
+                    E::Sigma1 => (0.0, zd),
+                    E::Sigma2 => (0.0, v),
+                    _ => {
+                        let dg = curve(l.fc, l.fs, l.vs);
+                        let n = match value {
+                            E::LuGreFc => 0,
+                            E::LuGreFs => 1,
+                            _ => 2,
+                        };
+                        (l.sigma0 * v.abs() * z / (g * g) * dg[n], 0.0)
+                    }
+                };
+                // F = σ0 z + σ1 ż + σ2 v.
+                (-b * (df_extra + l.sigma1 * dzd), dzd)
+            }
+            E::SpringStiffness => (-term.spring.map_or(0.0, |(_, qeq)| q - qeq), 0.0),
+            E::SpringRest => (term.spring.map_or(0.0, |(ks, _)| ks), 0.0),
+            E::BiasFactor => {
+                if term.bias.is_some_and(|(_, qeq)| below.unwrap_or(q < qeq)) {
+                    let (f, _) = self.friction_on_side(i, q, v, z, Some(false));
+                    (-f, 0.0)
+                } else {
+                    (0.0, 0.0)
+                }
+            }
+            // Through the switch only ([`PlantModel::rk4_events_tangent`]).
+            E::BiasRest => (0.0, 0.0),
+            E::Armature => (-k.qd[i], 0.0),
+        }
+    }
+}
