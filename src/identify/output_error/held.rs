@@ -248,7 +248,16 @@ pub(crate) fn rigid_body_make_up(
 /// direction of the statistics (its members undetermined), and every other parameter's
 /// standard error is that of the problem with the scale fixed.
 pub(crate) fn project_out(cols: &mut [Vec<f64>], v: &[f64], widths: &[f64]) {
-    let w: Vec<f64> = v.iter().zip(widths).map(|(a, b)| a / b).collect();
+    // A column of zeros (a value no sample sees: Fs_q5 with vs_q5 → 0, whose exact
+    // sensitivity is 0 where a difference quotient holds noise) neither adds to J v nor
+    // takes a share of the correction: ‖w‖² runs over the columns that do, so that J v = 0
+    // afterwards.
+    let w: Vec<f64> = v
+        .iter()
+        .zip(widths)
+        .zip(cols.iter())
+        .map(|((a, b), col)| if col.iter().any(|c| *c != 0.0) { a / b } else { 0.0 })
+        .collect();
     let ww: f64 = w.iter().map(|x| x * x).sum();
     if ww == 0.0 || !ww.is_finite() || cols.is_empty() {
         return;
@@ -263,7 +272,7 @@ pub(crate) fn project_out(cols: &mut [Vec<f64>], v: &[f64], widths: &[f64]) {
         }
     }
     for ((col, wi), width) in cols.iter_mut().zip(&w).zip(widths) {
-        if *wi != 0.0 && col.iter().any(|c| *c != 0.0) {
+        if *wi != 0.0 {
             let f = wi / (width * ww);
             for (c, s) in col.iter_mut().zip(&jv) {
                 *c -= s * f;

@@ -11,13 +11,47 @@ impl Problem {
     /// the residuals are simulated by RK4, and every fitted value has derivatives
     /// ([`Plant::sensitivity_parameter`]).
     pub(crate) fn sensitivities_apply(&self) -> bool {
-        self.options.jacobian == JacobianMethod::Sensitivities
-            && self.equation_error.is_none()
-            && self.options.integrator == Integrator::Rk4
+        self.simulates_sensitivities()
             && self
                 .names
                 .iter()
                 .all(|name| self.plant.sensitivity_parameter(name, self.conf).is_ok())
+    }
+
+    /// The method asks for sensitivities and the residuals are simulated by RK4.
+    fn simulates_sensitivities(&self) -> bool {
+        self.options.jacobian == JacobianMethod::Sensitivities
+            && self.equation_error.is_none()
+            && self.options.integrator == Integrator::Rk4
+    }
+
+    /// ∂r/∂θ for the values `names` of `plant` (any values it holds: fitted or held; one
+    /// column of length m each), every file simulated once with its sensitivities; None
+    /// where they are not available ([`Problem::sensitivity_columns`]).
+    pub(crate) fn value_sensitivities(&self, plant: &Plant, names: &[String]) -> Option<Vec<Vec<f64>>> {
+        if !self.simulates_sensitivities() {
+            return None;
+        }
+        let params: Vec<PlantParameter> = names
+            .iter()
+            .map(|name| plant.sensitivity_parameter(name, self.conf).ok())
+            .collect::<Option<_>>()?;
+        let per_file: Vec<Vec<Vec<f64>>> = self
+            .records
+            .par_iter()
+            .enumerate()
+            .map(|(ri, r)| self.record_sensitivities(plant, ri, r, &params))
+            .collect::<Option<_>>()?;
+        let mut dr_dp = vec![vec![0.0; self.m]; names.len()];
+        let mut at = 0;
+        for cols in &per_file {
+            let len = cols.first().map_or(0, Vec::len);
+            for (k, col) in cols.iter().enumerate() {
+                dr_dp[k][at..at + len].copy_from_slice(col);
+            }
+            at += len;
+        }
+        Some(dr_dp)
     }
 
     /// ∂r/∂x at `stencil`'s point by sensitivities, or None where they are not available
@@ -30,17 +64,9 @@ impl Problem {
     /// differences of that map with the stencil's steps (no simulation; exact on the
     /// affine pieces).
     pub(crate) fn sensitivity_columns(&self, stencil: &Stencil) -> Option<Vec<Vec<f64>>> {
-        if !self.sensitivities_apply() {
-            return None;
-        }
         let n = self.names.len();
         let p = (stencil.p_of)(stencil.x);
-        let plant = self.plant_at(&p);
-        let params: Vec<PlantParameter> = self
-            .names
-            .iter()
-            .map(|name| plant.sensitivity_parameter(name, self.conf).ok())
-            .collect::<Option<_>>()?;
+        let dr_dp = self.value_sensitivities(&self.plant_at(&p), &self.names)?;
         // ∂p_k/∂x_i, row i.
         let dp_dx: Vec<Vec<f64>> = (0..n)
             .map(|i| {
@@ -53,23 +79,7 @@ impl Problem {
                     .collect()
             })
             .collect();
-        // ∂r/∂p per file, stacked in the residuals' order.
-        let per_file: Vec<Vec<Vec<f64>>> = self
-            .records
-            .par_iter()
-            .enumerate()
-            .map(|(ri, r)| self.record_sensitivities(&plant, ri, r, &params))
-            .collect::<Option<_>>()?;
         let m = self.m;
-        let mut dr_dp = vec![vec![0.0; m]; n];
-        let mut at = 0;
-        for cols in &per_file {
-            let len = cols.first().map_or(0, Vec::len);
-            for (k, col) in cols.iter().enumerate() {
-                dr_dp[k][at..at + len].copy_from_slice(col);
-            }
-            at += len;
-        }
         Some(
             (0..n)
                 .map(|i| {

@@ -174,11 +174,16 @@ impl Problem {
         statistics_at(self, p, at, |ties| self.held_columns(p, ties, &r))
     }
 
-    /// ∂r/∂h at fitted values `p` for every held value named in `held`: central
-    /// differences of the plant's value ([`held_step`]), held values in parallel; `r0` the
-    /// residuals at `p` (for a one-sided difference where a side fails, [`difference_column`]).
+    /// ∂r/∂h at fitted values `p` for every held value named in `held`: by sensitivities
+    /// where the fit's Jacobian is ([`Problem::value_sensitivities`]), so that held and
+    /// fitted columns are the same derivative; else central differences of the plant's
+    /// value ([`held_step`]), held values in parallel; `r0` the residuals at `p` (for a
+    /// one-sided difference where a side fails, [`difference_column`]).
     pub(crate) fn held_columns(&self, p: &[f64], held: &[String], r0: &[f64]) -> Vec<Vec<f64>> {
         let plant = self.plant_at(p);
+        if let Some(cols) = self.value_sensitivities(&plant, held) {
+            return cols;
+        }
         held.par_iter()
             .map(|name| {
                 let h = plant.parameters[name];
@@ -419,6 +424,23 @@ pub(crate) fn statistics_at(
         free: at.free,
         held_ties: space.held_ties,
     };
+    // A column the data do not see — its change over the parameter's bounds below
+    // EXACT_SYMMETRY of the best-seen column's — is zero: whatever it holds is rounding
+    // (an exact sensitivity: k1 of the Freedom 6S, Fs_q5 with vs_q5 → 0, 2e-16 of the
+    // largest) or a difference quotient's noise (1e-12), and normalised to unit length it
+    // would pass for a direction of its own and swamp the relative changes that tell
+    // which parameters a null direction moves ([`moved_by_null_directions`]).
+    let seen: Vec<f64> = cols
+        .iter()
+        .zip(space.lower.iter().zip(space.upper))
+        .map(|(c, (lo, hi))| c.iter().map(|x| x * x).sum::<f64>().sqrt() * (hi - lo))
+        .collect();
+    let best = seen.iter().cloned().filter(|s| s.is_finite()).fold(0.0, f64::max);
+    for (c, s) in cols.iter_mut().zip(&seen) {
+        if *s < EXACT_SYMMETRY * best {
+            c.fill(0.0);
+        }
+    }
     let mut held = at.held;
     scale.make_up_held_ties(&cols, &mut held);
     scale.project_out_of(&mut cols, p, &held, tie_columns);
