@@ -175,7 +175,7 @@ pub struct OutputErrorArgs {
     #[arg(long, default_value_t = 100)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub max_iter: usize,
-    /// Jacobian of the simulated positions: sensitivities (integrated beside the state: one simulation per file) or differences (one per file and parameter). Default: sensitivities
+    /// Jacobian of the simulated positions: sensitivities (integrated beside the state: one augmented simulation per file), differences (one simulation per file and parameter), or auto (sensitivities from 8 fitted values). Default: auto
     ///
     /// Where sensitivities are not available (the etdrk4 integrator, user-defined effects, backlash) differences are used.
     #[arg(long)]
@@ -1014,6 +1014,7 @@ mod method_tests {
             None => "none".into(),
         };
         let initial = |e: bool| if e { "estimate" } else { "measured" };
+        assert_eq!(c.jacobian, i.jacobian, "--jacobian states one default");
         for stated in [
             format!(
                 "Default: {} for the coupled method, {} for the isolated",
@@ -1043,6 +1044,11 @@ mod method_tests {
                 "Default: {} for the coupled method, {} for the isolated",
                 initial(c.estimate_initial_positions),
                 initial(i.estimate_initial_positions)
+            ),
+            format!(
+                "or auto (sensitivities from {} fitted values). Default: {}",
+                lockstep::identify::output_error::SENSITIVITIES_FROM,
+                c.jacobian
             ),
         ] {
             assert!(help.contains(&stated), "not in identify --help: {stated}");

@@ -256,7 +256,13 @@ pub(crate) fn project_out(cols: &mut [Vec<f64>], v: &[f64], widths: &[f64]) {
         .iter()
         .zip(widths)
         .zip(cols.iter())
-        .map(|((a, b), col)| if col.iter().any(|c| *c != 0.0) { a / b } else { 0.0 })
+        .map(|((a, b), col)| {
+            if col.iter().any(|c| *c != 0.0) {
+                a / b
+            } else {
+                0.0
+            }
+        })
         .collect();
     let ww: f64 = w.iter().map(|x| x * x).sum();
     if ww == 0.0 || !ww.is_finite() || cols.is_empty() {

@@ -37,16 +37,27 @@ impl TimeWeighting {
     }
 }
 
+/// Fitted values from which [`JacobianMethod::Auto`] takes sensitivities. Measured (one
+/// simulation of a 2 s file at 1/12000 s = 1; `cargo bench --bench sensitivities` and the
+/// identification record): a sensitivity run costs a fixed 2.4 (c4), 2.7 (k1), 4.2 (k3),
+/// 5.5 (k5) simulations — the generated state derivatives at every stage — plus 0.04–0.11
+/// per value (k5: 6.2 at 8 values, 8.0 at 32, 12.6 at 64), where forward differences cost
+/// one simulation per value, spread over the cores.
+pub const SENSITIVITIES_FROM: usize = 8;
+
 /// How the Jacobian of the simulated residuals is formed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum JacobianMethod {
+    /// Sensitivities for a fit of at least [`SENSITIVITIES_FROM`] values, differences for
+    /// fewer (where a sensitivity run's fixed cost exceeds a few simulations).
+    #[default]
+    Auto,
     /// Forward sensitivities: every file simulated once with S = ∂x/∂θ stepped beside the
     /// state ([`crate::simulation::PlantModel::predict_at_with_sensitivities`]), the exact
     /// derivative of the discrete simulation; finite differences where they are not
     /// available (the ETDRK4 integrator, user-defined effects, backlash, the equation
     /// error's residuals).
-    #[default]
     Sensitivities,
     /// Forward finite differences, one simulation of every file per fitted parameter
     /// ([`OutputErrorOptions::fd_step`]).
@@ -57,10 +68,11 @@ impl std::str::FromStr for JacobianMethod {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
+            "auto" => Ok(JacobianMethod::Auto),
             "sensitivities" => Ok(JacobianMethod::Sensitivities),
             "differences" => Ok(JacobianMethod::Differences),
             _ => Err(format!(
-                "expected `sensitivities` or `differences`, got `{s}`"
+                "expected `auto`, `sensitivities` or `differences`, got `{s}`"
             )),
         }
     }
@@ -69,6 +81,7 @@ impl std::str::FromStr for JacobianMethod {
 impl std::fmt::Display for JacobianMethod {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
+            JacobianMethod::Auto => "auto",
             JacobianMethod::Sensitivities => "sensitivities",
             JacobianMethod::Differences => "differences",
         })
@@ -310,7 +323,7 @@ impl OutputErrorOptions {
             starts: 1,
             seed: 1,
             fd_step: 1e-6,
-            jacobian: JacobianMethod::Sensitivities,
+            jacobian: JacobianMethod::Auto,
             jacobian_refresh: 1,
             horizons: vec![0.05, 0.1, 0.25, 0.5, 1.0],
             segments: Vec::new(),

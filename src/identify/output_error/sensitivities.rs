@@ -1,5 +1,5 @@
 //! The Jacobian of a configuration's output error by forward sensitivities
-//! ([`JacobianMethod::Sensitivities`]): every file simulated once with S = ∂x/∂θ stepped
+//! ([`JacobianMethod::Sensitivities`], [`JacobianMethod::Auto`]): every file simulated once with S = ∂x/∂θ stepped
 //! beside the state ([`crate::simulation::PlantModel::predict_at_with_sensitivities`]), the
 //! residuals' columns −√w_k λ_a ∂q̂_a,k/∂θ, and the chain rule to the solver's coordinates.
 
@@ -7,29 +7,36 @@ use super::*;
 use crate::simulation::PlantParameter;
 
 impl Problem {
-    /// Whether this problem's Jacobian is taken by sensitivities: the method asks for them,
-    /// the residuals are simulated by RK4, and every fitted value has derivatives
+    /// Whether this problem's Jacobian is taken by sensitivities: the method asks for them
+    /// ([`JacobianMethod::Auto`]: for [`SENSITIVITIES_FROM`] values or more), the residuals
+    /// are simulated by RK4, and every fitted value has derivatives
     /// ([`Plant::sensitivity_parameter`]).
     pub(crate) fn sensitivities_apply(&self) -> bool {
-        self.simulates_sensitivities()
+        let asked = match self.options.jacobian {
+            JacobianMethod::Auto => self.names.len() >= SENSITIVITIES_FROM,
+            JacobianMethod::Sensitivities => true,
+            JacobianMethod::Differences => false,
+        };
+        asked
+            && self.equation_error.is_none()
+            && self.options.integrator == Integrator::Rk4
             && self
                 .names
                 .iter()
                 .all(|name| self.plant.sensitivity_parameter(name, self.conf).is_ok())
     }
 
-    /// The method asks for sensitivities and the residuals are simulated by RK4.
-    fn simulates_sensitivities(&self) -> bool {
-        self.options.jacobian == JacobianMethod::Sensitivities
-            && self.equation_error.is_none()
-            && self.options.integrator == Integrator::Rk4
-    }
-
     /// ∂r/∂θ for the values `names` of `plant` (any values it holds: fitted or held; one
     /// column of length m each), every file simulated once with its sensitivities; None
-    /// where they are not available ([`Problem::sensitivity_columns`]).
-    pub(crate) fn value_sensitivities(&self, plant: &Plant, names: &[String]) -> Option<Vec<Vec<f64>>> {
-        if !self.simulates_sensitivities() {
+    /// where they are not available or the fit's Jacobian is not taken by them
+    /// ([`Problem::sensitivities_apply`]), so that held and fitted columns are the same
+    /// derivative.
+    pub(crate) fn value_sensitivities(
+        &self,
+        plant: &Plant,
+        names: &[String],
+    ) -> Option<Vec<Vec<f64>>> {
+        if !self.sensitivities_apply() {
             return None;
         }
         let params: Vec<PlantParameter> = names

@@ -435,7 +435,11 @@ pub(crate) fn statistics_at(
         .zip(space.lower.iter().zip(space.upper))
         .map(|(c, (lo, hi))| c.iter().map(|x| x * x).sum::<f64>().sqrt() * (hi - lo))
         .collect();
-    let best = seen.iter().cloned().filter(|s| s.is_finite()).fold(0.0, f64::max);
+    let best = seen
+        .iter()
+        .cloned()
+        .filter(|s| s.is_finite())
+        .fold(0.0, f64::max);
     for (c, s) in cols.iter_mut().zip(&seen) {
         if *s < EXACT_SYMMETRY * best {
             c.fill(0.0);
