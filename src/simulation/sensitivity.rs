@@ -538,56 +538,48 @@ impl PlantModel {
                     st[j] = dt0[j] + cd * dh[j];
                 }
             };
-        // Stage 1.
+        let [kt0, kt1, kt2, kt3] = &mut kt;
         stage_tangent(&mut sx, &mut st, 0.0, 0.0, None);
-        self.stage_with_tangent(
-            (time[0], x, &tau[0]),
-            0,
-            (&sx, &st, moving),
-            params,
-            w,
-            tw,
-            &mut k[0],
-            &mut kt[0],
-        );
+        let ctx = (&sx[..], &st[..], moving);
+        self.stage_with_tangent((time[0], x, &tau[0]), 0, ctx, params, w, tw, &mut k[0], kt0);
         x.axpy_into(h / 2.0, &k[0], &mut stage);
-        stage_tangent(&mut sx, &mut st, h / 2.0, 0.5, Some((&kt[0], &k[0])));
-        let (k0, rest) = kt.split_at_mut(1);
+        stage_tangent(&mut sx, &mut st, h / 2.0, 0.5, Some((kt0, &k[0])));
+        let ctx = (&sx[..], &st[..], moving);
         self.stage_with_tangent(
             (time[1], &stage, &tau[1]),
             1,
-            (&sx, &st, moving),
+            ctx,
             params,
             w,
             tw,
             &mut k[1],
-            &mut rest[0],
+            kt1,
         );
         x.axpy_into(h / 2.0, &k[1], &mut stage);
-        stage_tangent(&mut sx, &mut st, h / 2.0, 0.5, Some((&rest[0], &k[1])));
-        let (k1, rest2) = rest.split_at_mut(1);
+        stage_tangent(&mut sx, &mut st, h / 2.0, 0.5, Some((kt1, &k[1])));
+        let ctx = (&sx[..], &st[..], moving);
         self.stage_with_tangent(
             (time[1], &stage, &tau[1]),
             1,
-            (&sx, &st, moving),
+            ctx,
             params,
             w,
             tw,
             &mut k[2],
-            &mut rest2[0],
+            kt2,
         );
         x.axpy_into(h, &k[2], &mut stage);
-        stage_tangent(&mut sx, &mut st, h, 1.0, Some((&rest2[0], &k[2])));
-        let (k2, k3) = rest2.split_at_mut(1);
+        stage_tangent(&mut sx, &mut st, h, 1.0, Some((kt2, &k[2])));
+        let ctx = (&sx[..], &st[..], moving);
         self.stage_with_tangent(
             (time[2], &stage, &tau[2]),
             2,
-            (&sx, &st, moving),
+            ctx,
             params,
             w,
             tw,
             &mut k[3],
-            &mut k3[0],
+            kt3,
         );
         let c = h / 6.0;
         let comb = |y: &mut [f64], a: &[f64], b: &[f64], cc: &[f64], d: &[f64]| {
@@ -595,11 +587,7 @@ impl PlantModel {
                 y[i] += c * (a[i] + 2.0 * b[i] + 2.0 * cc[i] + d[i]);
             }
         };
-        // The tangent first (it reads the stage derivatives k, not x).
-        let (a, b, cc, d) = (&k0[0], &k1[0], &k2[0], &k3[0]);
-        for e in 0..s.len() {
-            s[e] += c * (a[e] + 2.0 * b[e] + 2.0 * cc[e] + d[e]);
-        }
+        comb(s, kt0, kt1, kt2, kt3);
         if moving {
             let sum = |f: fn(&State) -> &Vec<f64>| -> Vec<f64> {
                 (0..self.nf())
