@@ -7,7 +7,10 @@
 //! samples would take most of an hour):
 //! - `truth`: the plant that made the data (nothing missing; the step check refines the
 //!   default 1/6000 s to 1/12000 s on the wrist);
-//! - `coupling missing`: the same plant without the 5 → 4 tendon coupling.
+//! - `coupling missing`: the same plant without the 5 → 4 tendon coupling;
+//! - `coupling missing, bounds`: the same with bounds (±50 %) on every effect value of k1's
+//!   joints, so that each confirming fit refits those values beside the candidate (issue
+//!   53: the case the target is for; the fits' Jacobians by sensitivities from 8 values).
 //!
 //! `cargo bench --bench diagnosis` prints the wall time, the simulations run and the
 //! verdict of each.
@@ -98,7 +101,25 @@ fn output_space(truth: &lockstep::plant::Plant, dir: &std::path::Path) {
     missing
         .effects
         .retain(|e| !(e.kind == EffectKind::InputCoupling && e.joint == 4));
-    for (name, plant) in [("truth", truth), ("coupling missing", &missing)] {
+    let mut bounded = missing.clone();
+    let conf_free = conf.free;
+    let values: Vec<String> = bounded
+        .effects
+        .iter()
+        .filter(|e| e.acts_with(conf_free))
+        .flat_map(|e| e.parameter_names(truth.model.joints))
+        .collect();
+    for n in values {
+        let v = bounded.parameters[&n];
+        bounded
+            .bounds
+            .insert(n, (v - 0.5 * v.abs(), v + 0.5 * v.abs()));
+    }
+    for (name, plant) in [
+        ("truth", truth),
+        ("coupling missing", &missing),
+        ("coupling missing, bounds", &bounded),
+    ] {
         let started = Instant::now();
         let d = diagnose_output(
             plant,

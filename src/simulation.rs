@@ -996,17 +996,8 @@ impl PlantModel {
                     b: &State,
                     (ta, tb, t): (f64, f64, f64)| {
             let hh = tb - ta;
-            let s = if hh > 0.0 {
-                ((t - ta) / hh).clamp(0.0, 1.0)
-            } else {
-                1.0
-            };
-            let (h00, h10, h01, h11) = (
-                2.0 * s * s * s - 3.0 * s * s + 1.0,
-                s * s * s - 2.0 * s * s + s,
-                -2.0 * s * s * s + 3.0 * s * s,
-                s * s * s - s * s,
-            );
+            let s = step_fraction(ta, tb, t);
+            let [h00, h10, h01, h11] = hermite_weights(s);
             for i in 0..nf {
                 let q = h00 * a.q[i] + h10 * hh * a.qd[i] + h01 * b.q[i] + h11 * hh * b.qd[i];
                 let qd = a.qd[i] + s * (b.qd[i] - a.qd[i]);
@@ -1050,6 +1041,39 @@ impl PlantModel {
     }
 }
 
+/// The cubic Hermite basis at s ∈ [0, 1]: (h00, h10, h01, h11), the weights of q(0),
+/// h q̇(0), q(1), h q̇(1).
+pub(crate) fn hermite_weights(s: f64) -> [f64; 4] {
+    [
+        2.0 * s * s * s - 3.0 * s * s + 1.0,
+        s * s * s - 2.0 * s * s + s,
+        -2.0 * s * s * s + 3.0 * s * s,
+        s * s * s - s * s,
+    ]
+}
+
+/// d/ds of [`hermite_weights`].
+pub(crate) fn hermite_slopes(s: f64) -> [f64; 4] {
+    let s2 = s * s;
+    [
+        6.0 * s2 - 6.0 * s,
+        3.0 * s2 - 4.0 * s + 1.0,
+        -6.0 * s2 + 6.0 * s,
+        3.0 * s2 - 2.0 * s,
+    ]
+}
+
+/// Where output time `t` lies in the step from `ta` to `tb`: its fraction s ∈ [0, 1] (1 for
+/// a step of no length).
+pub(crate) fn step_fraction(ta: f64, tb: f64, t: f64) -> f64 {
+    let hh = tb - ta;
+    if hh > 0.0 {
+        ((t - ta) / hh).clamp(0.0, 1.0)
+    } else {
+        1.0
+    }
+}
+
 /// Fraction θ ∈ [0, 1] of a step of length `h` from `a` to `b` at which joint `i` reaches
 /// `qeq`, on the cubic Hermite interpolant of its position (q and q̇ at both ends); the ends
 /// lie on opposite sides of `qeq`. Bisection to 1e-12 on the bracket, which the interpolant
@@ -1057,12 +1081,8 @@ impl PlantModel {
 fn hermite_crossing(a: &State, b: &State, i: usize, h: f64, qeq: f64) -> f64 {
     let (q0, q1, m0, m1) = (a.q[i], b.q[i], h * a.qd[i], h * b.qd[i]);
     let f = |s: f64| {
-        let (s2, s3) = (s * s, s * s * s);
-        (2.0 * s3 - 3.0 * s2 + 1.0) * q0
-            + (s3 - 2.0 * s2 + s) * m0
-            + (-2.0 * s3 + 3.0 * s2) * q1
-            + (s3 - s2) * m1
-            - qeq
+        let [h00, h10, h01, h11] = hermite_weights(s);
+        h00 * q0 + h10 * m0 + h01 * q1 + h11 * m1 - qeq
     };
     let (mut lo, mut hi) = (0.0, 1.0);
     let below_at_lo = f(0.0) < 0.0;

@@ -32,14 +32,24 @@ fn coupled_k3(t: &[f64], tau: &[Vec<f64>], h: f64) -> (Plant, PlantModel) {
     (p, s)
 }
 
-/// Table 4.7's k3 inputs for `secs` at 100 Hz: sample times and torques per free joint.
-fn inputs(secs: f64) -> (Vec<f64>, Vec<Vec<f64>>) {
-    let free = [2, 3, 4, 5];
+/// Table 4.7's inputs of the free joints `free` for `secs` at 100 Hz: sample times and
+/// torques per free joint.
+fn inputs(free: &[usize], secs: f64) -> (Vec<f64>, Vec<Vec<f64>>) {
     let model = generated::model("freedom6s").unwrap();
     let ex = lockstep::excitation::Excitations::bundled(model).unwrap();
     let test = ex.table("4.7").unwrap().test(None).unwrap();
-    let (t, u, _) = test.sample(6, &free, secs, 100.0);
+    let (t, u, _) = test.sample(6, free, secs, 100.0);
     (t, free.iter().map(|&j| u[j].clone()).collect())
+}
+
+/// The torques `tau` sampled at 100 Hz from t = 0, held by `hold`.
+fn input(tau: &[Vec<f64>], hold: Hold) -> InputSignal<'_> {
+    InputSignal {
+        t0: 0.0,
+        dt: 0.01,
+        tau,
+        hold,
+    }
 }
 
 /// Stacked outputs (q then q̇ of every free joint at every time) of `s` on `tau`.
@@ -49,12 +59,7 @@ fn outputs(s: &PlantModel, t: &[f64], tau: &[Vec<f64>], h: f64) -> Vec<f64> {
 
 /// [`outputs`], None where the simulation diverges.
 fn try_outputs(s: &PlantModel, t: &[f64], tau: &[Vec<f64>], h: f64) -> Option<Vec<f64>> {
-    let input = InputSignal {
-        t0: 0.0,
-        dt: 0.01,
-        tau,
-        hold: Hold::Linear,
-    };
+    let input = input(tau, Hold::Linear);
     let tr = s
         .predict_at(State::at_rest(vec![0.0; 4]), h, &input, None, t, 100.0)
         .ok()?;
@@ -63,7 +68,7 @@ fn try_outputs(s: &PlantModel, t: &[f64], tau: &[Vec<f64>], h: f64) -> Option<Ve
 
 #[test]
 fn sensitivities_equal_central_differences_of_the_same_simulation_k3() {
-    let (t, tau) = inputs(3.0);
+    let (t, tau) = inputs(&[2, 3, 4, 5], 3.0);
     let h = 1.0 / 6000.0;
     let (plant, s) = coupled_k3(&t, &tau, h);
     let conf = s.conf;
@@ -96,12 +101,7 @@ fn sensitivities_equal_central_differences_of_the_same_simulation_k3() {
         .iter()
         .map(|n| plant.sensitivity_parameter(n, conf).unwrap())
         .collect();
-    let input = InputSignal {
-        t0: 0.0,
-        dt: 0.01,
-        tau: &tau,
-        hold: Hold::Linear,
-    };
+    let input = input(&tau, Hold::Linear);
     let sens = s
         .predict_at_with_sensitivities(
             (State::at_rest(vec![0.0; 4]), None),
@@ -221,22 +221,12 @@ fn a_fits_jacobian_by_sensitivities_equals_central_differences_of_its_residuals_
     let mut plant = Plant::load(&path).unwrap();
     plant.parameters.insert("I4_33".into(), 1.7449e-4);
     let conf = plant.model.configuration("k1").unwrap();
-    let free = [4, 5];
-    let model = generated::model("freedom6s").unwrap();
-    let ex = lockstep::excitation::Excitations::bundled(model).unwrap();
-    let test = ex.table("4.7").unwrap().test(None).unwrap();
-    let (t, u, _) = test.sample(6, &free, 4.0, 100.0);
-    let tau: Vec<Vec<f64>> = free.iter().map(|&j| u[j].clone()).collect();
+    let (t, tau) = inputs(&[4, 5], 4.0);
     let sim = plant
         .simulator("k1", &[0.0; 6], ConsistencyPolicy::Refuse)
         .unwrap()
         .model;
-    let input = InputSignal {
-        t0: 0.0,
-        dt: 0.01,
-        tau: &tau,
-        hold: Hold::Zoh,
-    };
+    let input = input(&tau, Hold::Zoh);
     let q = sim
         .predict_at(
             State::at_rest(vec![0.0; 2]),

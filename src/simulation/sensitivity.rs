@@ -263,17 +263,8 @@ impl PlantModel {
                     (b, sb): (&State, &[f64]),
                     (ta, tb, t): (f64, f64, f64)| {
             let hh = tb - ta;
-            let s = if hh > 0.0 {
-                ((t - ta) / hh).clamp(0.0, 1.0)
-            } else {
-                1.0
-            };
-            let (h00, h10, h01, h11) = (
-                2.0 * s * s * s - 3.0 * s * s + 1.0,
-                s * s * s - 2.0 * s * s + s,
-                -2.0 * s * s * s + 3.0 * s * s,
-                s * s * s - s * s,
-            );
+            let s = step_fraction(ta, tb, t);
+            let [h00, h10, h01, h11] = hermite_weights(s);
             let tr = &mut out.trajectory;
             for i in 0..nf {
                 tr.q[i].push(h00 * a.q[i] + h10 * hh * a.qd[i] + h01 * b.q[i] + h11 * hh * b.qd[i]);
@@ -419,18 +410,8 @@ impl PlantModel {
             let i = first_joint;
             let nf = self.nf();
             let th = first;
-            let (h00, h10, h01, h11) = (
-                2.0 * th.powi(3) - 3.0 * th * th + 1.0,
-                th.powi(3) - 2.0 * th * th + th,
-                -2.0 * th.powi(3) + 3.0 * th * th,
-                th.powi(3) - th * th,
-            );
-            let (d00, d10, d01, d11) = (
-                6.0 * th * th - 6.0 * th,
-                3.0 * th * th - 4.0 * th + 1.0,
-                -6.0 * th * th + 6.0 * th,
-                3.0 * th * th - 2.0 * th,
-            );
+            let [h00, h10, h01, h11] = hermite_weights(th);
+            let [d00, d10, d01, d11] = hermite_slopes(th);
             let slope =
                 d00 * start.q[i] + d10 * rest * start.qd[i] + d01 * x.q[i] + d11 * rest * x.qd[i];
             let (rq, rv) = (i * np, (nf + i) * np);
@@ -538,49 +519,33 @@ impl PlantModel {
                     st[j] = dt0[j] + cd * dh[j];
                 }
             };
-        let [kt0, kt1, kt2, kt3] = &mut kt;
-        stage_tangent(&mut sx, &mut st, 0.0, 0.0, None);
-        let ctx = (&sx[..], &st[..], moving);
-        self.stage_with_tangent((time[0], x, &tau[0]), 0, ctx, params, w, tw, &mut k[0], kt0);
-        x.axpy_into(h / 2.0, &k[0], &mut stage);
-        stage_tangent(&mut sx, &mut st, h / 2.0, 0.5, Some((kt0, &k[0])));
-        let ctx = (&sx[..], &st[..], moving);
-        self.stage_with_tangent(
-            (time[1], &stage, &tau[1]),
-            1,
-            ctx,
-            params,
-            w,
-            tw,
-            &mut k[1],
-            kt1,
-        );
-        x.axpy_into(h / 2.0, &k[1], &mut stage);
-        stage_tangent(&mut sx, &mut st, h / 2.0, 0.5, Some((kt1, &k[1])));
-        let ctx = (&sx[..], &st[..], moving);
-        self.stage_with_tangent(
-            (time[1], &stage, &tau[1]),
-            1,
-            ctx,
-            params,
-            w,
-            tw,
-            &mut k[2],
-            kt2,
-        );
-        x.axpy_into(h, &k[2], &mut stage);
-        stage_tangent(&mut sx, &mut st, h, 1.0, Some((kt2, &k[2])));
-        let ctx = (&sx[..], &st[..], moving);
-        self.stage_with_tangent(
-            (time[2], &stage, &tau[2]),
-            2,
-            ctx,
-            params,
-            w,
-            tw,
-            &mut k[3],
-            kt3,
-        );
+        // The stages: state x + c_i h k_{i−1} at time index T_i, as RK4 takes them.
+        const C: [f64; 4] = [0.0, 0.5, 0.5, 1.0];
+        const T: [usize; 4] = [0, 1, 1, 2];
+        for i in 0..4 {
+            let (done, todo) = kt.split_at_mut(i);
+            let (k_done, k_todo) = k.split_at_mut(i);
+            let at = if i == 0 {
+                stage_tangent(&mut sx, &mut st, 0.0, 0.0, None);
+                &*x
+            } else {
+                x.axpy_into(C[i] * h, &k_done[i - 1], &mut stage);
+                let previous = Some((&done[i - 1][..], &k_done[i - 1]));
+                stage_tangent(&mut sx, &mut st, C[i] * h, C[i], previous);
+                &stage
+            };
+            self.stage_with_tangent(
+                (time[T[i]], at, &tau[T[i]]),
+                T[i],
+                (&sx, &st, moving),
+                params,
+                w,
+                tw,
+                &mut k_todo[0],
+                &mut todo[0],
+            );
+        }
+        let [kt0, kt1, kt2, kt3] = &kt;
         let c = h / 6.0;
         let comb = |y: &mut [f64], a: &[f64], b: &[f64], cc: &[f64], d: &[f64]| {
             for i in 0..y.len() {
