@@ -61,7 +61,9 @@ fn main() {
     if !std::env::args().any(|a| a == "torque") {
         output_space(&truth, dir.path());
     }
-    torque_space(&truth, dir.path());
+    if !std::env::args().any(|a| a == "bounds") {
+        torque_space(&truth, dir.path());
+    }
 }
 
 /// The output-space diagnosis of the truth on k5 data with a cogging it lacks.
@@ -115,11 +117,16 @@ fn output_space(truth: &lockstep::plant::Plant, dir: &std::path::Path) {
             .bounds
             .insert(n, (v - 0.5 * v.abs(), v + 0.5 * v.abs()));
     }
+    // `cargo bench --bench diagnosis -- bounds`: the bounded case alone.
+    let only_bounds = std::env::args().any(|a| a == "bounds");
     for (name, plant) in [
         ("truth", truth),
         ("coupling missing", &missing),
         ("coupling missing, bounds", &bounded),
     ] {
+        if only_bounds && !name.ends_with("bounds") {
+            continue;
+        }
         let started = Instant::now();
         let d = diagnose_output(
             plant,

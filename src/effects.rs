@@ -212,13 +212,13 @@ impl EffectKind {
             EffectKind::Spring => Some(vec![q - nonlinear[0]]),
             EffectKind::Stribeck => {
                 let vs = nonlinear[0];
-                let e = (-(qd / vs).powi(2)).exp();
+                let e = crate::simulation::stribeck_decay(qd, vs);
                 let s = sign(qd);
                 Some(vec![s * (1.0 - e), s * e])
             }
             EffectKind::Lugre => {
                 let vs = nonlinear[0];
-                let e = (-(qd / vs).powi(2)).exp();
+                let e = crate::simulation::stribeck_decay(qd, vs);
                 let s = sign(qd);
                 Some(vec![qd, s * (1.0 - e), s * e])
             }

@@ -210,7 +210,8 @@ fn sensitivities_equal_central_differences_of_the_same_simulation_k3() {
 /// coupled plant (both tendon couplings, LuGre with an Fs ≥ Fc pair, springs, gains, two
 /// inertial symbols of the last link), one 4 s file that starts moving (LuGre's deflections in steady sliding
 /// at the initial velocities, so the start moves with σ0, Fc, Fs, vs), with the cost's
-/// weights (the first 100 samples skipped) and the joint of interest's λ = 50.
+/// weights (the first 100 samples skipped) and the joint of interest's λ = 50; the whole
+/// files and a prediction-error stage (output injection at ω = 30 rad/s).
 #[test]
 fn a_fits_jacobian_by_sensitivities_equals_central_differences_of_its_residuals_k1() {
     use lockstep::identify::output_error::{
@@ -299,45 +300,54 @@ fn a_fits_jacobian_by_sensitivities_equals_central_differences_of_its_residuals_
     );
     let p: Vec<f64> = names.iter().map(|n| plant.parameters[n]).collect();
     let x = by_sensitivities.to_scaled(&p);
-    let r0 = by_sensitivities.residuals(&p).unwrap();
-    let columns = |pr: &Problem, h: f64| {
-        let steps: Vec<f64> = x
-            .iter()
-            .map(|&u| if u + h > 1.0 { -h } else { h })
-            .collect();
-        let p_of = |y: &[f64]| pr.to_physical(y);
-        pr.jacobian_columns(&Stencil {
-            x: &x,
-            r0: &r0,
-            steps: &steps,
-            p_of: &p_of,
-            central: true,
-        })
-    };
-    let got = columns(&by_sensitivities, 1e-6);
-    let references: Vec<Vec<Vec<f64>>> = [1e-3, 1e-4, 1e-5, 1e-6]
-        .iter()
-        .map(|&h| columns(&by_differences, h))
-        .collect();
-    for (i, name) in names.iter().enumerate() {
-        let best = references
-            .iter()
-            .map(|fd| {
-                let norm = fd[i].iter().map(|v| v * v).sum::<f64>().sqrt();
-                let diff = got[i]
-                    .iter()
-                    .zip(&fd[i])
-                    .map(|(a, b)| (a - b).powi(2))
-                    .sum::<f64>()
-                    .sqrt();
-                assert!(norm > 0.0, "{name} does not move the residuals");
-                diff / norm
+    // The whole files, and a prediction-error stage (the output injection at ω = 30 rad/s).
+    for (by_sensitivities, by_differences) in [
+        (by_sensitivities.clone(), by_differences.clone()),
+        (
+            by_sensitivities.predictor(30.0),
+            by_differences.predictor(30.0),
+        ),
+    ] {
+        let r0 = by_sensitivities.residuals(&p).unwrap();
+        let columns = |pr: &Problem, h: f64| {
+            let steps: Vec<f64> = x
+                .iter()
+                .map(|&u| if u + h > 1.0 { -h } else { h })
+                .collect();
+            let p_of = |y: &[f64]| pr.to_physical(y);
+            pr.jacobian_columns(&Stencil {
+                x: &x,
+                r0: &r0,
+                steps: &steps,
+                p_of: &p_of,
+                central: true,
             })
-            .fold(f64::INFINITY, f64::min);
-        eprintln!("{name}: {best:.3e}");
-        assert!(
+        };
+        let got = columns(&by_sensitivities, 1e-6);
+        let references: Vec<Vec<Vec<f64>>> = [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7]
+            .iter()
+            .map(|&h| columns(&by_differences, h))
+            .collect();
+        for (i, name) in names.iter().enumerate() {
+            let best = references
+                .iter()
+                .map(|fd| {
+                    let norm = fd[i].iter().map(|v| v * v).sum::<f64>().sqrt();
+                    let diff = got[i]
+                        .iter()
+                        .zip(&fd[i])
+                        .map(|(a, b)| (a - b).powi(2))
+                        .sum::<f64>()
+                        .sqrt();
+                    assert!(norm > 0.0, "{name} does not move the residuals");
+                    diff / norm
+                })
+                .fold(f64::INFINITY, f64::min);
+            eprintln!("{name}: {best:.3e}");
+            assert!(
             best < 1e-6,
             "{name}: the fit's sensitivity column differs from central differences by {best:.3e}"
         );
+        }
     }
 }

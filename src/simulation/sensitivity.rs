@@ -165,7 +165,7 @@ impl PlantModel {
                 if v == 0.0 || l.sigma0 <= 0.0 {
                     continue;
                 }
-                let e = (-(v / l.vs).powi(2)).exp();
+                let e = friction::stribeck_decay(v, l.vs);
                 let dg = match value {
                     EffectValue::Sigma0 => {
                         s0[(2 * nf + a) * np + j] += -l.sliding_deflection(v) / l.sigma0;
@@ -599,8 +599,9 @@ impl PlantModel {
     ) {
         let nf = self.nf();
         let np = tw.p;
+        // The rigid body's q̈ (the derivative kernels, the regressor and the armatures read
+        // it); the output injection is added to k at the end.
         self.derivative_into((t, x, tau), &[], w, k);
-        w.inject(x, stage, k);
         // ∂Q/∂x and ż's derivatives per joint (diagonal: each joint's effects read its own
         // state), with the bias side locked as the step runs.
         for i in 0..nf {
@@ -742,6 +743,7 @@ impl PlantModel {
                 kt[v0 + e] -= l2 * sx[q0 + e];
             }
         }
+        w.inject(x, stage, k);
     }
 
     /// ∂Q_i/∂θ (the right-hand side of the velocity equation; the armature's −q̈_i) and
@@ -763,7 +765,7 @@ impl PlantModel {
         // The Stribeck curve's partials: ∂g/∂Fc = 1 − e, ∂g/∂Fs = e,
         // ∂g/∂vs = (Fs − Fc) e 2v²/vs³, e = exp(−(v/vs)²).
         let curve = |fc: f64, fs: f64, vs: f64| {
-            let e = (-(v / vs).powi(2)).exp();
+            let e = friction::stribeck_decay(v, vs);
             [1.0 - e, e, (fs - fc) * e * 2.0 * v * v / (vs * vs * vs)]
         };
         match value {
