@@ -10,7 +10,7 @@
 //! - `coupling missing`: the same plant without the 5 → 4 tendon coupling;
 //! - `coupling missing, bounds`: the same with bounds (±50 %) on every effect value of k1's
 //!   joints, so that each confirming fit refits those values beside the candidate (issue
-//!   53: the case the target is for; the fits' Jacobians by sensitivities from 8 values).
+//!   53: the case the target is for).
 //!
 //! `cargo bench --bench diagnosis` prints the wall time, the simulations run and the
 //! verdict of each.

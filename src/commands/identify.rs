@@ -175,7 +175,7 @@ pub struct OutputErrorArgs {
     #[arg(long, default_value_t = 100)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub max_iter: usize,
-    /// Jacobian of the simulated positions: sensitivities (integrated beside the state: one augmented simulation per file), differences (one simulation per file and parameter), or auto (sensitivities from 8 fitted values). Default: auto
+    /// Jacobian of the simulated positions: sensitivities (integrated beside the state: one augmented simulation per file), differences (one simulation per file and parameter), or auto (sensitivities from 8 fitted values). Default: differences
     ///
     /// Where sensitivities are not available (the etdrk4 integrator, user-defined effects, backlash) differences are used.
     #[arg(long)]
