@@ -364,6 +364,24 @@ struct Scratch {
 }
 
 impl Scratch {
+    /// The predictor's measured positions `observer` = (ω, y) as a signal on `input`'s
+    /// samples, linearly interpolated, with the injection gains (2ω, ω²) set; None (and no
+    /// injection) for ω = 0 or no observer ([`PlantModel::predict_at`]).
+    fn observe<'y>(
+        &mut self,
+        observer: Option<(f64, &'y [Vec<f64>])>,
+        input: &InputSignal,
+    ) -> Option<InputSignal<'y>> {
+        let (omega, y) = observer.filter(|(omega, _)| *omega > 0.0)?;
+        self.injection = Some((2.0 * omega, omega * omega));
+        Some(InputSignal {
+            t0: input.t0,
+            dt: input.dt,
+            tau: y,
+            hold: Hold::Linear,
+        })
+    }
+
     /// Adds the output injection L1 (y − q) to dq/dt and L2 (y − q) to dq̇/dt of `d`,
     /// the derivative at `x`, with y the measured positions at stage time `s`.
     fn inject(&self, x: &State, s: usize, d: &mut State) {
@@ -972,17 +990,7 @@ impl PlantModel {
         let t_end = *times.last().unwrap_or(&t_start);
         let steps = ((t_end - t_start) / h - 1e-9).ceil().max(0.0) as usize;
         let mut w = Scratch::new(nf, &self.q_locked);
-        let measured = observer
-            .filter(|(omega, _)| *omega > 0.0)
-            .map(|(omega, y)| {
-                w.injection = Some((2.0 * omega, omega * omega));
-                InputSignal {
-                    t0: input.t0,
-                    dt: input.dt,
-                    tau: y,
-                    hold: Hold::Linear,
-                }
-            });
+        let measured = w.observe(observer, input);
         // The sensed positions behind each joint's backlash (the play operator's state),
         // centred on the drive at the start.
         let gaps: Vec<f64> = self.terms.iter().map(|t| t.backlash).collect();

@@ -239,17 +239,7 @@ impl PlantModel {
             times: vec![0.0; 3 * np],
             zero: vec![0.0; np],
         };
-        let measured = observer
-            .filter(|(omega, _)| *omega > 0.0)
-            .map(|(omega, y)| {
-                w.injection = Some((2.0 * omega, omega * omega));
-                InputSignal {
-                    t0: input.t0,
-                    dt: input.dt,
-                    tau: y,
-                    hold: Hold::Linear,
-                }
-            });
+        let measured = w.observe(observer, input);
         let mut x = x0;
         let mut prev = x.clone();
         let mut s = vec![0.0; 3 * nf * np];
