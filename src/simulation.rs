@@ -364,6 +364,30 @@ struct Scratch {
 }
 
 impl Scratch {
+    /// The stage inputs of a step of `hs` from `t0` (s): the commands `input` and the
+    /// measured positions `measured` at t0, t0 + hs/2 and just before t0 + hs.
+    fn load(&mut self, input: &InputSignal, measured: Option<&InputSignal>, t0: f64, hs: f64) {
+        self.time = [t0, t0 + hs / 2.0, t0 + hs];
+        input.at(t0, &mut self.tau[0]);
+        input.at(t0 + hs / 2.0, &mut self.tau[1]);
+        input.before(t0 + hs, &mut self.tau[2]);
+        if let Some(y) = measured {
+            y.at(t0, &mut self.y[0]);
+            y.at(t0 + hs / 2.0, &mut self.y[1]);
+            y.before(t0 + hs, &mut self.y[2]);
+        }
+    }
+
+    /// Every joint that reaches qeq at the switch fraction `first` (within rounding)
+    /// switches its friction-bias side.
+    fn switch_sides(&mut self, first: f64) {
+        for (side, &c) in self.sides.iter_mut().zip(&self.crossing) {
+            if c <= first + 1e-9 {
+                *side = side.map(|below| !below);
+            }
+        }
+    }
+
     /// The predictor's measured positions `observer` = (ω, y) as a signal on `input`'s
     /// samples, linearly interpolated, with the injection gains (2ω, ω²) set; None (and no
     /// injection) for ω = 0 or no observer ([`PlantModel::predict_at`]).
@@ -732,56 +756,24 @@ impl PlantModel {
         measured: Option<&InputSignal>,
         w: &mut Scratch,
     ) {
-        let load = |t0: f64, hs: f64, w: &mut Scratch| {
-            w.time = [t0, t0 + hs / 2.0, t0 + hs];
-            input.at(t0, &mut w.tau[0]);
-            input.at(t0 + hs / 2.0, &mut w.tau[1]);
-            input.before(t0 + hs, &mut w.tau[2]);
-            if let Some(y) = measured {
-                y.at(t0, &mut w.y[0]);
-                y.at(t0 + hs / 2.0, &mut w.y[1]);
-                y.before(t0 + hs, &mut w.y[2]);
-            }
-        };
-        let mut any = false;
-        for (i, term) in self.terms.iter().enumerate() {
-            w.sides[i] = term.bias.map(|(_, qeq)| x.q[i] < qeq);
-            any |= w.sides[i].is_some();
-        }
         let (mut t0, mut rest) = (t, h);
-        if any {
+        if self.lock_sides(x, w) {
             let mut start = std::mem::take(&mut w.start);
             for _ in 0..8 {
                 start.copy_from(x);
-                load(t0, rest, w);
+                w.load(input, measured, t0, rest);
                 self.step_in_place(x, rest, w);
-                // The switch fraction of every joint that ended across qeq.
-                let mut first = f64::INFINITY;
-                for (i, term) in self.terms.iter().enumerate() {
-                    w.crossing[i] = f64::INFINITY;
-                    if let (Some(below), Some((_, qeq))) = (w.sides[i], term.bias) {
-                        if (x.q[i] < qeq) != below {
-                            w.crossing[i] = hermite_crossing(&start, x, i, rest, qeq);
-                            first = first.min(w.crossing[i]);
-                        }
-                    }
-                }
-                if first.is_infinite() {
+                let Some((first, _)) = self.crossings(&start, x, rest, w) else {
                     w.start = start;
                     return;
-                }
+                };
                 x.copy_from(&start);
                 let hs = first * rest;
                 if hs > 1e-12 * h {
-                    load(t0, hs, w);
+                    w.load(input, measured, t0, hs);
                     self.step_in_place(x, hs, w);
                 }
-                // Every joint that reaches qeq at this fraction (within rounding) switches.
-                for i in 0..self.nf() {
-                    if w.crossing[i] <= first + 1e-9 {
-                        w.sides[i] = w.sides[i].map(|below| !below);
-                    }
-                }
+                w.switch_sides(first);
                 t0 += hs;
                 rest -= hs;
                 if rest <= 1e-12 * h {
@@ -791,8 +783,44 @@ impl PlantModel {
             }
             w.start = start;
         }
-        load(t0, rest, w);
+        w.load(input, measured, t0, rest);
         self.step_in_place(x, rest, w);
+    }
+
+    /// Locks each joint's friction-bias side to where `x` is ([`Scratch::sides`]); whether
+    /// any joint has a bias.
+    fn lock_sides(&self, x: &State, w: &mut Scratch) -> bool {
+        let mut any = false;
+        for (i, term) in self.terms.iter().enumerate() {
+            w.sides[i] = term.bias.map(|(_, qeq)| x.q[i] < qeq);
+            any |= w.sides[i].is_some();
+        }
+        any
+    }
+
+    /// The switch fraction of every joint that a step of `rest` from `start` to `x` took
+    /// across its qeq, into [`Scratch::crossing`] (∞ for the others), and the first of them
+    /// with its joint; None when no joint switched.
+    fn crossings(
+        &self,
+        start: &State,
+        x: &State,
+        rest: f64,
+        w: &mut Scratch,
+    ) -> Option<(f64, usize)> {
+        let mut first: Option<(f64, usize)> = None;
+        for (i, term) in self.terms.iter().enumerate() {
+            w.crossing[i] = f64::INFINITY;
+            if let (Some(below), Some((_, qeq))) = (w.sides[i], term.bias) {
+                if (x.q[i] < qeq) != below {
+                    w.crossing[i] = hermite_crossing(start, x, i, rest, qeq);
+                    if first.is_none_or(|(f, _)| w.crossing[i] < f) {
+                        first = Some((w.crossing[i], i));
+                    }
+                }
+            }
+        }
+        first
     }
 
     fn check(&self, x: &State, t: f64, h: f64, max_speed: f64) -> Result<(), Divergence> {

@@ -88,6 +88,13 @@ pub(super) fn stribeck_slope(fc: f64, fs: f64, vs: f64, v: f64) -> f64 {
     -2.0 * v / (vs * vs) * (fs - fc) * stribeck_decay(v, vs)
 }
 
+/// The partials of [`stribeck_curve`] at velocity `v`: (∂g/∂Fc, ∂g/∂Fs, ∂g/∂vs) =
+/// (1 − e, e, (Fs − Fc) e 2v²/vs³), e = e^{−(v/vs)²} (the sensitivities' forcing).
+pub(super) fn stribeck_partials(fc: f64, fs: f64, vs: f64, v: f64) -> [f64; 3] {
+    let e = stribeck_decay(v, vs);
+    [1.0 - e, e, (fs - fc) * e * 2.0 * v * v / (vs * vs * vs)]
+}
+
 /// Static friction with the Stribeck effect (thesis 3.3.1):
 /// F = (Fc + (Fs − Fc) e^{−(v/vs)²}) sign(v), sign(0) = 0.
 #[derive(Debug, Clone, Copy, PartialEq)]

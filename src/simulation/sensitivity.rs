@@ -165,15 +165,15 @@ impl PlantModel {
                 if v == 0.0 || l.sigma0 <= 0.0 {
                     continue;
                 }
-                let e = friction::stribeck_decay(v, l.vs);
+                let partials = friction::stribeck_partials(l.fc, l.fs, l.vs, v);
                 let dg = match value {
                     EffectValue::Sigma0 => {
                         s0[(2 * nf + a) * np + j] += -l.sliding_deflection(v) / l.sigma0;
                         continue;
                     }
-                    EffectValue::LuGreFc => 1.0 - e,
-                    EffectValue::LuGreFs => e,
-                    EffectValue::LuGreVs => (l.fs - l.fc) * e * 2.0 * v * v / l.vs.powi(3),
+                    EffectValue::LuGreFc => partials[0],
+                    EffectValue::LuGreFs => partials[1],
+                    EffectValue::LuGreVs => partials[2],
                     _ => continue,
                 };
                 s0[(2 * nf + a) * np + j] += dg * v.signum() / l.sigma0;
@@ -321,15 +321,7 @@ impl PlantModel {
         // The stage inputs, and with `rates` their time derivatives (one-sided as the
         // samples are taken: `at` is right-continuous, `before` left-continuous).
         let load = |t0: f64, hs: f64, rates: bool, w: &mut Scratch, tw: &mut TangentScratch| {
-            w.time = [t0, t0 + hs / 2.0, t0 + hs];
-            input.at(t0, &mut w.tau[0]);
-            input.at(t0 + hs / 2.0, &mut w.tau[1]);
-            input.before(t0 + hs, &mut w.tau[2]);
-            if let Some(y) = measured {
-                y.at(t0, &mut w.y[0]);
-                y.at(t0 + hs / 2.0, &mut w.y[1]);
-                y.before(t0 + hs, &mut w.y[2]);
-            }
+            w.load(input, measured, t0, hs);
             if rates {
                 let d = 1e-7 * input.dt.max(1e-12);
                 for (s, &ts) in w.time.iter().enumerate() {
@@ -348,12 +340,7 @@ impl PlantModel {
                 }
             }
         };
-        let mut any = false;
-        for (i, term) in self.terms.iter().enumerate() {
-            w.sides[i] = term.bias.map(|(_, qeq)| x.q[i] < qeq);
-            any |= w.sides[i].is_some();
-        }
-        if !any {
+        if !self.lock_sides(x, w) {
             load(t, h, false, w, tw);
             self.rk4_tangent((x, s), h, None, params, w, tw);
             return;
@@ -370,24 +357,10 @@ impl PlantModel {
             load(t0, rest, split, w, tw);
             let moving = split.then_some((&times[..np], &times[np..2 * np]));
             self.rk4_tangent((x, s), rest, moving, params, w, tw);
-            let mut first = f64::INFINITY;
-            let mut first_joint = 0;
-            for (i, term) in self.terms.iter().enumerate() {
-                w.crossing[i] = f64::INFINITY;
-                if let (Some(below), Some((_, qeq))) = (w.sides[i], term.bias) {
-                    if (x.q[i] < qeq) != below {
-                        w.crossing[i] = hermite_crossing(&start, x, i, rest, qeq);
-                        if w.crossing[i] < first {
-                            first = w.crossing[i];
-                            first_joint = i;
-                        }
-                    }
-                }
-            }
-            if first.is_infinite() {
+            let Some((first, first_joint)) = self.crossings(&start, x, rest, w) else {
                 done = true;
                 break;
-            }
+            };
             if !split {
                 times.iter_mut().for_each(|v| *v = 0.0);
                 split = true;
@@ -429,11 +402,7 @@ impl PlantModel {
                 load(t0, hs, true, w, tw);
                 self.rk4_tangent((x, s), hs, Some((dt0, dhs)), params, w, tw);
             }
-            for k in 0..nf {
-                if w.crossing[k] <= first + 1e-9 {
-                    w.sides[k] = w.sides[k].map(|below| !below);
-                }
-            }
+            w.switch_sides(first);
             t0 += hs;
             rest -= hs;
             for j in 0..np {
@@ -752,12 +721,7 @@ impl PlantModel {
         let below = w.sides.get(i).copied().flatten();
         let b = self.bias_factor(i, q, below);
         let sign = crate::effects::sign(v);
-        // The Stribeck curve's partials: ∂g/∂Fc = 1 − e, ∂g/∂Fs = e,
-        // ∂g/∂vs = (Fs − Fc) e 2v²/vs³, e = exp(−(v/vs)²).
-        let curve = |fc: f64, fs: f64, vs: f64| {
-            let e = friction::stribeck_decay(v, vs);
-            [1.0 - e, e, (fs - fc) * e * 2.0 * v * v / (vs * vs * vs)]
-        };
+        let curve = |fc, fs, vs| friction::stribeck_partials(fc, fs, vs, v);
         match value {
             E::Gain => (w.tau_c[i], 0.0),
             E::Viscous => (-b * v, 0.0),
