@@ -117,6 +117,20 @@ fn output_space(truth: &lockstep::plant::Plant, dir: &std::path::Path) {
             .bounds
             .insert(n, (v - 0.5 * v.abs(), v + 0.5 * v.abs()));
     }
+    // `cargo bench --bench diagnosis -- values`: the bounded case's first refit of the
+    // values alone, with each Jacobian method, stage by stage.
+    if std::env::args().any(|a| a == "jacobian") {
+        let records = std::slice::from_ref(&record);
+        let values =
+            lockstep::diagnose::apply::configuration_values(&bounded, "k1", records).unwrap();
+        let p: Vec<f64> = values.iter().map(|n| bounded.parameters[n]).collect();
+        jacobian_check(&bounded, &record, &values, &p, "start");
+        return;
+    }
+    if std::env::args().any(|a| a == "values") {
+        values_refit(&bounded, &record);
+        return;
+    }
     // `cargo bench --bench diagnosis -- bounds`: the bounded case alone.
     let only_bounds = std::env::args().any(|a| a == "bounds");
     for (name, plant) in [
@@ -141,6 +155,135 @@ fn output_space(truth: &lockstep::plant::Plant, dir: &std::path::Path) {
             "diagnose k1 40 s, {name}: {wall:.1} s (target < {TARGET_S} s), {} simulations, {confirmed} candidates confirmed; {}",
             d.simulations,
             d.verdict()
+        );
+    }
+}
+
+/// The bounded diagnosis's first refit of the values (the null its candidates are judged
+/// against), by finite differences and by sensitivities: wall time, stages, final figures.
+fn values_refit(plant: &lockstep::plant::Plant, record: &lockstep::identify::output_error::Record) {
+    use lockstep::identify::output_error::JacobianMethod;
+    use lockstep::identify::refit::refit;
+    let records = std::slice::from_ref(record);
+    let values = lockstep::diagnose::apply::configuration_values(plant, "k1", records).unwrap();
+    let defaults = OutputOptions::default();
+    for jacobian in [JacobianMethod::Sensitivities, JacobianMethod::Differences] {
+        let options = lockstep::identify::refit::RefitOptions {
+            max_iter: defaults.values_max_iter,
+            warm_ups: false,
+            jacobian,
+            ..defaults.fit.clone()
+        };
+        let started = Instant::now();
+        let r = refit(plant, plant, "k1", records, &values, &options).unwrap();
+        let wall = started.elapsed().as_secs_f64();
+        println!(
+            "values refit ({} values), {jacobian:?}: {wall:.1} s, cost {:.6e} → {:.6e}, {} evaluations, {} Jacobians",
+            values.len(),
+            r.fit.cost_before,
+            r.fit.cost_after,
+            r.fit.evaluations,
+            r.fit.jacobians
+        );
+        for s in &r.fit.starts[r.fit.best_start].stages {
+            println!(
+                "  {:<28} {:>4} it {:>3} failed  whole files {:>12}  {}",
+                s.stage,
+                s.iterations,
+                s.failures,
+                s.whole_files_cost
+                    .map_or("-".into(), |c| format!("{c:.6e}")),
+                s.outcome
+            );
+        }
+        for j in &r.fit.statistics.joints {
+            println!("  {}: {:.1} σ̂", j.joint, j.rms / j.noise);
+        }
+        for (n, (a, b)) in r
+            .fit
+            .names
+            .iter()
+            .zip(r.fit.initial.iter().zip(&r.fit.fitted))
+        {
+            println!("  {n:<10} {a:>12.5e} → {b:>12.5e}");
+        }
+        jacobian_check(plant, record, &values, &r.fit.initial, "start");
+        jacobian_check(plant, record, &values, &r.fit.fitted, "end");
+    }
+}
+
+/// The Jacobian of the values refit's whole-file residuals at physical `p` by
+/// sensitivities against the fits' forward differences and central differences of
+/// several steps: per column, the relative difference.
+fn jacobian_check(
+    plant: &lockstep::plant::Plant,
+    record: &lockstep::identify::output_error::Record,
+    names: &[String],
+    p: &[f64],
+    label: &str,
+) {
+    use lockstep::identify::output_error::{JacobianMethod, Problem, Residuals, Stencil};
+    let conf = plant.model.configuration("k1").unwrap();
+    let problem = |jacobian| {
+        let o = lockstep::identify::refit::RefitOptions {
+            jacobian,
+            h: 1.0 / 12000.0,
+            ..OutputOptions::default().fit
+        };
+        Problem::new(
+            plant,
+            conf,
+            names.to_vec(),
+            vec![record.clone()],
+            &[],
+            o.output_error(vec![1.0]),
+        )
+        .unwrap()
+    };
+    let (s, d) = (
+        problem(JacobianMethod::Sensitivities),
+        problem(JacobianMethod::Differences),
+    );
+    let x = s.to_scaled(p);
+    let r0 = s.residuals(p).unwrap();
+    let columns = |pr: &Problem, h: f64, central: bool| {
+        let steps: Vec<f64> = x
+            .iter()
+            .map(|&u| if u + h > 1.0 { -h } else { h })
+            .collect();
+        let p_of = |y: &[f64]| pr.to_physical(y);
+        pr.jacobian_columns(&Stencil {
+            x: &x,
+            r0: &r0,
+            steps: &steps,
+            p_of: &p_of,
+            central,
+        })
+    };
+    let got = columns(&s, 1e-6, false);
+    let norm = |c: &[f64]| c.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let rel = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).powi(2))
+            .sum::<f64>()
+            .sqrt()
+            / norm(b).max(1e-300)
+    };
+    let forward = columns(&d, 1e-6, false);
+    let central: Vec<_> = [1e-3, 1e-5, 1e-7]
+        .iter()
+        .map(|&h| columns(&d, h, true))
+        .collect();
+    println!("  Jacobian at the {label} (cost {:.6e}): column, ‖J‖, vs forward 1e-6, vs central 1e-3, 1e-5, 1e-7", r0.iter().map(|v| v * v).sum::<f64>());
+    for (i, n) in names.iter().enumerate() {
+        println!(
+            "    {n:<10} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e}",
+            norm(&got[i]),
+            rel(&got[i], &forward[i]),
+            rel(&got[i], &central[0][i]),
+            rel(&got[i], &central[1][i]),
+            rel(&got[i], &central[2][i]),
         );
     }
 }

@@ -351,3 +351,150 @@ fn a_fits_jacobian_by_sensitivities_equals_central_differences_of_its_residuals_
         }
     }
 }
+
+/// The joint fit of several configurations (`identify sequence --joint-fit`,
+/// `JointProblem`) takes each configuration's rows by sensitivities: its Jacobian against
+/// central differences of its own residuals, in the solver's scaled coordinates. k1 and
+/// k2 of the coupled plant, 3 s each (k2 starts moving), values that enter both (q4's
+/// LuGre with an Fs ≥ Fc pair, its gain, the 4 → 5 coupling, a last-link mass) and one
+/// that enters k2 only (q3's spring), bounds ±50 %.
+#[test]
+fn the_joint_fits_jacobian_by_sensitivities_equals_central_differences_k1_k2() {
+    use lockstep::identify::identifiability::occurrence;
+    use lockstep::identify::joint::JointProblem;
+    use lockstep::identify::output_error::{
+        JacobianMethod, OutputErrorOptions, Record, Residuals, Stencil, TimeWeighting,
+    };
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("model/plants/freedom6s_appendix_d_coupled.toml");
+    let mut plant = Plant::load(&path).unwrap();
+    plant.parameters.insert("I4_33".into(), 1.7449e-4);
+    let record = |config: &str, free: &[usize], qd0: Option<Vec<f64>>| {
+        let (t, tau) = inputs(free, 3.0);
+        let sim = plant
+            .simulator(config, &[0.0; 6], ConsistencyPolicy::Refuse)
+            .unwrap()
+            .model;
+        let q = sim
+            .predict_at(
+                State::at_rest(vec![0.0; free.len()]),
+                1.0 / 12000.0,
+                &input(&tau, Hold::Zoh),
+                None,
+                &t,
+                100.0,
+            )
+            .unwrap()
+            .q;
+        let conf = plant.model.configuration(config).unwrap();
+        (
+            conf,
+            vec![Record {
+                file: format!("{config}_run.csv").into(),
+                t,
+                dt: 0.01,
+                tau,
+                q,
+                q_all: vec![0.0; 6],
+                qd0,
+                hold: Hold::Zoh,
+            }],
+        )
+    };
+    let files = vec![
+        record("k1", &[4, 5], None),
+        record("k2", &[3, 4, 5], Some(vec![0.2, 0.3, -0.2])),
+    ];
+    let names: Vec<String> = [
+        "Kp_q4",
+        "sigma0_q4",
+        "Fc_q4",
+        "Fs_q4",
+        "vs_q4",
+        "G_q4_to_q5",
+        "m7",
+        "Ks_q3",
+    ]
+    .map(String::from)
+    .to_vec();
+    for n in &names {
+        let v = plant.parameters[n];
+        plant
+            .bounds
+            .insert(n.clone(), (v - 0.5 * v.abs(), v + 0.5 * v.abs()));
+    }
+    let occ = occurrence(plant.model);
+    let problem = |jacobian: JacobianMethod| {
+        JointProblem::new(
+            &plant,
+            names.clone(),
+            Vec::new(),
+            files.clone(),
+            &OutputErrorOptions {
+                h: 1.0 / 12000.0,
+                jacobian,
+                weighting: TimeWeighting::SkipTransient(50),
+                ..OutputErrorOptions::thesis()
+            },
+            &occ,
+        )
+        .unwrap()
+    };
+    let (by_sensitivities, by_differences) = (
+        problem(JacobianMethod::Sensitivities),
+        problem(JacobianMethod::Differences),
+    );
+    assert_eq!(
+        by_sensitivities.entering("k1").len(),
+        7,
+        "Ks_q3 enters k2 only"
+    );
+    assert_eq!(by_sensitivities.jacobian_simulations(names.len()), 1);
+    assert_eq!(
+        by_differences.jacobian_simulations(names.len()),
+        names.len()
+    );
+    let p: Vec<f64> = names.iter().map(|n| plant.parameters[n]).collect();
+    let x = by_sensitivities.to_scaled(&p);
+    let r0 = by_sensitivities.residuals(&p).unwrap();
+    let columns = |pr: &JointProblem, h: f64| {
+        let steps: Vec<f64> = x
+            .iter()
+            .map(|&u| if u + h > 1.0 { -h } else { h })
+            .collect();
+        let p_of = |y: &[f64]| pr.to_physical(y);
+        pr.jacobian_columns(&Stencil {
+            x: &x,
+            r0: &r0,
+            steps: &steps,
+            p_of: &p_of,
+            central: true,
+        })
+    };
+    let got = columns(&by_sensitivities, 1e-6);
+    let references: Vec<Vec<Vec<f64>>> = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7]
+        .iter()
+        .map(|&h| columns(&by_differences, h))
+        .collect();
+    for (i, name) in names.iter().enumerate() {
+        let best = references
+            .iter()
+            .map(|fd| {
+                let norm = fd[i].iter().map(|v| v * v).sum::<f64>().sqrt();
+                assert!(norm > 0.0, "{name} does not move the residuals");
+                let diff = got[i]
+                    .iter()
+                    .zip(&fd[i])
+                    .map(|(a, b)| (a - b).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                diff / norm
+            })
+            .fold(f64::INFINITY, f64::min);
+        eprintln!("{name}: {best:.3e}");
+        assert!(
+            best < 1e-6,
+            "{name}: the joint fit's sensitivity column differs from central differences by {best:.3e}"
+        );
+    }
+}

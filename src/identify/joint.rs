@@ -19,11 +19,12 @@
 
 use super::identifiability::Occurrence;
 use super::output_error::{
-    difference_column, enters, feasible_bounds, fitted_companions, held_in, parameter_space_of,
-    statistics_at, AtTheFit, FitResult, HeldColumns, JacobianPolicy, LevenbergMarquardt,
-    OutputErrorOptions, ParameterSpace, Problem, Progress, Record, Residuals, Solver, Stage,
-    StageContext, StageOptimiser, StageRecord, StageRun, StartSummary, Statistics, Stencil,
-    TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
+    chain, difference_column, enters, feasible_bounds, fitted_companions, held_in,
+    parameter_space_of, physical_derivatives, statistics_at, AtTheFit, FitResult, HeldColumns,
+    JacobianPolicy, LevenbergMarquardt, OutputErrorOptions, ParameterSpace, Problem, Progress,
+    Record, Residuals, Solver, Stage, StageContext, StageOptimiser, StageRecord, StageRun,
+    StartSummary, Statistics, Stencil, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS,
+    INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
 use crate::simulation::Trajectory;
@@ -513,8 +514,11 @@ impl Residuals for JointProblem {
         Ok(blocks.concat())
     }
 
-    /// Column i simulates only the configurations that parameter i enters; the other rows
-    /// are zero. All (parameter, configuration) pairs run in parallel.
+    /// A configuration whose fit takes sensitivities ([`Problem::sensitivities_apply`])
+    /// gives its rows of every column from one augmented simulation per file; otherwise
+    /// column i simulates only the configurations that parameter i enters, by finite
+    /// differences. The other rows are zero. The configurations, and the (parameter,
+    /// configuration) pairs of the differences, run in parallel.
     fn jacobian_columns(&self, stencil: &Stencil) -> Vec<Vec<f64>> {
         let Stencil {
             x,
@@ -523,12 +527,37 @@ impl Residuals for JointProblem {
             p_of,
             central,
         } = *stencil;
+        let p = p_of(x);
+        let by_sensitivities: Vec<Option<Vec<Vec<f64>>>> = self
+            .parts
+            .par_iter()
+            .map(|part| {
+                let names: Vec<String> =
+                    part.index.iter().map(|&i| self.names[i].clone()).collect();
+                let plant = part.problem.plant_at(&part.take(&p));
+                part.problem.value_sensitivities(&plant, &names)
+            })
+            .collect();
+        let mut cols = vec![vec![0.0; self.m]; x.len()];
+        if by_sensitivities.iter().any(Option::is_some) {
+            let dp_dx = physical_derivatives(stencil, &p);
+            for (part, dr_dp) in self.parts.iter().zip(&by_sensitivities) {
+                let Some(dr_dp) = dr_dp else { continue };
+                let column_of = |k: usize| part.index.iter().position(|&i| i == k);
+                let block = chain(&dp_dx, dr_dp, column_of, part.len());
+                for (col, b) in cols.iter_mut().zip(block) {
+                    col[part.offset..part.offset + part.len()].copy_from_slice(&b);
+                }
+            }
+        }
+        let by_differences: Vec<bool> = by_sensitivities.iter().map(Option::is_none).collect();
+        let by_differences = &by_differences;
         let tasks: Vec<(usize, usize)> = (0..x.len())
             .flat_map(|i| {
                 self.parts
                     .iter()
                     .enumerate()
-                    .filter(move |(_, part)| part.index.contains(&i))
+                    .filter(move |(k, part)| by_differences[*k] && part.index.contains(&i))
                     .map(move |(k, _)| (i, k))
             })
             .collect();
@@ -545,11 +574,24 @@ impl Residuals for JointProblem {
                 difference_column(&at, r0k, steps[i], central)
             })
             .collect();
-        let mut cols = vec![vec![0.0; self.m]; x.len()];
         for (&(i, k), block) in tasks.iter().zip(blocks) {
             let part = &self.parts[k];
             cols[i][part.offset..part.offset + part.len()].copy_from_slice(&block);
         }
         cols
+    }
+
+    /// 1 where every configuration's rows are taken by sensitivities (one augmented
+    /// simulation of every file), else `n` (finite differences for some).
+    fn jacobian_simulations(&self, n: usize) -> usize {
+        if self
+            .parts
+            .iter()
+            .all(|part| part.problem.sensitivities_apply())
+        {
+            1
+        } else {
+            n
+        }
     }
 }

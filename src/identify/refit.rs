@@ -6,7 +6,7 @@
 //! `[[history]]` list.
 
 use crate::identify::output_error::{
-    FitResult, JointFit, OutputErrorOptions, Problem, Record, TimeWeighting,
+    FitResult, JacobianMethod, JointFit, OutputErrorOptions, Problem, Record, TimeWeighting,
 };
 use crate::plant::{HistoryEntry, Plant};
 use crate::simulation::{Hold, Integrator};
@@ -42,6 +42,9 @@ pub struct RefitOptions {
     /// and the lower final cost wins. For a start far off: the output error of a long file
     /// has local minima the horizons end in.
     pub warm_ups: bool,
+    /// How the fits' Jacobians are formed ([`OutputErrorOptions::jacobian`]; the default
+    /// is the thesis preset's).
+    pub jacobian: JacobianMethod,
 }
 
 impl Default for RefitOptions {
@@ -56,6 +59,7 @@ impl Default for RefitOptions {
             starts: 1,
             estimate_initial: true,
             warm_ups: false,
+            jacobian: OutputErrorOptions::thesis().jacobian,
         }
     }
 }
@@ -83,6 +87,7 @@ impl RefitOptions {
             max_iter: self.max_iter,
             starts: self.starts,
             horizons,
+            jacobian: self.jacobian,
             ..OutputErrorOptions::thesis()
         }
     }

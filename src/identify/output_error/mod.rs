@@ -53,6 +53,7 @@ mod held;
 mod least_change;
 mod scaling;
 mod sensitivities;
+pub(crate) use sensitivities::{chain, physical_derivatives};
 mod stages;
 pub(crate) use held::*;
 pub use least_change::*;

@@ -71,37 +71,10 @@ impl Problem {
     /// differences of that map with the stencil's steps (no simulation; exact on the
     /// affine pieces).
     pub(crate) fn sensitivity_columns(&self, stencil: &Stencil) -> Option<Vec<Vec<f64>>> {
-        let n = self.names.len();
         let p = (stencil.p_of)(stencil.x);
         let dr_dp = self.value_sensitivities(&self.plant_at(&p), &self.names)?;
-        // ∂p_k/∂x_i, row i.
-        let dp_dx: Vec<Vec<f64>> = (0..n)
-            .map(|i| {
-                let mut xi = stencil.x.to_vec();
-                xi[i] += stencil.steps[i];
-                let pi = (stencil.p_of)(&xi);
-                pi.iter()
-                    .zip(&p)
-                    .map(|(a, b)| (a - b) / stencil.steps[i])
-                    .collect()
-            })
-            .collect();
-        let m = self.m;
-        Some(
-            (0..n)
-                .map(|i| {
-                    let mut col = vec![0.0; m];
-                    for (k, d) in dp_dx[i].iter().enumerate() {
-                        if *d != 0.0 {
-                            for (c, g) in col.iter_mut().zip(&dr_dp[k]) {
-                                *c += d * g;
-                            }
-                        }
-                    }
-                    col
-                })
-                .collect(),
-        )
+        let dp_dx = physical_derivatives(stencil, &p);
+        Some(chain(&dp_dx, &dr_dp, Some, self.m))
     }
 
     /// ∂r/∂θ of file `ri` (one column per parameter, the file's residuals in
@@ -152,4 +125,47 @@ impl Problem {
                 .collect(),
         )
     }
+}
+
+/// ∂p/∂x of the solver's coordinates at `stencil`'s point (physical parameters `p` there),
+/// row i = ∂p/∂x_i: differences of the map `stencil.p_of` with the stencil's steps (no
+/// simulation; exact where the map is affine in x_i, everywhere except where Fs meets Fc).
+pub(crate) fn physical_derivatives(stencil: &Stencil, p: &[f64]) -> Vec<Vec<f64>> {
+    (0..stencil.x.len())
+        .map(|i| {
+            let mut xi = stencil.x.to_vec();
+            xi[i] += stencil.steps[i];
+            let pi = (stencil.p_of)(&xi);
+            pi.iter()
+                .zip(p)
+                .map(|(a, b)| (a - b) / stencil.steps[i])
+                .collect()
+        })
+        .collect()
+}
+
+/// The chain rule ∂r/∂x_i = Σ_k ∂p_k/∂x_i ∂r/∂p_k: `dp_dx` (n rows of the physical
+/// parameters' derivatives), `dr_dp` (one column of length `m` per parameter the
+/// residuals read), `column_of(k)` the column of physical parameter k (None: the residuals
+/// do not read it). n columns of length m.
+pub(crate) fn chain(
+    dp_dx: &[Vec<f64>],
+    dr_dp: &[Vec<f64>],
+    column_of: impl Fn(usize) -> Option<usize>,
+    m: usize,
+) -> Vec<Vec<f64>> {
+    dp_dx
+        .iter()
+        .map(|row| {
+            let mut col = vec![0.0; m];
+            for (k, d) in row.iter().enumerate() {
+                if let (true, Some(c)) = (*d != 0.0, column_of(k)) {
+                    for (o, g) in col.iter_mut().zip(&dr_dp[c]) {
+                        *o += d * g;
+                    }
+                }
+            }
+            col
+        })
+        .collect()
 }
