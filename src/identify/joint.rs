@@ -532,10 +532,10 @@ impl Residuals for JointProblem {
             .parts
             .par_iter()
             .map(|part| {
-                let names: Vec<String> =
-                    part.index.iter().map(|&i| self.names[i].clone()).collect();
-                let plant = part.problem.plant_at(&part.take(&p));
-                part.problem.value_sensitivities(&plant, &names)
+                let pr = &part.problem;
+                pr.sensitivities_apply()
+                    .then(|| pr.value_sensitivities(&pr.plant_at(&part.take(&p)), &pr.names))
+                    .flatten()
             })
             .collect();
         let mut cols = vec![vec![0.0; self.m]; x.len()];
