@@ -379,6 +379,24 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
         &refit("Ks_q0", &p8),
         &["'Ks_q0' is not a parameter of the inverse model"],
     );
+    common::fails(
+        &common::lockstep(&[
+            "refit",
+            "--plant",
+            &s(&p6),
+            "--data",
+            &data,
+            "--controller",
+            &controller,
+            "--params",
+            "Fc_q0",
+            "--jacobian",
+            "differences",
+            "--out",
+            &s(&p8),
+        ]),
+        &["--jacobian differences", "DIDIM"],
+    );
     assert!(!p8.exists());
     // The user's candidates are ranked beside the catalogue in closed-loop space too.
     let candidates = d.join("candidates.toml");

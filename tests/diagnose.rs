@@ -305,6 +305,23 @@ fn the_loop_in_torque_space_on_the_command_line_emps() {
             "M, Fv_q0, Fc_q0, offset_q0",
         ],
     );
+    // A Jacobian of simulated positions has no place in torque space: refused, not ignored.
+    common::fails(
+        &common::lockstep(&[
+            "diagnose",
+            "--plant",
+            &s(&p3),
+            "--data",
+            &data,
+            "--jacobian",
+            "sensitivities",
+        ]),
+        &[
+            "--jacobian sensitivities",
+            "torque space",
+            "linear least squares",
+        ],
+    );
     // The report reads the torque-space history.
     let rep = d.join("rep");
     common::ok(&common::lockstep(&[

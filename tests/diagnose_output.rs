@@ -317,6 +317,22 @@ fn the_loop_on_the_command_line_c3() {
         &hand,
     ]));
     assert!(o.contains("Ks_q3 = 0") && o.contains("qeq_q3 = 0.1"), "{o}");
+    let by_sensitivities = s(&d.join("hand_sensitivities.toml"));
+    let o = ok(&lockstep(&[
+        "refit",
+        "--plant",
+        &hand,
+        "--data",
+        &run_csv,
+        "--params",
+        "Ks_q3,qeq_q3",
+        "--jacobian",
+        "sensitivities",
+        "--out",
+        &by_sensitivities,
+    ]));
+    assert!(o.contains("simulations of the files"), "{o}");
+    let sens = Plant::load(Path::new(&by_sensitivities)).unwrap();
     let o = ok(&lockstep(&[
         "refit",
         "--plant",
@@ -329,6 +345,14 @@ fn the_loop_on_the_command_line_c3() {
     let p = Plant::load(Path::new(&hand)).unwrap();
     let h = &p.history[0];
     assert!(h.rms_after["q3"] < 0.5 * h.rms_before["q3"], "{o}");
+    // `--jacobian sensitivities` reaches the same minimum (the same data, the same start).
+    for n in ["Ks_q3", "qeq_q3"] {
+        let (a, b) = (sens.parameters[n], p.parameters[n]);
+        assert!(
+            (a / b - 1.0).abs() < 1e-4,
+            "{n}: {a} by sensitivities, {b} by differences"
+        );
+    }
     // Refusals.
     let st = s(&start_file);
     fails(

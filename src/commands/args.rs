@@ -101,6 +101,36 @@ pub struct SpaceArgs {
     pub hold: Option<Hold>,
 }
 
+/// The output-space fits of diagnose, refit and report (not compare: it fits nothing but
+/// the initial positions).
+#[derive(Debug, Clone, Args)]
+pub struct FitArgs {
+    /// Output space: the fits' Jacobian of the simulated positions: sensitivities
+    /// (integrated beside the state: one augmented simulation per file), differences (one
+    /// simulation per file and parameter), or auto (sensitivities from 8 fitted values).
+    /// Default: differences. Where sensitivities are not available (the etdrk4 integrator,
+    /// user-defined effects, backlash) differences are used.
+    #[arg(long)]
+    pub jacobian: Option<lockstep::identify::output_error::JacobianMethod>,
+}
+
+impl FitArgs {
+    /// `inputs` with these settings (the preset's where a flag is not given).
+    pub fn apply(&self, inputs: &mut Inputs) {
+        inputs.jacobian = self.jacobian;
+    }
+
+    /// # Errors
+    /// `--jacobian` given with `--controller`: DIDIM's iterations are least squares on the
+    /// closed loop's simulated states, with no Jacobian of simulated positions.
+    pub fn closed_loop(&self) -> Result<()> {
+        if let Some(j) = self.jacobian {
+            bail!("--jacobian {j}: the closed-loop fits (DIDIM, --controller) are least squares on the simulated states and take no Jacobian of simulated positions; drop --jacobian");
+        }
+        Ok(())
+    }
+}
+
 pub fn parse_bound(s: &str) -> Result<(String, f64, f64), String> {
     let (n, r) = s
         .split_once('=')
@@ -140,6 +170,7 @@ impl Common {
                 hold: space.hold,
                 refit_values: lockstep::diagnose::OutputOptions::default().refit_values,
                 candidates: Vec::new(),
+                jacobian: None,
             },
         ))
     }

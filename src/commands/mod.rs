@@ -84,6 +84,8 @@ pub enum Command {
         common: Common,
         #[command(flatten)]
         space: SpaceArgs,
+        #[command(flatten)]
+        fit: FitArgs,
         /// Candidates to print.
         #[arg(long, default_value_t = 5)]
         top: usize,
@@ -121,6 +123,8 @@ pub enum Command {
         common: Common,
         #[command(flatten)]
         space: SpaceArgs,
+        #[command(flatten)]
+        fit: FitArgs,
         /// Parameters to fit (in output space each needs bounds in the plant file), e.g.
         /// Ks_q3,qeq_q3.
         #[arg(long, value_delimiter = ',', required = true)]
@@ -154,6 +158,8 @@ pub enum Command {
         common: Common,
         #[command(flatten)]
         space: SpaceArgs,
+        #[command(flatten)]
+        fit: FitArgs,
         /// Candidates listed.
         #[arg(long, default_value_t = 8)]
         top: usize,
@@ -388,6 +394,7 @@ fn run_command(cli: Cli) -> Result<()> {
         Command::Diagnose {
             common,
             space,
+            fit,
             top,
             apply,
             out,
@@ -399,6 +406,7 @@ fn run_command(cli: Cli) -> Result<()> {
                 lockstep::files::check_writable(&[out])?;
             }
             if let Some(controller) = controller {
+                fit.closed_loop()?;
                 let (plant, _) = common.load_plant()?;
                 let user = match &candidates {
                     Some(path) => lockstep::diagnose::candidates::read(path)?,
@@ -420,6 +428,7 @@ fn run_command(cli: Cli) -> Result<()> {
             }
             let (plant, mut inputs) = common.inputs(&space)?;
             inputs.refit_values = !keep_values;
+            fit.apply(&mut inputs);
             if let Some(path) = &candidates {
                 use lockstep::diagnose::candidates;
                 inputs.candidates = candidates::read(path)?;
@@ -483,6 +492,7 @@ fn run_command(cli: Cli) -> Result<()> {
         Command::Refit {
             common,
             space,
+            fit,
             params,
             change,
             out,
@@ -491,6 +501,7 @@ fn run_command(cli: Cli) -> Result<()> {
             let out = out.unwrap_or_else(|| common.files.plant.clone());
             lockstep::files::check_writable(&[&out])?;
             if let Some(controller) = controller {
+                fit.closed_loop()?;
                 let (plant, _) = common.load_plant()?;
                 let params: Vec<String> = params.iter().map(|p| plant.current_name(p)).collect();
                 let change = change.unwrap_or_else(|| {
@@ -505,7 +516,8 @@ fn run_command(cli: Cli) -> Result<()> {
                 )?;
                 return Ok(());
             }
-            let (plant, inputs) = common.inputs(&space)?;
+            let (plant, mut inputs) = common.inputs(&space)?;
+            fit.apply(&mut inputs);
             let params: Vec<String> = params.iter().map(|p| plant.current_name(p)).collect();
             let change = change.unwrap_or_else(|| format!("refitted {}", params.join(", ")));
             refit_command(&plant, &inputs, &params, &change, &out)?;
@@ -607,12 +619,14 @@ fn run_command(cli: Cli) -> Result<()> {
         Command::Report {
             common,
             space,
+            fit,
             top,
             out,
             start,
         } => {
             lockstep::files::check_output_dir(&out)?;
-            let (plant, inputs) = common.inputs(&space)?;
+            let (plant, mut inputs) = common.inputs(&space)?;
+            fit.apply(&mut inputs);
             let start_plant = start.as_deref().map(Plant::load).transpose()?;
             let start = start_comparison(&start_plant, start.as_deref());
             let path = report_command(&plant, &inputs, &out, top, start.as_ref())?;

@@ -115,6 +115,10 @@ pub struct Inputs {
     pub refit_values: bool,
     /// Diagnosis: the user's candidate effects ([`crate::diagnose::candidates`]).
     pub candidates: Vec<crate::diagnose::candidates::UserCandidate>,
+    /// Output space: how the fits' Jacobians are formed (diagnosis, refit); `None`: the
+    /// thesis preset's ([`RefitOptions::jacobian`]). Given with torque-space data, an error
+    /// ([`Inputs::load`]): the fits there are linear least squares.
+    pub jacobian: Option<crate::identify::output_error::JacobianMethod>,
 }
 
 /// Position records of one configuration: `config` or the files' own (side file or file
@@ -220,6 +224,11 @@ impl Inputs {
                 Data::Output { config, records }
             }
             Space::Torque => {
+                if let Some(j) = self.jacobian {
+                    bail!(
+                        "--jacobian {j}: a Jacobian of simulated positions is for output space; these data are in torque space ({why}), where the fits are linear least squares (drop --jacobian, or --space output for commanded torques)"
+                    );
+                }
                 let config = self.config.clone().unwrap_or_else(|| "full".into());
                 let (records, idim, said) =
                     torque_records(plant, &self.data, &config, self.idim, &self.preparation)?;
@@ -625,6 +634,7 @@ fn refit_options(inputs: &Inputs) -> RefitOptions {
         hold: inputs.hold,
         skip: inputs.skip,
         estimate_initial: inputs.estimate_initial,
+        jacobian: inputs.jacobian.unwrap_or(RefitOptions::default().jacobian),
         ..RefitOptions::default()
     }
 }
@@ -665,6 +675,10 @@ pub fn refit_table(r: &Refit) -> String {
     for (a, b, rho) in &st.correlated {
         s += &format!("  {a} and {b} trade with each other (correlation {rho:+.3})\n");
     }
+    s += &format!(
+        "  {} simulations of the files ({} Jacobians among them), {:.1} s\n",
+        r.fit.evaluations, r.fit.jacobians, r.fit.wall_s
+    );
     s
 }
 
