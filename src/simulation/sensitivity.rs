@@ -125,11 +125,28 @@ struct TangentScratch {
     rate_c: Vec<f64>,
     /// Per joint: ∂Q/∂q, ∂Q/∂q̇, ∂Q/∂z, ∂ż/∂q̇, ∂ż/∂z.
     joint: Vec<[f64; 5]>,
+    /// Per joint, the stage's friction terms the values' forcing reads (taken at the first
+    /// value of the joint that needs them, once per stage: each holds exponentials).
+    forcing: Vec<Option<JointForcing>>,
     /// Tangent copies at the start of a step split at a bias switch.
     start: Vec<f64>,
     /// The tangents of a split step's start time, of its rest and of its sub-step (P each).
     times: Vec<f64>,
     zero: Vec<f64>,
+}
+
+/// A free joint's friction terms at a stage, shared by the forcing of its values
+/// ([`PlantModel::effect_forcing`]).
+#[derive(Debug, Clone, Copy)]
+struct JointForcing {
+    /// The friction-bias factor on the stage's side (1 without a bias).
+    b: f64,
+    /// sign(q̇) (0 at rest).
+    sign: f64,
+    /// The static Stribeck curve's partials (∂g/∂Fc, ∂g/∂Fs, ∂g/∂vs), with a Stribeck law.
+    stribeck: Option<[f64; 3]>,
+    /// LuGre's g(q̇) and its partials, with a LuGre law.
+    lugre: Option<(f64, [f64; 3])>,
 }
 
 impl PlantModel {
@@ -235,6 +252,7 @@ impl PlantModel {
             rate: std::array::from_fn(|_| vec![0.0; nf]),
             rate_c: vec![0.0; nf],
             joint: vec![[0.0; 5]; nf],
+            forcing: vec![None; nf],
             start: vec![0.0; 3 * nf * np],
             times: vec![0.0; 3 * np],
             zero: vec![0.0; np],
@@ -647,6 +665,7 @@ impl PlantModel {
             }
         }
         // ∂Q/∂θ and ∂ż/∂θ.
+        tw.forcing.fill(None);
         for (j, param) in params.iter().enumerate() {
             if !param.inertial.is_empty() {
                 for a in 0..nf {
@@ -660,7 +679,8 @@ impl PlantModel {
                 kt[v0 + c.to * np + j] += self.terms[c.to].gain * tau[c.from];
             }
             for &(i, value) in &param.effects {
-                let (dq, dz) = self.effect_forcing(i, value, x, k, w);
+                let f = *tw.forcing[i].get_or_insert_with(|| self.joint_forcing(i, x, w));
+                let (dq, dz) = self.effect_forcing(i, value, x, k, w, &f);
                 kt[v0 + i * np + j] += dq;
                 kt[z0 + i * np + j] += dz;
             }
@@ -705,6 +725,25 @@ impl PlantModel {
         w.inject(x, stage, k);
     }
 
+    /// Free joint `i`'s [`JointForcing`] at state `x`.
+    fn joint_forcing(&self, i: usize, x: &State, w: &Scratch) -> JointForcing {
+        let term = &self.terms[i];
+        let v = x.qd[i];
+        let below = w.sides.get(i).copied().flatten();
+        JointForcing {
+            b: self.bias_factor(i, x.q[i], below),
+            sign: crate::effects::sign(v),
+            stribeck: term
+                .stribeck
+                .as_ref()
+                .map(|s| friction::stribeck_partials(s.fc, s.fs, s.vs, v)),
+            lugre: term
+                .lugre
+                .as_ref()
+                .map(|l| (l.g(v), friction::stribeck_partials(l.fc, l.fs, l.vs, v))),
+        }
+    }
+
     /// ∂Q_i/∂θ (the right-hand side of the velocity equation; the armature's −q̈_i) and
     /// ∂ż_i/∂θ for value `value` of free joint `i`'s effects at state `x` (derivative `k`).
     fn effect_forcing(
@@ -714,22 +753,20 @@ impl PlantModel {
         x: &State,
         k: &State,
         w: &Scratch,
+        f: &JointForcing,
     ) -> (f64, f64) {
         use EffectValue as E;
         let term = &self.terms[i];
         let (q, v, z) = (x.q[i], x.qd[i], x.z[i]);
         let below = w.sides.get(i).copied().flatten();
-        let b = self.bias_factor(i, q, below);
-        let sign = crate::effects::sign(v);
-        let curve = |fc, fs, vs| friction::stribeck_partials(fc, fs, vs, v);
+        let (b, sign) = (f.b, f.sign);
         match value {
             E::Gain => (w.tau_c[i], 0.0),
             E::Viscous => (-b * v, 0.0),
             E::Coulomb => (-b * sign, 0.0),
             E::Offset => (-1.0, 0.0),
-            E::StribeckFc | E::StribeckFs | E::StribeckVs => match &term.stribeck {
-                Some(s) => {
-                    let g = curve(s.fc, s.fs, s.vs);
+            E::StribeckFc | E::StribeckFs | E::StribeckVs => match f.stribeck {
+                Some(g) => {
                     let n = [E::StribeckFc, E::StribeckFs, E::StribeckVs]
                         .iter()
                         .position(|&e| e == value)
@@ -739,10 +776,9 @@ impl PlantModel {
                 None => (0.0, 0.0),
             },
             E::Sigma0 | E::Sigma1 | E::Sigma2 | E::LuGreFc | E::LuGreFs | E::LuGreVs => {
-                let Some(l) = &term.lugre else {
+                let (Some(l), Some((g, dg))) = (&term.lugre, f.lugre) else {
                     return (0.0, 0.0);
                 };
-                let g = l.g(v);
                 let zd = v - l.sigma0 * v.abs() * z / g;
                 // ż = v − σ0 |v| z / g(v): ∂ż/∂σ0 = −|v| z / g, ∂ż/∂g = σ0 |v| z / g².
                 let (dzd, df_extra) = match value {
@@ -750,7 +786,6 @@ impl PlantModel {
                     E::Sigma1 => (0.0, zd),
                     E::Sigma2 => (0.0, v),
                     _ => {
-                        let dg = curve(l.fc, l.fs, l.vs);
                         let n = match value {
                             E::LuGreFc => 0,
                             E::LuGreFs => 1,
