@@ -642,26 +642,31 @@ impl PlantModel {
                     &sx[q0 + bj * np..q0 + (bj + 1) * np],
                     &sx[v0 + bj * np..v0 + (bj + 1) * np],
                 );
-                for j in 0..np {
-                    out[j] += cq * sq[j] + cv * sv[j];
+                for ((o, sq), sv) in out.iter_mut().zip(sq).zip(sv) {
+                    *o += cq * sq + cv * sv;
                 }
             }
             if moving {
                 let dq_dt = self.terms[a].gain * tw.rate_c[a];
-                for j in 0..np {
-                    out[j] += dq_dt * st[j];
+                for (o, st) in out.iter_mut().zip(st) {
+                    *o += dq_dt * st;
                 }
             }
         }
         // K_z: ż's tangent.
         for a in 0..nf {
             let ja = tw.joint[a];
-            for j in 0..np {
-                kt[z0 + a * np + j] = if self.terms[a].lugre.is_some() {
-                    ja[3] * sx[v0 + a * np + j] + ja[4] * sx[z0 + a * np + j]
-                } else {
-                    0.0
-                };
+            let (sv, sz) = (
+                &sx[v0 + a * np..v0 + (a + 1) * np],
+                &sx[z0 + a * np..z0 + (a + 1) * np],
+            );
+            let out = &mut kt[z0 + a * np..z0 + (a + 1) * np];
+            if self.terms[a].lugre.is_some() {
+                for ((o, sv), sz) in out.iter_mut().zip(sv).zip(sz) {
+                    *o = ja[3] * sv + ja[4] * sz;
+                }
+            } else {
+                out.fill(0.0);
             }
         }
         // ∂Q/∂θ and ∂ż/∂θ.
