@@ -348,11 +348,12 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
     off.parameters.insert("Fc_q0".into(), 10.0);
     let (p6, p7) = (d.join("p6.toml"), d.join("p7.toml"));
     off.save(&p6).unwrap();
-    let refit = |params: &str, out: &Path| {
-        common::lockstep(&[
+    let refit_with = |params: &str, out: &Path, more: &[&str]| {
+        let (p6, out) = (s(&p6), s(out));
+        let mut args = vec![
             "refit",
             "--plant",
-            &s(&p6),
+            &p6,
             "--data",
             &data,
             "--controller",
@@ -360,9 +361,12 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
             "--params",
             params,
             "--out",
-            &s(out),
-        ])
+            &out,
+        ];
+        args.extend_from_slice(more);
+        common::lockstep(&args)
     };
+    let refit = |params: &str, out: &Path| refit_with(params, out, &[]);
     common::ok(&refit("Fc_q0", &p7));
     let refitted = Plant::load(&p7).unwrap();
     let back = refitted.parameters["Fc_q0"];
@@ -380,21 +384,7 @@ fn didim_and_the_closed_loop_diagnosis_on_the_command_line() {
         &["'Ks_q0' is not a parameter of the inverse model"],
     );
     common::fails(
-        &common::lockstep(&[
-            "refit",
-            "--plant",
-            &s(&p6),
-            "--data",
-            &data,
-            "--controller",
-            &controller,
-            "--params",
-            "Fc_q0",
-            "--jacobian",
-            "differences",
-            "--out",
-            &s(&p8),
-        ]),
+        &refit_with("Fc_q0", &p8, &["--jacobian", "differences"]),
         &["--jacobian differences", "DIDIM"],
     );
     assert!(!p8.exists());

@@ -317,31 +317,24 @@ fn the_loop_on_the_command_line_c3() {
         &hand,
     ]));
     assert!(o.contains("Ks_q3 = 0") && o.contains("qeq_q3 = 0.1"), "{o}");
+    let refit_hand = |more: &[&str]| {
+        let mut args = vec![
+            "refit",
+            "--plant",
+            &hand,
+            "--data",
+            &run_csv,
+            "--params",
+            "Ks_q3,qeq_q3",
+        ];
+        args.extend_from_slice(more);
+        ok(&lockstep(&args))
+    };
     let by_sensitivities = s(&d.join("hand_sensitivities.toml"));
-    let o = ok(&lockstep(&[
-        "refit",
-        "--plant",
-        &hand,
-        "--data",
-        &run_csv,
-        "--params",
-        "Ks_q3,qeq_q3",
-        "--jacobian",
-        "sensitivities",
-        "--out",
-        &by_sensitivities,
-    ]));
+    let o = refit_hand(&["--jacobian", "sensitivities", "--out", &by_sensitivities]);
     assert!(o.contains("simulations of the files"), "{o}");
     let sens = Plant::load(Path::new(&by_sensitivities)).unwrap();
-    let o = ok(&lockstep(&[
-        "refit",
-        "--plant",
-        &hand,
-        "--data",
-        &run_csv,
-        "--params",
-        "Ks_q3,qeq_q3",
-    ]));
+    let o = refit_hand(&[]);
     let p = Plant::load(Path::new(&hand)).unwrap();
     let h = &p.history[0];
     assert!(h.rms_after["q3"] < 0.5 * h.rms_before["q3"], "{o}");
