@@ -2,7 +2,7 @@
 //! `report.json`): per step its files, weights, costs, time and evaluations, the parameters
 //! with standard errors and identifiability, the fit per joint, and the refinements.
 
-use crate::identify::output_error::OutputErrorOptions;
+use crate::identify::output_error::{JacobianMethod, OutputErrorOptions, SENSITIVITIES_FROM};
 use crate::identify::sequence::*;
 use generated::Model;
 use std::fmt::Write as _;
@@ -60,12 +60,23 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
         "; the whole files' stage by the {} method",
         o.whole_files_optimiser
     );
+    let fresh = match o.jacobian {
+        JacobianMethod::Differences => "by finite differences".to_string(),
+        JacobianMethod::Sensitivities => {
+            "by sensitivities (finite differences where they do not apply)".to_string()
+        }
+        JacobianMethod::Auto => format!(
+            "by sensitivities from {SENSITIVITIES_FROM} fitted values (finite differences for fewer or where they do not apply)"
+        ),
+    };
     if o.jacobian_refresh > 1 {
         let _ = write!(
             simulation,
-            "; a finite-difference Jacobian at most every {} iterations, Broyden's update between",
+            "; a Jacobian {fresh} at most every {} iterations, Broyden's update between",
             o.jacobian_refresh
         );
+    } else {
+        let _ = write!(simulation, "; a Jacobian {fresh} at every iteration");
     }
     let _ = writeln!(
         s,

@@ -678,7 +678,7 @@ impl Solver for TrustRegionReflective {
                 StageOutcome {
                     status: format!(
                         "trust-region-reflective: {code:?} after {iterations} iteration(s) \
-                     ({} Jacobians, {} by finite differences)",
+                     ({} Jacobians, {} of them fresh, the rest Broyden's updates)",
                         context.jacobians.load(Ordering::Relaxed) - jacobians_before,
                         differenced.load(Ordering::Relaxed)
                     ),
@@ -831,7 +831,7 @@ mod tests {
             "{p:?}, {}",
             outcome.status
         );
-        // "(J Jacobians, F by finite differences)": some were updates.
+        // "(J Jacobians, F of them fresh, …)": some were updates.
         let counts: Vec<usize> = outcome
             .status
             .split(['(', ' ', ','])
