@@ -37,14 +37,17 @@
 //!
 //! Sample k (time t_k = t_0 + kT): the controller reads q(t_k), computes u(k) and
 //! saturates it; over [t_k, t_k+1) the joint receives drive_gain · (u(k − delay) + d(k)),
-//! d the recorded disturbance (zero-order hold; the commands before the first sample are
-//! the record's first measured command less its disturbance). That applied command is what
+//! d the recorded disturbance (zero-order hold; with `disturbance_hold = "linear"` (or
+//! `cubic`, `bandlimited`) d(t) is instead reconstructed through the samples at every RK4
+//! stage, as a simulation tool's interpolating input block feeds a continuous model; the
+//! commands before the first sample are the record's first measured command less its
+//! disturbance). That applied command is what
 //! a record holds and what is compared. The plant starts at the first measured position,
 //! at rest.
 
 use crate::measurement::Table;
 use crate::plant::{ConsistencyPolicy, Plant};
-use crate::simulation::{PlantModel, State};
+use crate::simulation::{Hold, InputSignal, PlantModel, State};
 use anyhow::{anyhow, bail, Context, Result};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -107,6 +110,12 @@ pub struct ControllerSpec {
     pub step: f64,
     /// Per joint (the model's joint names).
     pub joints: BTreeMap<String, JointLawSpec>,
+    /// How the records' disturbance (`dist_J`) is applied between samples: `zoh` (held,
+    /// as a digital controller adds it; the default), or `linear`, `cubic`, `bandlimited`
+    /// (a continuous signal through the samples, as a simulation tool's interpolating
+    /// input block feeds it).
+    #[serde(default)]
+    pub disturbance_hold: Option<String>,
     /// How the measured velocity is estimated for the comparison.
     #[serde(default)]
     pub compare: ComparePreset,
@@ -192,6 +201,9 @@ pub struct Controller {
     pub substeps: usize,
     /// Per free joint.
     pub joints: Vec<JointController>,
+    /// How a record's disturbance is applied between samples (zero-order hold unless the
+    /// file says otherwise).
+    pub disturbance_hold: Hold,
     /// How runs are compared with records.
     pub compare: ComparePreset,
 }
@@ -204,7 +216,7 @@ impl Controller {
     /// field, an unknown configuration or joint, a free joint without a law, a law missing
     /// its gain, a period or step that is not positive and finite, a step that does not
     /// divide the period, saturation limits not increasing, a drive gain of 0, an empty
-    /// velocity estimate.
+    /// velocity estimate, a disturbance hold that is not one of [`Hold`]'s.
     pub fn load(path: &Path, plant: &Plant) -> Result<Controller> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read controller file {}", path.display()))?;
@@ -272,6 +284,12 @@ impl Controller {
                 );
             }
         }
+        let disturbance_hold = match spec.disturbance_hold.as_deref() {
+            None => Hold::Zoh,
+            Some(s) => s
+                .parse::<Hold>()
+                .map_err(|e| anyhow!("{file}: disturbance_hold: {e}"))?,
+        };
         let mut joints = Vec::new();
         for &j in conf.free {
             let name = m.joints[j];
@@ -352,6 +370,7 @@ impl Controller {
             delay: spec.delay,
             substeps: substeps as usize,
             joints,
+            disturbance_hold,
             compare: spec.compare,
         })
     }
@@ -543,6 +562,13 @@ pub fn simulate_closed_loop(
     let feedforward = c.joints.iter().any(|j| j.gravity_feedforward);
     let mut q_full = model.q_locked.clone();
     let mut gravity = vec![0.0; nf];
+    let continuous = c.disturbance_hold.is_continuous();
+    let disturbance = InputSignal {
+        t0: record.t[0],
+        dt: c.period,
+        tau: &record.disturbance,
+        hold: c.disturbance_hold,
+    };
     for k in 0..n {
         if feedforward {
             for (a, &j) in conf.free.iter().enumerate() {
@@ -594,16 +620,21 @@ pub fn simulate_closed_loop(
         if k + 1 == n {
             break;
         }
+        // Under a continuous disturbance hold, the command between samples is the held
+        // controller output plus the disturbance's reconstruction at each RK4 stage.
+        let mut d = vec![0.0; nf];
+        let input = |t: f64, out: &mut [f64]| {
+            if continuous {
+                disturbance.at(t, &mut d);
+                for (a, o) in out.iter_mut().enumerate() {
+                    *o = c.joints[a].drive_gain * (applied[a] + d[a]);
+                }
+            } else {
+                out.copy_from_slice(&tau);
+            }
+        };
         x = model
-            .simulate_from(
-                record.t[k],
-                x,
-                h,
-                c.substeps,
-                1e6,
-                |_, out| out.copy_from_slice(&tau),
-                |_, _| {},
-            )
+            .simulate_from(record.t[k], x, h, c.substeps, 1e6, input, |_, _| {})
             .map_err(|d| {
                 let name = names.get(d.joint).copied().unwrap_or("?");
                 anyhow!(

@@ -555,8 +555,21 @@ pub fn closed_loop_compare_command(
         .map(|r| compare_closed_loop(plant, &c, r).map(|(v, _)| v))
         .collect::<Result<Vec<_>>>()?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let disturbed = records
+        .iter()
+        .any(|r| r.disturbance.iter().flatten().any(|d| *d != 0.0));
+    let disturbance = if !disturbed {
+        String::new()
+    } else if c.disturbance_hold.is_continuous() {
+        format!(
+            "; the records' disturbance fed as a continuous signal ({} between samples)",
+            c.disturbance_hold
+        )
+    } else {
+        "; the records' disturbance held between samples (zoh)".to_string()
+    };
     crate::outln!(
-        "closed-loop space: {} under {} ({}), configuration {}; measured velocity: central difference of the position filtered at {} Hz (4th-order, zero-phase); the first {} samples left out",
+        "closed-loop space: {} under {} ({}), configuration {}; measured velocity: central difference of the position filtered at {} Hz (4th-order, zero-phase); the first {} samples left out{disturbance}",
         plant.name(),
         controller.display(),
         if c.description.is_empty() { "no description" } else { &c.description },
