@@ -334,6 +334,51 @@ pub struct UndefinedTerm {
     pub qd: Vec<f64>,
 }
 
+/// [`PlantModel::simulate_from`] in pieces: the plant stepped by RK4 from one call to the
+/// next with its work space kept (no allocation per call), for a loop that computes each
+/// piece's input from the last one's end (a digital controller's sample).
+#[derive(Debug, Clone)]
+pub struct Stepper<'m> {
+    model: &'m PlantModel,
+    w: Scratch,
+    prev: State,
+}
+
+impl Stepper<'_> {
+    /// `steps` RK4 steps of `h` (s) of `x` (NF positions, velocities, friction states)
+    /// from time `t0` (s), in place; `input(t, tau)` writes the commanded torques (NF,
+    /// N·m or N) at each stage time, `observe(t, x)` sees the state after every step.
+    ///
+    /// # Errors
+    /// As [`PlantModel::simulate`]; `x` then holds the last state stepped to.
+    #[allow(clippy::too_many_arguments)]
+    pub fn advance(
+        &mut self,
+        t0: f64,
+        x: &mut State,
+        h: f64,
+        steps: usize,
+        max_speed: f64,
+        mut input: impl FnMut(f64, &mut [f64]),
+        mut observe: impl FnMut(f64, &State),
+    ) -> Result<(), Divergence> {
+        let (m, w, prev) = (self.model, &mut self.w, &mut self.prev);
+        for n in 0..steps {
+            let t = t0 + n as f64 * h;
+            w.time = [t, t + h / 2.0, t + h];
+            input(t, &mut w.tau[0]);
+            input(t + h / 2.0, &mut w.tau[1]);
+            input(t + h, &mut w.tau[2]);
+            prev.copy_from(x);
+            m.step_in_place(x, h, w);
+            let t1 = t0 + (n + 1) as f64 * h;
+            m.check_step((prev, &w.tau[0]), x, t1, h, max_speed)?;
+            observe(t1, x);
+        }
+        Ok(())
+    }
+}
+
 /// Scratch buffers of one simulation (no allocation per step).
 #[derive(Debug, Clone)]
 struct Scratch {
@@ -937,25 +982,23 @@ impl PlantModel {
         h: f64,
         steps: usize,
         max_speed: f64,
-        mut input: impl FnMut(f64, &mut [f64]),
-        mut observe: impl FnMut(f64, &State),
+        input: impl FnMut(f64, &mut [f64]),
+        observe: impl FnMut(f64, &State),
     ) -> Result<State, Divergence> {
-        let mut w = Scratch::new(self.nf(), &self.q_locked);
         let mut x = x0;
-        let mut prev = x.clone();
-        for n in 0..steps {
-            let t = t0 + n as f64 * h;
-            w.time = [t, t + h / 2.0, t + h];
-            input(t, &mut w.tau[0]);
-            input(t + h / 2.0, &mut w.tau[1]);
-            input(t + h, &mut w.tau[2]);
-            prev.copy_from(&x);
-            self.step_in_place(&mut x, h, &mut w);
-            let t1 = t0 + (n + 1) as f64 * h;
-            self.check_step((&prev, &w.tau[0]), &x, t1, h, max_speed)?;
-            observe(t1, &x);
-        }
+        self.stepper()
+            .advance(t0, &mut x, h, steps, max_speed, input, observe)?;
         Ok(x)
+    }
+
+    /// A simulation to be run in pieces ([`Stepper::advance`]), its work space allocated
+    /// once: a closed loop steps the plant one controller sample at a time.
+    pub fn stepper(&self) -> Stepper<'_> {
+        Stepper {
+            model: self,
+            w: Scratch::new(self.nf(), &self.q_locked),
+            prev: State::at_rest(vec![0.0; self.nf()]),
+        }
     }
 
     /// Simulate from `x0` at `times[0]` to `times[last]` with RK4 steps of (at most) `h`

@@ -306,7 +306,7 @@ fn didim_and_the_closed_loop_diagnosis_find_coulomb_then_the_offset_emps() {
     assert!((last.1 / 0.229 - 1.0).abs() < 0.10, "velocity {}", last.1);
     let table = Table::read(&manifest("data/emps/emps_test_pulses.csv")).unwrap();
     let pulses = ClosedLoopRecord::from_table(&table, &plant, &c).unwrap();
-    let (force, velocity) = closed_loop_errors(&plant, &c, &[pulses.clone()]).unwrap();
+    let (force, velocity) = closed_loop_errors(&plant, &c, std::slice::from_ref(&pulses)).unwrap();
     eprintln!("pulses: force {force:.4} %, velocity {velocity:.4} %");
     assert!((force / 8.941 - 1.0).abs() < 0.10, "pulses force {force}");
     // The pulses fed as the published simulation fed them (linearly interpolated): both

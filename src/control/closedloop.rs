@@ -296,6 +296,7 @@ pub fn simulate_pd(
     let mut q = vec![Vec::with_capacity(n); nf];
     let mut tau = vec![Vec::with_capacity(n); nf];
     let mut u = vec![0.0; nf];
+    let mut stepper = sim.stepper();
     for k in 0..n {
         for a in 0..nf {
             let e = q_cmd[a][k] - x.q[a];
@@ -314,10 +315,10 @@ pub fn simulate_pd(
             break;
         }
         let t0 = k as f64 * period;
-        x = sim
-            .simulate_from(
+        stepper
+            .advance(
                 t0,
-                x,
+                &mut x,
                 h,
                 sub,
                 1e3,

@@ -563,6 +563,7 @@ pub fn simulate_closed_loop(
     let mut q_full = model.q_locked.clone();
     let mut gravity = vec![0.0; nf];
     let continuous = c.disturbance_hold.is_continuous();
+    let mut stepper = model.stepper();
     let disturbance = InputSignal {
         t0: record.t[0],
         dt: c.period,
@@ -633,8 +634,8 @@ pub fn simulate_closed_loop(
                 out.copy_from_slice(&tau);
             }
         };
-        x = model
-            .simulate_from(record.t[k], x, h, c.substeps, 1e6, input, |_, _| {})
+        stepper
+            .advance(record.t[k], &mut x, h, c.substeps, 1e6, input, |_, _| {})
             .map_err(|d| {
                 let name = names.get(d.joint).copied().unwrap_or("?");
                 anyhow!(
