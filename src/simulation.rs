@@ -284,7 +284,8 @@ impl State {
         self.z.copy_from_slice(&o.z);
     }
 
-    fn axpy_into(&self, h: f64, d: &State, out: &mut State) {
+    /// `out` = self + h·d, component-wise (all three of the same length).
+    pub fn axpy_into(&self, h: f64, d: &State, out: &mut State) {
         let f = |o: &mut [f64], a: &[f64], b: &[f64]| {
             for i in 0..o.len() {
                 o[i] = a[i] + h * b[i];
@@ -376,6 +377,21 @@ impl Stepper<'_> {
             observe(t1, x);
         }
         Ok(())
+    }
+
+    /// [`PlantModel::derivative_with_external`] into `out` (NF, with the stepper's work
+    /// space: no allocation), for a caller that integrates the plant beside states of its
+    /// own (a hand on a haptic wall).
+    pub fn derivative_into(
+        &mut self,
+        t: f64,
+        x: &State,
+        tau: &[f64],
+        q_ext: &[f64],
+        out: &mut State,
+    ) {
+        self.model
+            .derivative_into((t, x, tau), q_ext, &mut self.w, out);
     }
 }
 

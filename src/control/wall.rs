@@ -223,21 +223,22 @@ pub fn simulate(
     // Hand position (m) and velocity (m/s) along the end point's path.
     let (mut xh, mut vh) = (r * user.start, 0.0);
 
-    let deriv = |x: &State, xh: f64, vh: f64, t: f64, tau: &[f64]| -> (State, f64, f64) {
-        let (q, qd) = (x.q[joint], x.qd[joint]);
-        let f_grip = hand.grip_stiffness * (xh - r * q) + hand.grip_damping * (vh - r * qd);
-        let (qi, qdi) = user.intention(t);
-        let f_arm = hand.arm_stiffness * (r * qi - xh) + hand.arm_damping * (r * qdi - vh);
-        let mut ext = vec![0.0; nf];
-        ext[joint] = r * f_grip;
-        let dx = plant.derivative_with_external(t, x, tau, &ext);
-        (dx, vh, (f_arm - f_grip) / hand.mass)
-    };
-    let axpy = |x: &State, k: f64, d: &State| State {
-        q: x.q.iter().zip(&d.q).map(|(a, b)| a + k * b).collect(),
-        qd: x.qd.iter().zip(&d.qd).map(|(a, b)| a + k * b).collect(),
-        z: x.z.iter().zip(&d.z).map(|(a, b)| a + k * b).collect(),
-    };
+    // The plant's derivative beside the hand's (position, velocity), with one work space.
+    let mut stepper = plant.stepper();
+    let mut ext = vec![0.0; nf];
+    let mut deriv =
+        |x: &State, xh: f64, vh: f64, t: f64, tau: &[f64], dx: &mut State| -> (f64, f64) {
+            let (q, qd) = (x.q[joint], x.qd[joint]);
+            let f_grip = hand.grip_stiffness * (xh - r * q) + hand.grip_damping * (vh - r * qd);
+            let (qi, qdi) = user.intention(t);
+            let f_arm = hand.arm_stiffness * (r * qi - xh) + hand.arm_damping * (r * qdi - vh);
+            ext[joint] = r * f_grip;
+            stepper.derivative_into(t, x, tau, &ext, dx);
+            (vh, (f_arm - f_grip) / hand.mass)
+        };
+    let zero = || State::at_rest(vec![0.0; nf]);
+    let [mut k1, mut k2, mut k3, mut k4] = [zero(), zero(), zero(), zero()];
+    let mut stage = zero();
 
     let mut run = Run {
         t: Vec::with_capacity(samples * sub + 1),
@@ -280,25 +281,27 @@ pub fn simulate(
         run.energy.push(energy);
         for s in 0..sub {
             let ts = t + s as f64 * h;
-            let (k1, a1, b1) = deriv(&x, xh, vh, ts, &tau);
-            let x2 = axpy(&x, h / 2.0, &k1);
-            let (k2, a2, b2) = deriv(
-                &x2,
+            let (a1, b1) = deriv(&x, xh, vh, ts, &tau, &mut k1);
+            x.axpy_into(h / 2.0, &k1, &mut stage);
+            let (a2, b2) = deriv(
+                &stage,
                 xh + h / 2.0 * a1,
                 vh + h / 2.0 * b1,
                 ts + h / 2.0,
                 &tau,
+                &mut k2,
             );
-            let x3 = axpy(&x, h / 2.0, &k2);
-            let (k3, a3, b3) = deriv(
-                &x3,
+            x.axpy_into(h / 2.0, &k2, &mut stage);
+            let (a3, b3) = deriv(
+                &stage,
                 xh + h / 2.0 * a2,
                 vh + h / 2.0 * b2,
                 ts + h / 2.0,
                 &tau,
+                &mut k3,
             );
-            let x4 = axpy(&x, h, &k3);
-            let (k4, a4, b4) = deriv(&x4, xh + h * a3, vh + h * b3, ts + h, &tau);
+            x.axpy_into(h, &k3, &mut stage);
+            let (a4, b4) = deriv(&stage, xh + h * a3, vh + h * b3, ts + h, &tau, &mut k4);
             let c = h / 6.0;
             for i in 0..nf {
                 x.q[i] += c * (k1.q[i] + 2.0 * k2.q[i] + 2.0 * k3.q[i] + k4.q[i]);
