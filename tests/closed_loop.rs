@@ -486,21 +486,30 @@ parameters = { c = { start = 0.0, bounds = [-1e5, 1e5] } }
     assert!(!p5.exists());
 }
 
+/// The plant's derivative with one work space (the equations only), and the state and
+/// derivative it reads and writes.
+type HeldWork<'a> = std::cell::RefCell<(
+    lockstep::simulation::Stepper<'a>,
+    lockstep::simulation::State,
+    lockstep::simulation::State,
+)>;
+
 /// The plant's state equation under a command held over one sample.
-struct Held<'a> {
-    model: &'a lockstep::simulation::PlantModel,
+struct Held<'w, 'a> {
+    work: &'w HeldWork<'a>,
     tau: Vec<f64>,
 }
 
-impl ode_solvers::System<f64, ode_solvers::DVector<f64>> for Held<'_> {
+impl ode_solvers::System<f64, ode_solvers::DVector<f64>> for Held<'_, '_> {
     fn system(&self, t: f64, y: &ode_solvers::DVector<f64>, dy: &mut ode_solvers::DVector<f64>) {
         let nf = self.tau.len();
-        let x = lockstep::simulation::State {
-            q: y.rows(0, nf).iter().copied().collect(),
-            qd: y.rows(nf, nf).iter().copied().collect(),
-            z: vec![0.0; nf],
-        };
-        let d = self.model.derivative(t, &x, &self.tau);
+        let mut work = self.work.borrow_mut();
+        let (stepper, x, d) = &mut *work;
+        for a in 0..nf {
+            x.q[a] = y[a];
+            x.qd[a] = y[nf + a];
+        }
+        stepper.derivative_into(t, x, &self.tau, &[], d);
         for a in 0..nf {
             dy[a] = d.q[a];
             dy[nf + a] = d.qd[a];
@@ -533,6 +542,8 @@ fn puma_closed_loop_record(truth: &Plant, path: &Path, seconds: f64, sigma: f64)
         .unwrap()
         .model;
     let n = (seconds / T).round() as usize + 1;
+    let at_rest = || lockstep::simulation::State::at_rest(vec![0.0; 3]);
+    let work: HeldWork = std::cell::RefCell::new((model.stepper(), at_rest(), at_rest()));
     let mut noise = common::independent::Noise(11);
     let mut y = DVector::zeros(6);
     for a in 0..3 {
@@ -579,7 +590,7 @@ fn puma_closed_loop_record(truth: &Plant, path: &Path, seconds: f64, sigma: f64)
         }
         // Over [t, t + T): the command of the sample before (one sample of delay).
         let system = Held {
-            model: &model,
+            work: &work,
             tau: applied.clone(),
         };
         let mut solver =

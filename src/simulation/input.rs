@@ -114,7 +114,8 @@ fn bandlimited_kernel() -> &'static [f64] {
 /// K(x) of [`bandlimited_kernel`] for |x| ≤ a, by linear interpolation in the table.
 fn kernel_at(table: &[f64], x: f64) -> f64 {
     let u = x.abs() * KERNEL_RESOLUTION as f64;
-    let i = u.floor() as usize;
+    // u ≥ 0: the conversion truncates, which is the floor (without a libm call).
+    let i = u as usize;
     if i + 1 >= table.len() {
         return 0.0;
     }
@@ -148,10 +149,13 @@ impl InputSignal<'_> {
         let s = ((t - self.t0) / self.dt).max(0.0);
         match self.hold {
             Hold::Zoh | Hold::Linear => {
+                // s ≥ 0: truncation is the floor, and the ceiling one more where it cut.
                 let k = if left && s > 1e-9 {
-                    ((s - 1e-9).ceil() as usize).saturating_sub(1)
+                    let c = s - 1e-9;
+                    let i = c as usize;
+                    (if (i as f64) < c { i + 1 } else { i }).saturating_sub(1)
                 } else {
-                    (s + 1e-9).floor() as usize
+                    (s + 1e-9) as usize
                 }
                 .min(n - 1);
                 if self.hold == Hold::Zoh {
@@ -167,7 +171,8 @@ impl InputSignal<'_> {
                 }
             }
             Hold::Cubic | Hold::Bandlimited => {
-                let k = (s + 1e-9).floor();
+                // s ≥ 0: truncation is the floor.
+                let k = ((s + 1e-9) as usize) as f64;
                 let f = (s - k).max(0.0);
                 let k = k as usize;
                 if k >= n - 1 || f < 1e-9 {
@@ -198,10 +203,20 @@ impl InputSignal<'_> {
                         *wj = kernel_at(table, f - (j as isize + 1 - a) as f64);
                         sum += *wj;
                     }
+                    // The taps k + 1 − a ..= k + a, clamped to the record at its ends.
+                    let first = k as isize + 1 - a;
+                    let inside = first >= 0 && k + BANDLIMITED_TAPS < n;
                     for (o, col) in out.iter_mut().zip(self.tau) {
                         let mut v = 0.0;
-                        for (j, wj) in w.iter().enumerate() {
-                            v += wj * at(col, j as isize + 1 - a);
+                        if inside {
+                            let taps = &col[first as usize..first as usize + 2 * BANDLIMITED_TAPS];
+                            for (wj, x) in w.iter().zip(taps) {
+                                v += wj * x;
+                            }
+                        } else {
+                            for (j, wj) in w.iter().enumerate() {
+                                v += wj * at(col, j as isize + 1 - a);
+                            }
                         }
                         *o = v / sum;
                     }

@@ -17,8 +17,9 @@
 
 use lockstep::excitation::{Excitations, Test};
 use lockstep::plant::{ConsistencyPolicy, Plant};
-use lockstep::simulation::{PlantModel, State};
+use lockstep::simulation::{PlantModel, State, Stepper};
 use ode_solvers::{DVector, Dop853, System};
+use std::cell::RefCell;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -35,40 +36,65 @@ struct Driven<'a> {
     free: &'a [usize],
     /// A hidden torque, taken from the joints.
     hidden: Option<Hidden<'a>>,
+    /// The plant's derivative evaluated with one work space (the equations only: the
+    /// stepper's RK4 is not used), and the state, derivative and torques it reads.
+    work: RefCell<(Stepper<'a>, State, State, Vec<f64>)>,
 }
 
-impl Driven<'_> {
+impl<'a> Driven<'a> {
+    fn new(
+        model: &'a PlantModel,
+        test: &'a Test,
+        free: &'a [usize],
+        hidden: Option<Hidden<'a>>,
+    ) -> Self {
+        let zero = || State::at_rest(vec![0.0; free.len()]);
+        Driven {
+            model,
+            test,
+            free,
+            hidden,
+            work: RefCell::new((model.stepper(), zero(), zero(), vec![0.0; free.len()])),
+        }
+    }
+
     fn tau(&self, t: f64) -> Vec<f64> {
-        self.free
-            .iter()
-            .map(|&j| {
-                self.test
-                    .signals
-                    .iter()
-                    .filter(|s| s.joint == j)
-                    .map(|s| s.value(t))
-                    .sum()
-            })
-            .collect()
+        let mut tau = vec![0.0; self.free.len()];
+        self.tau_into(t, &mut tau);
+        tau
+    }
+
+    fn tau_into(&self, t: f64, tau: &mut [f64]) {
+        for (o, &j) in tau.iter_mut().zip(self.free) {
+            *o = self
+                .test
+                .signals
+                .iter()
+                .filter(|s| s.joint == j)
+                .map(|s| s.value(t))
+                .sum();
+        }
     }
 }
 
 impl System<f64, DVector<f64>> for Driven<'_> {
     fn system(&self, t: f64, y: &DVector<f64>, dy: &mut DVector<f64>) {
         let nf = self.free.len();
-        let x = State {
-            q: y.rows(0, nf).iter().copied().collect(),
-            qd: y.rows(nf, nf).iter().copied().collect(),
-            z: y.rows(2 * nf, nf).iter().copied().collect(),
-        };
-        let d = match self.hidden {
+        let mut work = self.work.borrow_mut();
+        let (stepper, x, d, tau) = &mut *work;
+        for a in 0..nf {
+            x.q[a] = y[a];
+            x.qd[a] = y[nf + a];
+            x.z[a] = y[2 * nf + a];
+        }
+        self.tau_into(t, tau);
+        match self.hidden {
             Some(h) => {
-                let taken: Vec<f64> = h(&x).iter().map(|u| -u).collect();
-                self.model
-                    .derivative_with_external(t, &x, &self.tau(t), &taken)
+                let taken: Vec<f64> = h(x).iter().map(|u| -u).collect();
+                stepper.derivative_into(t, x, tau, &taken, d);
             }
-            None => self.model.derivative(t, &x, &self.tau(t)),
-        };
+            None => stepper.derivative_into(t, x, tau, &[], d),
+        }
         for a in 0..nf {
             dy[a] = d.q[a];
             dy[nf + a] = d.qd[a];
@@ -187,12 +213,7 @@ pub fn write_sensed(
         .test(spec.test)
         .expect("test")
         .clone();
-    let system = Driven {
-        model: &model,
-        test: &test,
-        free: &free,
-        hidden,
-    };
+    let system = Driven::new(&model, &test, &free, hidden);
     let y0 = DVector::zeros(3 * nf);
     let played = backlash.iter().any(|&b| b > 0.0);
     let fine = if played { BACKLASH_OVERSAMPLING } else { 1 };
@@ -251,12 +272,7 @@ pub fn write_sensed(
         write!(csv, ",q{j}").unwrap();
     }
     csv.push('\n');
-    let driven = Driven {
-        model: &model,
-        test: &test,
-        free: &free,
-        hidden: None,
-    };
+    let driven = Driven::new(&model, &test, &free, None);
     for k in 0..n {
         let t = k as f64 / RATE;
         assert!(
