@@ -564,6 +564,8 @@ pub fn simulate_closed_loop(
     let mut gravity = vec![0.0; nf];
     let continuous = c.disturbance_hold.is_continuous();
     let mut stepper = model.stepper();
+    // The disturbance at a stage time, under a continuous hold.
+    let mut d = vec![0.0; nf];
     let disturbance = InputSignal {
         t0: record.t[0],
         dt: c.period,
@@ -623,7 +625,6 @@ pub fn simulate_closed_loop(
         }
         // Under a continuous disturbance hold, the command between samples is the held
         // controller output plus the disturbance's reconstruction at each RK4 stage.
-        let mut d = vec![0.0; nf];
         let input = |t: f64, out: &mut [f64]| {
             if continuous {
                 disturbance.at(t, &mut d);

@@ -30,7 +30,6 @@ pub type Hidden<'a> = &'a (dyn Fn(&State) -> Vec<f64> + Sync);
 
 /// The plant's state equation driven by the continuous excitation.
 struct Driven<'a> {
-    model: &'a PlantModel,
     test: &'a Test,
     /// Model joint index of each free joint.
     free: &'a [usize],
@@ -50,7 +49,6 @@ impl<'a> Driven<'a> {
     ) -> Self {
         let zero = || State::at_rest(vec![0.0; free.len()]);
         Driven {
-            model,
             test,
             free,
             hidden,
