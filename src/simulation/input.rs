@@ -93,34 +93,33 @@ pub struct InputSignal<'a> {
     pub hold: Hold,
 }
 
-/// The band-limited reconstruction's kernel K(x) = sinc(x) I0(β √(1 − (x/a)²)) / I0(β) at
-/// x = i / [`KERNEL_RESOLUTION`], i = 0 ..= a·resolution (K is even), computed once.
-fn bandlimited_kernel() -> &'static [f64] {
-    static K: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+/// The band-limited reconstruction's kernel K(x) = sinc(x) I0(β √(1 − (x/a)²)) / I0(β)
+/// (K(x) = 0 for |x| ≥ a), tabulated by phase, computed once: row p = 0 ..= resolution holds
+/// the weights K(p / [`KERNEL_RESOLUTION`] − i), i = 1 − a ..= a, of the 2a samples around a
+/// time the fraction p / resolution of a period past a sample. A time between two rows
+/// reads both rows' 2a contiguous weights (linear interpolation in the phase), where a
+/// table by x would read each weight a table's length apart.
+fn bandlimited_kernel() -> &'static [[f64; 2 * BANDLIMITED_TAPS]] {
+    static K: std::sync::OnceLock<Vec<[f64; 2 * BANDLIMITED_TAPS]>> = std::sync::OnceLock::new();
     K.get_or_init(|| {
         let i0 = crate::signal::bessel_i0;
         let a = BANDLIMITED_TAPS as f64;
-        (0..=BANDLIMITED_TAPS * KERNEL_RESOLUTION)
-            .map(|i| {
-                let x = i as f64 / KERNEL_RESOLUTION as f64;
-                let px = std::f64::consts::PI * x;
-                let sinc = if i == 0 { 1.0 } else { px.sin() / px };
-                sinc * i0(KAISER_BETA * (1.0 - (x / a).powi(2)).max(0.0).sqrt()) / i0(KAISER_BETA)
+        let kernel = |x: f64| {
+            let x = x.abs();
+            if x >= a {
+                return 0.0;
+            }
+            let px = std::f64::consts::PI * x;
+            let sinc = if x == 0.0 { 1.0 } else { px.sin() / px };
+            sinc * i0(KAISER_BETA * (1.0 - (x / a).powi(2)).max(0.0).sqrt()) / i0(KAISER_BETA)
+        };
+        (0..=KERNEL_RESOLUTION)
+            .map(|p| {
+                let f = p as f64 / KERNEL_RESOLUTION as f64;
+                std::array::from_fn(|j| kernel(f - (j as f64 + 1.0 - a)))
             })
             .collect()
     })
-}
-
-/// K(x) of [`bandlimited_kernel`] for |x| ≤ a, by linear interpolation in the table.
-fn kernel_at(table: &[f64], x: f64) -> f64 {
-    let u = x.abs() * KERNEL_RESOLUTION as f64;
-    // u ≥ 0: the conversion truncates, which is the floor (without a libm call).
-    let i = u as usize;
-    if i + 1 >= table.len() {
-        return 0.0;
-    }
-    let f = u - i as f64;
-    table[i] + f * (table[i + 1] - table[i])
 }
 
 impl InputSignal<'_> {
@@ -194,13 +193,19 @@ impl InputSignal<'_> {
                                     + f * (-0.5 * pm + 1.5 * p0 - 1.5 * p1 + 0.5 * p2)));
                     }
                 } else {
-                    // w_i = K(f − i), i = 1 − a … a, normalised to sum 1.
+                    // w_i = K(f − i), i = 1 − a … a, normalised to sum 1; K read between
+                    // the two phases of the table around f.
                     let a = BANDLIMITED_TAPS as isize;
+                    let u = f * KERNEL_RESOLUTION as f64;
+                    // 0 ≤ u < resolution: truncation is the floor.
+                    let p = (u as usize).min(KERNEL_RESOLUTION - 1);
+                    let phi = u - p as f64;
                     let table = bandlimited_kernel();
+                    let (lo, hi) = (&table[p], &table[p + 1]);
                     let mut w = [0.0; 2 * BANDLIMITED_TAPS];
                     let mut sum = 0.0;
-                    for (j, wj) in w.iter_mut().enumerate() {
-                        *wj = kernel_at(table, f - (j as isize + 1 - a) as f64);
+                    for ((wj, l), h) in w.iter_mut().zip(lo).zip(hi) {
+                        *wj = l + phi * (h - l);
                         sum += *wj;
                     }
                     // The taps k + 1 − a ..= k + a, clamped to the record at its ends.
