@@ -399,6 +399,12 @@ impl Stepper<'_> {
 #[derive(Debug, Clone)]
 struct Scratch {
     q_full: Vec<f64>,
+    /// The trigonometric table of `q_full` the kernels' `_trig` forms read (2·NJ: sin, cos
+    /// of each joint in the configuration's `trig`): the locked joints' filled once, the
+    /// free joints' with `q_full` ([`Scratch::put_free`]).
+    sc: Vec<f64>,
+    /// (free index a, joint k) of the free joints in the configuration's `trig`.
+    trig_free: Vec<(usize, usize)>,
     /// D_FF(q) (NF × NF, column-major) for the armatures.
     mass: Vec<f64>,
     tau_c: Vec<f64>,
@@ -425,6 +431,20 @@ struct Scratch {
 }
 
 impl Scratch {
+    /// Write the free joints' positions `q_f` (NF) into `q_full` and their sines and
+    /// cosines into the table `sc` (`free` the configuration's free joints).
+    fn put_free(&mut self, free: &[usize], q_f: &[f64]) {
+        for (a, &k) in free.iter().enumerate() {
+            self.q_full[k] = q_f[a];
+        }
+        for &(a, k) in &self.trig_free {
+            let (s, c) = q_f[a].sin_cos();
+            if let [sk, ck] = &mut self.sc[2 * k..2 * k + 2] {
+                (*sk, *ck) = (s, c);
+            }
+        }
+    }
+
     /// The stage inputs of a step of `hs` from `t0` (s): the commands `input` and the
     /// measured positions `measured` at t0, t0 + hs/2 and just before t0 + hs.
     fn load(&mut self, input: &InputSignal, measured: Option<&InputSignal>, t0: f64, hs: f64) {
@@ -479,10 +499,25 @@ impl Scratch {
         }
     }
 
-    fn new(nf: usize, q_locked: &[f64]) -> Scratch {
+    fn new(model: &PlantModel) -> Scratch {
+        let nf = model.nf();
         let z = || State::at_rest(vec![0.0; nf]);
+        let conf = model.conf;
+        let mut sc = vec![0.0; 2 * model.q_locked.len()];
+        for &k in conf.trig {
+            (sc[2 * k], sc[2 * k + 1]) = model.q_locked[k].sin_cos();
+        }
+        let trig_free = conf
+            .free
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| conf.trig.contains(k))
+            .map(|(a, &k)| (a, k))
+            .collect();
         Scratch {
-            q_full: q_locked.to_vec(),
+            q_full: model.q_locked.clone(),
+            sc,
+            trig_free,
             mass: vec![0.0; nf * nf],
             tau_c: vec![0.0; nf],
             applied: vec![0.0; nf],
@@ -669,7 +704,7 @@ impl PlantModel {
         w: &mut Scratch,
         out: &mut State,
     ) {
-        self.put_free(&x.q, &mut w.q_full);
+        w.put_free(self.conf.free, &x.q);
         self.applied_into(
             (t, x, tau),
             &w.sides,
@@ -681,7 +716,14 @@ impl PlantModel {
             *q += e;
         }
         out.q.copy_from_slice(&x.qd);
-        (self.conf.forward_dynamics)(&w.q_full, &x.qd, &w.applied, &self.p, &mut out.qd);
+        (self.conf.forward_dynamics_trig)(
+            &w.q_full,
+            &w.sc,
+            &x.qd,
+            &w.applied,
+            &self.p,
+            &mut out.qd,
+        );
         if self.adds_inertia() {
             self.with_added_inertia(w, (t, x, tau), &mut out.qd);
         }
@@ -715,7 +757,7 @@ impl PlantModel {
     /// left (the divergence check then names the inertia matrix).
     fn with_added_inertia(&self, w: &mut Scratch, at: (f64, &State, &[f64]), qdd: &mut [f64]) {
         let nf = self.nf();
-        (self.conf.mass_matrix)(&w.q_full, &self.p, &mut w.mass);
+        (self.conf.mass_matrix_trig)(&w.q_full, &w.sc, &self.p, &mut w.mass);
         let d = nalgebra::DMatrix::from_column_slice(nf, nf, &w.mass);
         let rhs = &d * nalgebra::DVector::from_column_slice(qdd);
         self.add_inertia(at, &mut w.mass);
@@ -748,7 +790,7 @@ impl PlantModel {
     /// generalised force `q_ext` (NF, N·m or N; empty for none) added to the applied torques
     /// Q: a hand holding the end point, a contact. The plant gain does not act on `q_ext`.
     pub fn derivative_with_external(&self, t: f64, x: &State, tau: &[f64], q_ext: &[f64]) -> State {
-        let mut w = Scratch::new(self.nf(), &self.q_locked);
+        let mut w = Scratch::new(self);
         let mut out = State::at_rest(vec![0.0; self.nf()]);
         self.derivative_into((t, x, tau), q_ext, &mut w, &mut out);
         out
@@ -1012,7 +1054,7 @@ impl PlantModel {
     pub fn stepper(&self) -> Stepper<'_> {
         Stepper {
             model: self,
-            w: Scratch::new(self.nf(), &self.q_locked),
+            w: Scratch::new(self),
             prev: State::at_rest(vec![0.0; self.nf()]),
         }
     }
@@ -1076,7 +1118,7 @@ impl PlantModel {
         };
         let t_end = *times.last().unwrap_or(&t_start);
         let steps = ((t_end - t_start) / h - 1e-9).ceil().max(0.0) as usize;
-        let mut w = Scratch::new(nf, &self.q_locked);
+        let mut w = Scratch::new(self);
         let measured = w.observe(observer, input);
         // The sensed positions behind each joint's backlash (the play operator's state),
         // centred on the drive at the start.

@@ -108,22 +108,54 @@ impl<'m> SymbolicModel<'m> {
     }
 }
 
-/// `let (s{k}, c{k}) = q[k].sin_cos();` for the joints whose sine or cosine `outputs` use.
-fn trig_prelude(sm: &SymbolicModel, g: &Graph, outputs: &[Atom]) -> Vec<TokenStream> {
+/// The joints whose sine or cosine `outputs` use: (joint, sine used, cosine used).
+fn trig_used(sm: &SymbolicModel, g: &Graph, outputs: &[Atom]) -> Vec<(usize, bool, bool)> {
     let v = &sm.vars;
     let used = g.inputs_used(outputs);
-    let mut out = Vec::new();
-    for k in 0..sm.model.joints.len() {
-        let used_s = used.contains(&v.s[k]);
-        let used_c = used.contains(&v.c[k]);
+    (0..sm.model.joints.len())
+        .map(|k| (k, used.contains(&v.s[k]), used.contains(&v.c[k])))
+        .filter(|&(_, s, c)| s || c)
+        .collect()
+}
+
+/// The trigonometric table a kernel's `_trig` form reads, filled from `q`:
+/// `sc[2k] = sin q_k`, `sc[2k + 1] = cos q_k` for the joints in `used` (the others 0).
+fn trig_table(used: &[(usize, bool, bool)]) -> Vec<TokenStream> {
+    if used.is_empty() {
+        return vec![quote!(let sc = [0.0; 2 * super::NJ];)];
+    }
+    let mut out = vec![quote!(let mut sc = [0.0; 2 * super::NJ];)];
+    for &(k, used_s, used_c) in used {
         let kk = proc_macro2::Literal::usize_unsuffixed(k);
-        let (s, c) = (id(&format!("s{k}")), id(&format!("c{k}")));
+        let (is, ic) = (
+            proc_macro2::Literal::usize_unsuffixed(2 * k),
+            proc_macro2::Literal::usize_unsuffixed(2 * k + 1),
+        );
         if used_s && used_c {
-            out.push(quote!(let (#s, #c) = q[#kk].sin_cos();));
+            out.push(quote!((sc[#is], sc[#ic]) = q[#kk].sin_cos();));
         } else if used_s {
-            out.push(quote!(let #s = q[#kk].sin();));
-        } else if used_c {
-            out.push(quote!(let #c = q[#kk].cos();));
+            out.push(quote!(sc[#is] = q[#kk].sin();));
+        } else {
+            out.push(quote!(sc[#ic] = q[#kk].cos();));
+        }
+    }
+    out
+}
+
+/// `let s{k} = sc[2k]; let c{k} = sc[2k + 1];` for the joints in `used`.
+fn trig_prelude(used: &[(usize, bool, bool)]) -> Vec<TokenStream> {
+    let mut out = Vec::new();
+    for &(k, used_s, used_c) in used {
+        let (s, c) = (id(&format!("s{k}")), id(&format!("c{k}")));
+        let (is, ic) = (
+            proc_macro2::Literal::usize_unsuffixed(2 * k),
+            proc_macro2::Literal::usize_unsuffixed(2 * k + 1),
+        );
+        if used_s {
+            out.push(quote!(let #s = sc[#is];));
+        }
+        if used_c {
+            out.push(quote!(let #c = sc[#ic];));
         }
     }
     out
@@ -139,33 +171,77 @@ fn nested(results: &[TokenStream], rows: usize, cols: usize) -> TokenStream {
     quote!([#(#rows_ts),*])
 }
 
-/// Straight-line body computing `outputs`: trig prelude, intermediates, results.
+/// Straight-line body computing `outputs`: trig prelude (reads of the table `sc`),
+/// intermediates, results; `used` the joints whose trigonometry it reads.
 struct Body {
     pre: Vec<TokenStream>,
     stmts: Vec<TokenStream>,
     results: Vec<TokenStream>,
+    used: Vec<(usize, bool, bool)>,
     ops: Ops,
 }
 
 fn body(sm: &SymbolicModel, cd: &ConfigDynamics, free: &[usize], outputs: &[Atom]) -> Body {
     let g = &cd.graph;
     let (stmts, results, mut ops) = g.emit(outputs, &|s| sm.spelling(free, s));
-    let pre = trig_prelude(sm, g, outputs);
-    ops.other += pre.len();
+    let used = trig_used(sm, g, outputs);
+    // One sin_cos (or sin, or cos) per joint used, as the typed form computes them.
+    ops.other += used.len();
     Body {
-        pre,
+        pre: trig_prelude(&used),
         stmts,
         results,
+        used,
         ops,
     }
 }
 
-/// One kernel of a configuration: name, doc line, arguments, return type, outputs and shape
-/// (rows, cols; cols 0 for a vector).
+/// A kernel's two forms: `name_trig(q, sc, rest…)`, the body reading the trigonometric
+/// table `sc` (the simulator fills it once per stage, the locked joints' once per run),
+/// and `name(q, rest…)`, which fills the table from `q` and calls it. `rest` the arguments
+/// after `q` (declarations), `names` their names.
+#[allow(clippy::too_many_arguments)]
+fn two_forms(
+    name: &str,
+    doc: &str,
+    rest: &TokenStream,
+    names: &[&str],
+    ret: &TokenStream,
+    used: &[(usize, bool, bool)],
+    pre: &[TokenStream],
+    body: TokenStream,
+) -> TokenStream {
+    let f = id(name);
+    let f_trig = id(&format!("{name}_trig"));
+    let fill = trig_table(used);
+    let names: Vec<proc_macro2::Ident> = names.iter().map(|n| id(n)).collect();
+    let doc_trig = format!(
+        "[`{name}`] with the joints' sines and cosines read from `sc` (`[f64; 2 NJ]`: \
+         sc[2k] = sin q_k, sc[2k + 1] = cos q_k; only the joints in [`TRIG`] are read)."
+    );
+    quote! {
+        #[doc = #doc]
+        #[inline]
+        pub fn #f(q: &[f64; super::NJ], #rest) -> #ret {
+            #(#fill)*
+            #f_trig(q, &sc, #(#names),*)
+        }
+        #[doc = #doc_trig]
+        #[inline]
+        pub fn #f_trig(q: &[f64; super::NJ], sc: &[f64; 2 * super::NJ], #rest) -> #ret {
+            let _ = q;
+            #(#pre)*
+            #body
+        }
+    }
+}
+
+/// One kernel of a configuration: name, doc line, arguments after `q` and their names,
+/// return type, outputs and shape (rows, cols; cols 0 for a vector).
 type KernelSpec = (
     &'static str,
     &'static str,
-    TokenStream,
+    (TokenStream, &'static [&'static str]),
     TokenStream,
     Vec<Atom>,
     (usize, usize),
@@ -179,34 +255,37 @@ fn kernel(
     free: &[usize],
     name: &str,
     doc: &str,
-    args: TokenStream,
-    ret: TokenStream,
+    (rest, names): (&TokenStream, &[&str]),
+    ret: &TokenStream,
     outputs: &[Atom],
     shape: (usize, usize),
     ops: &mut Vec<(String, Ops)>,
+    trig: &mut Vec<usize>,
 ) -> TokenStream {
     let Body {
         pre,
         stmts,
         results,
+        used,
         ops: o,
     } = body(sm, cd, free, outputs);
     ops.push((name.to_string(), o));
+    trig.extend(used.iter().map(|u| u.0));
     let value = if shape.1 == 0 {
         quote!([#(#results),*])
     } else {
         nested(&results, shape.0, shape.1)
     };
-    let f = id(name);
-    quote! {
-        #[doc = #doc]
-        #[inline]
-        pub fn #f(#args) -> #ret {
-            #(#pre)*
-            #(#stmts)*
-            #value
-        }
-    }
+    two_forms(
+        name,
+        doc,
+        rest,
+        names,
+        ret,
+        &used,
+        &pre,
+        quote!(#(#stmts)* #value),
+    )
 }
 
 // The generation-time checks' random generator: lockstep's one xorshift64*.
@@ -386,14 +465,15 @@ fn config_module(
         }
     }
     let mut ops = Vec::new();
+    // The joints whose trigonometry any kernel reads.
+    let mut trig: Vec<usize> = Vec::new();
     let flat = |m: &Vec<Vec<Atom>>| -> Vec<Atom> { m.iter().flatten().cloned().collect() };
-    let nj_ts = quote!(super::NJ);
     let np_ts = quote!(super::NP);
     let table: Vec<KernelSpec> = vec![
         (
             "mass_matrix",
             "Inertia matrix D_FF(q) (thesis 3.2), NF × NF, kg·m² (kg for prismatic rows).",
-            quote!(q: &[f64; #nj_ts], p: &[f64; #np_ts]),
+            (quote!(p: &[f64; #np_ts]), &["p"]),
             quote!([[f64; NF]; NF]),
             flat(&cd.d),
             (nf, nf),
@@ -401,7 +481,7 @@ fn config_module(
         (
             "christoffel_matrix",
             "Christoffel matrix C_FF(q, q̇) (thesis 3.3): C_kj = Σ_i Γ_ijk q̇_i, NF × NF.",
-            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], p: &[f64; #np_ts]),
+            (quote!(qd: &[f64; NF], p: &[f64; #np_ts]), &["qd", "p"]),
             quote!([[f64; NF]; NF]),
             flat(&cd.c),
             (nf, nf),
@@ -409,7 +489,7 @@ fn config_module(
         (
             "coriolis",
             "Coriolis and centrifugal torques C_FF(q, q̇) q̇_F, NF (N·m or N).",
-            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], p: &[f64; #np_ts]),
+            (quote!(qd: &[f64; NF], p: &[f64; #np_ts]), &["qd", "p"]),
             quote!([f64; NF]),
             cd.cqd.clone(),
             (nf, 0),
@@ -417,7 +497,7 @@ fn config_module(
         (
             "gravity",
             "Gravity torques φ_F(q) (thesis 3.4), NF (N·m or N).",
-            quote!(q: &[f64; #nj_ts], p: &[f64; #np_ts]),
+            (quote!(p: &[f64; #np_ts]), &["p"]),
             quote!([f64; NF]),
             cd.phi.clone(),
             (nf, 0),
@@ -425,7 +505,10 @@ fn config_module(
         (
             "inverse_dynamics",
             "Inverse dynamics τ_F = D q̈ + C q̇ + φ (thesis 3.5), NF (N·m or N).",
-            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF], p: &[f64; #np_ts]),
+            (
+                quote!(qd: &[f64; NF], qdd: &[f64; NF], p: &[f64; #np_ts]),
+                &["qd", "qdd", "p"],
+            ),
             quote!([f64; NF]),
             cd.tau.clone(),
             (nf, 0),
@@ -435,7 +518,10 @@ fn config_module(
             "Row a: [D_a (NF), ∂τ_a/∂q_F (NF), ∂τ_a/∂q̇_F (NF)], τ_F = D q̈ + C q̇ + φ at fixed \
              q̈ (thesis 3.5): the state derivatives of forward dynamics are \
              ∂q̈/∂x = D⁻¹ (∂Q/∂x − ∂τ/∂x), Q the applied torques. NF × 3NF.",
-            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF], p: &[f64; #np_ts]),
+            (
+                quote!(qd: &[f64; NF], qdd: &[f64; NF], p: &[f64; #np_ts]),
+                &["qd", "qdd", "p"],
+            ),
             quote!([[f64; 3 * NF]; NF]),
             derivatives,
             (nf, 3 * nf),
@@ -443,7 +529,7 @@ fn config_module(
         (
             "regressor",
             "Regressor Y_F(q, q̇, q̈) with τ_F = Y_F p, NF × NP.",
-            quote!(q: &[f64; #nj_ts], qd: &[f64; NF], qdd: &[f64; NF]),
+            (quote!(qd: &[f64; NF], qdd: &[f64; NF]), &["qd", "qdd"]),
             quote!([[f64; #np_ts]; NF]),
             flat(&cd.y),
             (nf, sm.params.len()),
@@ -451,18 +537,19 @@ fn config_module(
     ];
     let mut items: Vec<TokenStream> = table
         .iter()
-        .map(|(name, doc, args, ret, outputs, shape)| {
+        .map(|(name, doc, (rest, names), ret, outputs, shape)| {
             kernel(
                 sm,
                 &cd,
                 free,
                 name,
                 doc,
-                args.clone(),
-                ret.clone(),
+                (rest, names),
+                ret,
                 outputs,
                 *shape,
                 &mut ops,
+                &mut trig,
             )
         })
         .collect();
@@ -478,8 +565,10 @@ fn config_module(
         pre,
         stmts,
         results,
+        used,
         ops: o,
     } = body(sm, &cd, free, &dh);
+    trig.extend(used.iter().map(|u| u.0));
     let mut k = 0;
     let mut d_rows = Vec::new();
     for a in 0..nf {
@@ -518,18 +607,28 @@ fn config_module(
     fo.mul += (nf * nf * nf - nf) / 6 + nf * (nf - 1);
     fo.other += nf + nf * (nf - 1) / 2 + 2 * nf;
     ops.push(("forward_dynamics".into(), fo));
-    items.push(quote! {
-        /// Forward dynamics q̈_F = D_FF⁻¹ (τ_F − C q̇ − φ) by an unrolled Cholesky
-        /// factorisation, NF (rad/s² or m/s²). NaN when D_FF is not positive definite.
-        #[inline]
-        pub fn forward_dynamics(q: &[f64; #nj_ts], qd: &[f64; NF], tau: &[f64; NF], p: &[f64; #np_ts]) -> [f64; NF] {
-            #(#pre)*
+    items.push(two_forms(
+        "forward_dynamics",
+        "Forward dynamics q̈_F = D_FF⁻¹ (τ_F − C q̇ − φ) by an unrolled Cholesky \
+         factorisation, NF (rad/s² or m/s²). NaN when D_FF is not positive definite.",
+        &quote!(qd: &[f64; NF], tau: &[f64; NF], p: &[f64; #np_ts]),
+        &["qd", "tau", "p"],
+        &quote!([f64; NF]),
+        &used,
+        &pre,
+        quote! {
             #(#stmts)*
             let d: [[f64; NF]; NF] = [#(#d_full),*];
             let rhs: [f64; NF] = [#(#rhs),*];
             #chol
-        }
-    });
+        },
+    ));
+    trig.sort_unstable();
+    trig.dedup();
+    let trig_lits: Vec<proc_macro2::Literal> = trig
+        .iter()
+        .map(|&k| proc_macro2::Literal::usize_unsuffixed(k))
+        .collect();
     let present_names: Vec<String> = present.iter().map(|&j| sm.params[j].name.clone()).collect();
     let present_idx: Vec<proc_macro2::Literal> = present
         .iter()
@@ -565,6 +664,8 @@ fn config_module(
             pub const FREE: [usize; NF] = [#(#free_lits),*];
             /// Barycentric parameters present in this configuration's equations.
             pub const PARAMS_PRESENT: &[usize] = &[#(#present_idx),*];
+            /// Joints whose sine and cosine the kernels read (the `_trig` forms' table).
+            pub const TRIG: &[usize] = &[#(#trig_lits),*];
             #(#items)*
 
             pub(crate) fn mass_matrix_dyn(q: &[f64], p: &[f64], out: &mut [f64]) {
@@ -595,6 +696,21 @@ fn config_module(
                 let m = regressor(q.try_into().unwrap(), qd.try_into().unwrap(), qdd.try_into().unwrap());
                 out.copy_from_slice(m.as_flattened());
             }
+            pub(crate) fn mass_matrix_trig_dyn(q: &[f64], sc: &[f64], p: &[f64], out: &mut [f64]) {
+                let m = mass_matrix_trig(q.try_into().unwrap(), sc.try_into().unwrap(), p.try_into().unwrap());
+                out.copy_from_slice(m.as_flattened());
+            }
+            pub(crate) fn forward_dynamics_trig_dyn(q: &[f64], sc: &[f64], qd: &[f64], tau: &[f64], p: &[f64], out: &mut [f64]) {
+                out.copy_from_slice(&forward_dynamics_trig(q.try_into().unwrap(), sc.try_into().unwrap(), qd.try_into().unwrap(), tau.try_into().unwrap(), p.try_into().unwrap()));
+            }
+            pub(crate) fn dynamics_derivatives_trig_dyn(q: &[f64], sc: &[f64], qd: &[f64], qdd: &[f64], p: &[f64], out: &mut [f64]) {
+                let m = dynamics_derivatives_trig(q.try_into().unwrap(), sc.try_into().unwrap(), qd.try_into().unwrap(), qdd.try_into().unwrap(), p.try_into().unwrap());
+                out.copy_from_slice(m.as_flattened());
+            }
+            pub(crate) fn regressor_trig_dyn(q: &[f64], sc: &[f64], qd: &[f64], qdd: &[f64], out: &mut [f64]) {
+                let m = regressor_trig(q.try_into().unwrap(), sc.try_into().unwrap(), qd.try_into().unwrap(), qdd.try_into().unwrap());
+                out.copy_from_slice(m.as_flattened());
+            }
             pub(crate) const CONFIGURATION: crate::Configuration = crate::Configuration {
                 name: #cname,
                 free: &FREE,
@@ -607,6 +723,11 @@ fn config_module(
                 forward_dynamics: forward_dynamics_dyn,
                 dynamics_derivatives: dynamics_derivatives_dyn,
                 regressor: regressor_dyn,
+                trig: TRIG,
+                mass_matrix_trig: mass_matrix_trig_dyn,
+                forward_dynamics_trig: forward_dynamics_trig_dyn,
+                dynamics_derivatives_trig: dynamics_derivatives_trig_dyn,
+                regressor_trig: regressor_trig_dyn,
             };
         }
     };

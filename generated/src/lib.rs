@@ -15,6 +15,11 @@
 //! | `dynamics_derivatives(q, qd, qdd, p)` | `[[f64; 3NF]; NF]` | [D, ∂τ_F/∂q_F, ∂τ_F/∂q̇_F] at fixed q̈ |
 //! | `regressor(q, qd, qdd)` | `[[f64; NP]; NF]` | τ_F = Y_F p |
 //!
+//! Each has a `_trig` form (`forward_dynamics_trig(q, sc, qd, tau, p)`, …) that reads the
+//! joints' sines and cosines from a table `sc` (`[f64; 2 NJ]`, `sc[2k] = sin q_k`,
+//! `sc[2k + 1] = cos q_k`, the joints in the module's `TRIG`) instead of computing them: a
+//! simulation computes a locked joint's once per run and a free joint's once per stage.
+//!
 //! `q` is the full joint vector `[f64; NJ]` (rad or m); `qd`, `qdd`, `tau` hold the free
 //! joints only, in ascending joint order; `p` is the barycentric parameter vector
 //! `[f64; NP]` of the model (per link: mass m (kg), first moments m·c (kg·m), inertia about
@@ -33,6 +38,12 @@ pub type VelocityKernel = fn(&[f64], &[f64], &[f64], &mut [f64]);
 pub type StateKernel = fn(&[f64], &[f64], &[f64], &[f64], &mut [f64]);
 /// The regressor kernel `(q[NJ], qd[NF], qdd[NF], out[NF·NP])`.
 pub type RegressorKernel = fn(&[f64], &[f64], &[f64], &mut [f64]);
+/// A [`PositionKernel`] reading the trigonometric table: `(q[NJ], sc[2NJ], p[NP], out)`.
+pub type TrigPositionKernel = fn(&[f64], &[f64], &[f64], &mut [f64]);
+/// A [`StateKernel`] reading the trigonometric table: `(q[NJ], sc[2NJ], v[NF], w[NF], p[NP], out)`.
+pub type TrigStateKernel = fn(&[f64], &[f64], &[f64], &[f64], &[f64], &mut [f64]);
+/// The [`RegressorKernel`] reading the trigonometric table: `(q[NJ], sc[2NJ], qd[NF], qdd[NF], out)`.
+pub type TrigRegressorKernel = fn(&[f64], &[f64], &[f64], &[f64], &mut [f64]);
 
 /// Kernels of one configuration behind slices (row-major matrices).
 #[derive(Debug, Clone, Copy)]
@@ -60,6 +71,21 @@ pub struct Configuration {
     pub dynamics_derivatives: StateKernel,
     /// Y_F: `(q[NJ], qd[NF], qdd[NF], out[NF·NP])`.
     pub regressor: RegressorKernel,
+    /// Joints whose sine and cosine the kernels read: the entries of the trigonometric
+    /// table `sc` the `_trig` forms need (`sc[2k] = sin q_k`, `sc[2k + 1] = cos q_k`, length
+    /// 2·NJ; the others are not read). A simulation fills the locked joints' entries once
+    /// and the free joints' once per stage, where each kernel would recompute them all.
+    pub trig: &'static [usize],
+    /// [`Configuration::mass_matrix`] reading `sc`: `(q[NJ], sc[2NJ], p[NP], out[NF·NF])`.
+    pub mass_matrix_trig: TrigPositionKernel,
+    /// [`Configuration::forward_dynamics`] reading `sc`:
+    /// `(q[NJ], sc[2NJ], qd[NF], tau[NF], p[NP], out[NF])`.
+    pub forward_dynamics_trig: TrigStateKernel,
+    /// [`Configuration::dynamics_derivatives`] reading `sc`:
+    /// `(q[NJ], sc[2NJ], qd[NF], qdd[NF], p[NP], out[NF·3NF])`.
+    pub dynamics_derivatives_trig: TrigStateKernel,
+    /// [`Configuration::regressor`] reading `sc`: `(q[NJ], sc[2NJ], qd[NF], qdd[NF], out[NF·NP])`.
+    pub regressor_trig: TrigRegressorKernel,
 }
 
 /// A generated model.

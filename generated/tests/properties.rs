@@ -2,7 +2,7 @@
 //! consistent parameters (proptest): D symmetric positive definite; Ḋ − 2C skew-symmetric;
 //! energy conserved by frictionless RK4; the generated state derivatives of τ equal
 //! differences of τ; locked configurations are the full model's rows and
-//! columns with the locked velocities zeroed.
+//! columns with the locked velocities zeroed; the `_trig` forms equal the plain ones.
 
 mod support;
 
@@ -227,5 +227,43 @@ proptest! {
         }
         prop_assert!(q.iter().all(|x| x.is_finite()));
         prop_assert!(worst <= 1e-9 * scale, "{}: energy drift {worst:e} of {scale:e}", m.name);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 16, failure_persistence: None, ..ProptestConfig::default() })]
+
+    /// The `_trig` forms read only the joints in `trig`, and read there what the forms that
+    /// compute their own trigonometry compute: with every other entry of the table NaN,
+    /// each equals its plain form bit for bit.
+    #[test]
+    fn trig_forms_read_only_their_table_and_equal_the_plain_forms(m in models(), seed in any::<u64>()) {
+        let mut rng = Rng(seed | 1);
+        let p = random_params(m, &mut rng);
+        let nj = m.joints.len();
+        for c in m.configurations {
+            let nf = c.free.len();
+            let (q, qd) = state(&mut rng, nj, nf);
+            let (_, w) = state(&mut rng, nj, nf);
+            let mut sc = vec![f64::NAN; 2 * nj];
+            for &k in c.trig {
+                (sc[2 * k], sc[2 * k + 1]) = q[k].sin_cos();
+            }
+            let np = m.params.len();
+            let pairs: [(usize, Box<dyn Fn(&mut [f64])>, Box<dyn Fn(&mut [f64])>); 4] = [
+                (nf * nf, Box::new(|o| (c.mass_matrix)(&q, &p, o)), Box::new(|o| (c.mass_matrix_trig)(&q, &sc, &p, o))),
+                (nf, Box::new(|o| (c.forward_dynamics)(&q, &qd, &w, &p, o)), Box::new(|o| (c.forward_dynamics_trig)(&q, &sc, &qd, &w, &p, o))),
+                (3 * nf * nf, Box::new(|o| (c.dynamics_derivatives)(&q, &qd, &w, &p, o)), Box::new(|o| (c.dynamics_derivatives_trig)(&q, &sc, &qd, &w, &p, o))),
+                (nf * np, Box::new(|o| (c.regressor)(&q, &qd, &w, o)), Box::new(|o| (c.regressor_trig)(&q, &sc, &qd, &w, o))),
+            ];
+            for (i, (len, plain, trig)) in pairs.iter().enumerate() {
+                let (mut a, mut b) = (vec![0.0; *len], vec![0.0; *len]);
+                plain(&mut a);
+                trig(&mut b);
+                prop_assert!(a.iter().all(|x| x.is_finite()), "{} {} kernel {i}: not finite", m.name, c.name);
+                prop_assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                    "{} {} kernel {i}: the _trig form differs (or read outside `trig`)", m.name, c.name);
+            }
+        }
     }
 }

@@ -240,7 +240,7 @@ impl PlantModel {
         };
         let t_end = *times.last().unwrap_or(&t_start);
         let steps = ((t_end - t_start) / h - 1e-9).ceil().max(0.0) as usize;
-        let mut w = Scratch::new(nf, &self.q_locked);
+        let mut w = Scratch::new(self);
         let mut tw = TangentScratch {
             p: np,
             dd: vec![0.0; 3 * nf * nf],
@@ -604,7 +604,7 @@ impl PlantModel {
             tw.joint[i] = [dq_dq, -b * df_dv, -b * df_dz, dzd_dv, dzd_dz];
         }
         // [D | ∂τ/∂q | ∂τ/∂q̇] at q̈, and the Cholesky factor of D + A.
-        (self.conf.dynamics_derivatives)(&w.q_full, &x.qd, &k.qd, &self.p, &mut tw.dd);
+        (self.conf.dynamics_derivatives_trig)(&w.q_full, &w.sc, &x.qd, &k.qd, &self.p, &mut tw.dd);
         for a in 0..nf {
             for c in 0..=a {
                 let mut v =
@@ -621,7 +621,7 @@ impl PlantModel {
         }
         let inertial = params.iter().any(|p| !p.inertial.is_empty());
         if inertial {
-            (self.conf.regressor)(&w.q_full, &x.qd, &k.qd, &mut tw.y);
+            (self.conf.regressor_trig)(&w.q_full, &w.sc, &x.qd, &k.qd, &mut tw.y);
         }
         if moving {
             self.coupled_command(&tw.rate[stage], &mut tw.rate_c);
