@@ -250,7 +250,8 @@ proptest! {
                 (sc[2 * k], sc[2 * k + 1]) = q[k].sin_cos();
             }
             let np = m.params.len();
-            let pairs: [(usize, Box<dyn Fn(&mut [f64])>, Box<dyn Fn(&mut [f64])>); 4] = [
+            type Form<'a> = Box<dyn Fn(&mut [f64]) + 'a>;
+            let pairs: [(usize, Form, Form); 4] = [
                 (nf * nf, Box::new(|o| (c.mass_matrix)(&q, &p, o)), Box::new(|o| (c.mass_matrix_trig)(&q, &sc, &p, o))),
                 (nf, Box::new(|o| (c.forward_dynamics)(&q, &qd, &w, &p, o)), Box::new(|o| (c.forward_dynamics_trig)(&q, &sc, &qd, &w, &p, o))),
                 (3 * nf * nf, Box::new(|o| (c.dynamics_derivatives)(&q, &qd, &w, &p, o)), Box::new(|o| (c.dynamics_derivatives_trig)(&q, &sc, &qd, &w, &p, o))),

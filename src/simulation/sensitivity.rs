@@ -844,13 +844,17 @@ fn rk4_combine(y: &mut [f64], c: f64, a: &[f64], b: &[f64], cc: &[f64], d: &[f64
     }
 }
 
+/// A stage of [`stage_tangent`]: the step's tangent s, the stage's c·h and c, and the
+/// previous stage's tangent and derivative (None at the first stage).
+type StageAt<'a> = (&'a [f64], f64, f64, Option<(&'a [f64], &'a State)>);
+
 /// An RK4 stage's tangent sx = s + c·K_prev (+ (dh·c')·k_prev where the step's length
 /// moves with θ: `moving_dh`), and its time tangent st = dt0 + c'·dh (P each row).
 #[inline(always)]
 fn stage_tangent(
     sx: &mut [f64],
     st: &mut [f64],
-    (s, c, cd, kp): (&[f64], f64, f64, Option<(&[f64], &State)>),
+    (s, c, cd, kp): StageAt<'_>,
     moving_dh: Option<&[f64]>,
     (dt0, dh): (&[f64], &[f64]),
 ) {
