@@ -295,6 +295,23 @@ impl State {
         f(&mut out.qd, &self.qd, &d.qd);
         f(&mut out.z, &self.z, &d.z);
     }
+
+    /// RK4's update self += c (k₀ + 2k₁ + 2k₂ + k₃), component-wise (c = h/6).
+    #[inline(always)]
+    fn add_rk4(&mut self, c: f64, k: &[State; 4]) {
+        rk4_combine(&mut self.q, c, [&k[0].q, &k[1].q, &k[2].q, &k[3].q]);
+        rk4_combine(&mut self.qd, c, [&k[0].qd, &k[1].qd, &k[2].qd, &k[3].qd]);
+        rk4_combine(&mut self.z, c, [&k[0].z, &k[1].z, &k[2].z, &k[3].z]);
+    }
+}
+
+/// RK4's combination y += c (k₀ + 2k₁ + 2k₂ + k₃), element by element (c = h/6): the
+/// state's ([`State::add_rk4`]) and the sensitivities' tangent's.
+#[inline(always)]
+fn rk4_combine(y: &mut [f64], c: f64, [a, b, cc, d]: [&[f64]; 4]) {
+    for i in 0..y.len() {
+        y[i] += c * (a[i] + 2.0 * b[i] + 2.0 * cc[i] + d[i]);
+    }
 }
 
 /// The simulation left the valid region.
@@ -431,12 +448,10 @@ struct Scratch {
 }
 
 impl Scratch {
-    /// Write the free joints' positions `q_f` (NF) into `q_full` and their sines and
-    /// cosines into the table `sc` (`free` the configuration's free joints).
-    fn put_free(&mut self, free: &[usize], q_f: &[f64]) {
-        for (a, &k) in free.iter().enumerate() {
-            self.q_full[k] = q_f[a];
-        }
+    /// Write the free joints' positions `q_f` (NF) into `q_full`
+    /// ([`PlantModel::put_free`]) and their sines and cosines into the table `sc`.
+    fn put_free(&mut self, model: &PlantModel, q_f: &[f64]) {
+        model.put_free(q_f, &mut self.q_full);
         for &(a, k) in &self.trig_free {
             let (s, c) = q_f[a].sin_cos();
             if let [sk, ck] = &mut self.sc[2 * k..2 * k + 2] {
@@ -704,7 +719,7 @@ impl PlantModel {
         w: &mut Scratch,
         out: &mut State,
     ) {
-        w.put_free(self.conf.free, &x.q);
+        w.put_free(self, &x.q);
         self.applied_into(
             (t, x, tau),
             &w.sides,
@@ -822,15 +837,7 @@ impl PlantModel {
         x.axpy_into(h, &k[2], &mut stage);
         self.derivative_into((time[2], &stage, &tau[2]), &[], w, &mut k[3]);
         w.inject(&stage, 2, &mut k[3]);
-        let c = h / 6.0;
-        let comb = |y: &mut [f64], a: &[f64], b: &[f64], cc: &[f64], d: &[f64]| {
-            for i in 0..y.len() {
-                y[i] += c * (a[i] + 2.0 * b[i] + 2.0 * cc[i] + d[i]);
-            }
-        };
-        comb(&mut x.q, &k[0].q, &k[1].q, &k[2].q, &k[3].q);
-        comb(&mut x.qd, &k[0].qd, &k[1].qd, &k[2].qd, &k[3].qd);
-        comb(&mut x.z, &k[0].z, &k[1].z, &k[2].z, &k[3].z);
+        x.add_rk4(h / 6.0, &k);
         w.k = k;
         w.stage = stage;
         w.tau = tau;

@@ -118,6 +118,14 @@ fn trig_used(sm: &SymbolicModel, g: &Graph, outputs: &[Atom]) -> Vec<(usize, boo
         .collect()
 }
 
+/// Joint k's entries of the trigonometric table: (sin q_k at 2k, cos q_k at 2k + 1).
+fn trig_slots(k: usize) -> (proc_macro2::Literal, proc_macro2::Literal) {
+    (
+        proc_macro2::Literal::usize_unsuffixed(2 * k),
+        proc_macro2::Literal::usize_unsuffixed(2 * k + 1),
+    )
+}
+
 /// The trigonometric table a kernel's `_trig` form reads, filled from `q`:
 /// `sc[2k] = sin q_k`, `sc[2k + 1] = cos q_k` for the joints in `used` (the others 0).
 fn trig_table(used: &[(usize, bool, bool)]) -> Vec<TokenStream> {
@@ -127,10 +135,7 @@ fn trig_table(used: &[(usize, bool, bool)]) -> Vec<TokenStream> {
     let mut out = vec![quote!(let mut sc = [0.0; 2 * super::NJ];)];
     for &(k, used_s, used_c) in used {
         let kk = proc_macro2::Literal::usize_unsuffixed(k);
-        let (is, ic) = (
-            proc_macro2::Literal::usize_unsuffixed(2 * k),
-            proc_macro2::Literal::usize_unsuffixed(2 * k + 1),
-        );
+        let (is, ic) = trig_slots(k);
         if used_s && used_c {
             out.push(quote!((sc[#is], sc[#ic]) = q[#kk].sin_cos();));
         } else if used_s {
@@ -147,10 +152,7 @@ fn trig_prelude(used: &[(usize, bool, bool)]) -> Vec<TokenStream> {
     let mut out = Vec::new();
     for &(k, used_s, used_c) in used {
         let (s, c) = (id(&format!("s{k}")), id(&format!("c{k}")));
-        let (is, ic) = (
-            proc_macro2::Literal::usize_unsuffixed(2 * k),
-            proc_macro2::Literal::usize_unsuffixed(2 * k + 1),
-        );
+        let (is, ic) = trig_slots(k);
         if used_s {
             out.push(quote!(let #s = sc[#is];));
         }

@@ -312,7 +312,7 @@ impl PlantModel {
     /// every step.
     pub(super) fn etd_lambda(&self, x: &State, h: f64, w: &mut Scratch) {
         let nf = self.nf();
-        w.put_free(self.conf.free, &x.q);
+        w.put_free(self, &x.q);
         let e = &mut w.etd;
         self.mass_matrix_into(&w.q_full, (w.time[0], x, &w.tau[0]), &mut e.mass);
         for i in 0..nf {

@@ -514,7 +514,6 @@ impl PlantModel {
         let (dt0, dh) = moving.unwrap_or((&zero, &zero));
         let moving = moving.is_some();
         let time = w.time;
-        let moving_dh = moving.then_some(dh);
         // The stages: state x + c_i h k_{i−1} at time index T_i, as RK4 takes them.
         const C: [f64; 4] = [0.0, 0.5, 0.5, 1.0];
         const T: [usize; 4] = [0, 1, 1, 2];
@@ -522,13 +521,13 @@ impl PlantModel {
             let (done, todo) = kt.split_at_mut(i);
             let (k_done, k_todo) = k.split_at_mut(i);
             let at = if i == 0 {
-                stage_tangent(&mut sx, &mut st, (s, 0.0, 0.0, None), moving_dh, (dt0, dh));
+                stage_tangent(&mut sx, &mut st, (s, 0.0, 0.0, None), moving, (dt0, dh));
                 &*x
             } else {
                 x.axpy_into(C[i] * h, &k_done[i - 1], &mut stage);
                 let previous = Some((&done[i - 1][..], &k_done[i - 1]));
                 let stage_at = (&*s, C[i] * h, C[i], previous);
-                stage_tangent(&mut sx, &mut st, stage_at, moving_dh, (dt0, dh));
+                stage_tangent(&mut sx, &mut st, stage_at, moving, (dt0, dh));
                 &stage
             };
             self.stage_with_tangent(
@@ -544,8 +543,7 @@ impl PlantModel {
         }
         let [kt0, kt1, kt2, kt3] = &kt;
         let c = h / 6.0;
-        let comb = rk4_combine;
-        comb(s, c, kt0, kt1, kt2, kt3);
+        super::rk4_combine(s, c, [kt0, kt1, kt2, kt3]);
         if moving {
             let sum = |f: fn(&State) -> &Vec<f64>| -> Vec<f64> {
                 (0..self.nf())
@@ -563,9 +561,7 @@ impl PlantModel {
                 }
             }
         }
-        comb(&mut x.q, c, &k[0].q, &k[1].q, &k[2].q, &k[3].q);
-        comb(&mut x.qd, c, &k[0].qd, &k[1].qd, &k[2].qd, &k[3].qd);
-        comb(&mut x.z, c, &k[0].z, &k[1].z, &k[2].z, &k[3].z);
+        x.add_rk4(c, &k);
         w.k = k;
         w.stage = stage;
         w.tau = tau;
@@ -836,26 +832,18 @@ impl PlantModel {
     }
 }
 
-/// RK4's combination y += c (a + 2b + 2cc + d), element by element (c = h/6).
-#[inline(always)]
-fn rk4_combine(y: &mut [f64], c: f64, a: &[f64], b: &[f64], cc: &[f64], d: &[f64]) {
-    for i in 0..y.len() {
-        y[i] += c * (a[i] + 2.0 * b[i] + 2.0 * cc[i] + d[i]);
-    }
-}
-
 /// A stage of [`stage_tangent`]: the step's tangent s, the stage's c·h and c, and the
 /// previous stage's tangent and derivative (None at the first stage).
 type StageAt<'a> = (&'a [f64], f64, f64, Option<(&'a [f64], &'a State)>);
 
 /// An RK4 stage's tangent sx = s + c·K_prev (+ (dh·c')·k_prev where the step's length
-/// moves with θ: `moving_dh`), and its time tangent st = dt0 + c'·dh (P each row).
+/// moves with θ: `moving`), and its time tangent st = dt0 + c'·dh (P each row).
 #[inline(always)]
 fn stage_tangent(
     sx: &mut [f64],
     st: &mut [f64],
     (s, c, cd, kp): StageAt<'_>,
-    moving_dh: Option<&[f64]>,
+    moving: bool,
     (dt0, dh): (&[f64], &[f64]),
 ) {
     let np = st.len();
@@ -865,7 +853,7 @@ fn stage_tangent(
             for ((o, a), b) in sx.iter_mut().zip(s.iter()).zip(kt_prev) {
                 *o = a + c * b;
             }
-            if let Some(dh) = moving_dh {
+            if moving {
                 let kv = k_prev.q.iter().chain(&k_prev.qd).chain(&k_prev.z);
                 for (r, kr) in kv.enumerate() {
                     for j in 0..np {
