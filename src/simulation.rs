@@ -445,6 +445,10 @@ struct Scratch {
     crossing: Vec<f64>,
     /// The state at the start of a step being split at a bias switch.
     start: State,
+    /// The run's stage inputs formed once ([`StageInputs::cached`]), and the index of the
+    /// step being taken: [`Scratch::load`] reads a whole step's inputs from them.
+    stages: Option<std::sync::Arc<StageInputs>>,
+    step: usize,
 }
 
 impl Scratch {
@@ -464,9 +468,16 @@ impl Scratch {
     /// measured positions `measured` at t0, t0 + hs/2 and just before t0 + hs.
     fn load(&mut self, input: &InputSignal, measured: Option<&InputSignal>, t0: f64, hs: f64) {
         self.time = [t0, t0 + hs / 2.0, t0 + hs];
-        input.at(t0, &mut self.tau[0]);
-        input.at(t0 + hs / 2.0, &mut self.tau[1]);
-        input.before(t0 + hs, &mut self.tau[2]);
+        let stored = self.stages.as_ref().and_then(|s| s.step(self.step, t0, hs));
+        if let Some(v) = stored {
+            for (tau, v) in self.tau.iter_mut().zip(v.chunks_exact(v.len() / 3)) {
+                tau.copy_from_slice(v);
+            }
+        } else {
+            input.at(t0, &mut self.tau[0]);
+            input.at(t0 + hs / 2.0, &mut self.tau[1]);
+            input.before(t0 + hs, &mut self.tau[2]);
+        }
         if let Some(y) = measured {
             y.at(t0, &mut self.y[0]);
             y.at(t0 + hs / 2.0, &mut self.y[1]);
@@ -568,6 +579,8 @@ impl Scratch {
             sides: vec![None; nf],
             crossing: vec![f64::INFINITY; nf],
             start: z(),
+            stages: None,
+            step: 0,
         }
     }
 }
@@ -1126,6 +1139,7 @@ impl PlantModel {
         let t_end = *times.last().unwrap_or(&t_start);
         let steps = ((t_end - t_start) / h - 1e-9).ceil().max(0.0) as usize;
         let mut w = Scratch::new(self);
+        w.stages = StageInputs::cached(input, (t_start, t_end), h, steps);
         let measured = w.observe(observer, input);
         // The sensed positions behind each joint's backlash (the play operator's state),
         // centred on the drive at the start.
@@ -1165,9 +1179,8 @@ impl PlantModel {
             next_out += 1;
         }
         for n in 0..steps {
-            let t = t_start + n as f64 * h;
-            let t1 = (t_start + (n + 1) as f64 * h).min(t_end.max(t));
-            let hs = t1 - t;
+            let (t, t1, hs) = step_span(t_start, t_end, h, n);
+            w.step = n;
             prev.copy_from(&x);
             self.rk4_with_events(&mut x, t, hs, input, measured.as_ref(), &mut w);
             self.check_step((&prev, &w.tau[0]), &x, t1, h, max_speed)?;

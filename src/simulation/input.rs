@@ -230,3 +230,214 @@ impl InputSignal<'_> {
         }
     }
 }
+
+/// Where step `n` of a fixed-step run from `t_start` to `t_end` by `h` lies: its start
+/// time, its end time and its length (the last step ends on `t_end`). [`PlantModel::predict_at`], its
+/// sensitivities and [`StageInputs`] share this arithmetic, so the stage times they form
+/// are the same numbers.
+///
+/// [`PlantModel::predict_at`]: super::PlantModel::predict_at
+pub(crate) fn step_span(t_start: f64, t_end: f64, h: f64, n: usize) -> (f64, f64, f64) {
+    let t = t_start + n as f64 * h;
+    let t1 = (t_start + (n + 1) as f64 * h).min(t_end.max(t));
+    (t, t1, t1 - t)
+}
+
+/// Stage inputs of the steps of a fixed-step run, formed once and shared by every run on
+/// the same samples, hold, times and step: `values[n]` holds the torques at t_n, t_n + h_n/2
+/// and just before t_n + h_n ([`InputSignal::at`], [`InputSignal::before`]; NF each), the
+/// numbers [`super::Scratch::load`] would compute.
+///
+/// A cubic or band-limited reconstruction (24 taps) costs as much as a stage of a small
+/// configuration, and an identification or a diagnosis simulates the same record
+/// hundreds of times (one run per Jacobian column, per candidate); reading the stage
+/// inputs back costs nothing next to it. Zero-order and linear holds are not stored
+/// (one or two reads per torque).
+#[derive(Debug)]
+pub(crate) struct StageInputs {
+    t_start: f64,
+    t_end: f64,
+    h: f64,
+    nf: usize,
+    /// Step n's three stage inputs, NF each: 3·NF per step.
+    values: Vec<f64>,
+}
+
+/// What a [`StageInputs`] is for: the samples (by content), the hold, the run's times and
+/// step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct StageKey {
+    samples: u64,
+    len: usize,
+    nf: usize,
+    hold: Hold,
+    t0: u64,
+    dt: u64,
+    t_start: u64,
+    t_end: u64,
+    h: u64,
+    steps: usize,
+}
+
+impl StageKey {
+    fn bytes(&self) -> usize {
+        3 * self.steps * self.nf * std::mem::size_of::<f64>()
+    }
+}
+
+/// Most bytes one run's stage inputs may take to be stored.
+const STAGE_INPUTS_MAX_BYTES: usize = 96 << 20;
+
+/// Most bytes all stored stage inputs take (the least recently used are dropped).
+const STAGE_CACHE_BYTES: usize = 384 << 20;
+
+type StageEntry = (
+    StageKey,
+    std::sync::Arc<std::sync::OnceLock<std::sync::Arc<StageInputs>>>,
+);
+
+/// The stored stage inputs, most recently used first.
+static STAGE_CACHE: std::sync::Mutex<Vec<StageEntry>> = std::sync::Mutex::new(Vec::new());
+
+impl StageInputs {
+    /// The stage inputs of the `steps` steps of `h` from `t_start` to `t_end` under
+    /// `input`, formed on first use and stored (None for a zero-order or linear hold, no
+    /// samples, or a run too long to store: the caller samples as it goes).
+    pub(crate) fn cached(
+        input: &InputSignal,
+        (t_start, t_end): (f64, f64),
+        h: f64,
+        steps: usize,
+    ) -> Option<std::sync::Arc<StageInputs>> {
+        use std::hash::{Hash, Hasher};
+        if !matches!(input.hold, Hold::Cubic | Hold::Bandlimited) || steps == 0 {
+            return None;
+        }
+        let len = input.tau.first().map_or(0, Vec::len);
+        if len == 0 || input.tau.iter().any(|c| c.len() != len) {
+            return None;
+        }
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        for col in input.tau {
+            for v in col {
+                v.to_bits().hash(&mut hasher);
+            }
+        }
+        let key = StageKey {
+            samples: hasher.finish(),
+            len,
+            nf: input.tau.len(),
+            hold: input.hold,
+            t0: input.t0.to_bits(),
+            dt: input.dt.to_bits(),
+            t_start: t_start.to_bits(),
+            t_end: t_end.to_bits(),
+            h: h.to_bits(),
+            steps,
+        };
+        if key.bytes() > STAGE_INPUTS_MAX_BYTES {
+            return None;
+        }
+        let slot = {
+            // A poisoned lock only means another run panicked while holding it; the list
+            // itself is always whole.
+            let mut cache = STAGE_CACHE.lock().unwrap_or_else(|e| e.into_inner());
+            let slot = match cache.iter().position(|(k, _)| *k == key) {
+                Some(i) => cache.remove(i).1,
+                None => Default::default(),
+            };
+            cache.insert(0, (key, std::sync::Arc::clone(&slot)));
+            let mut total = 0;
+            cache.retain(|(k, _)| {
+                total += k.bytes();
+                total <= STAGE_CACHE_BYTES
+            });
+            slot
+        };
+        let stages = slot.get_or_init(|| {
+            let nf = input.tau.len();
+            let mut values = vec![0.0; 3 * nf * steps];
+            for (n, v) in values.chunks_exact_mut(3 * nf).enumerate() {
+                let (t, _, hs) = step_span(t_start, t_end, h, n);
+                let (a, rest) = v.split_at_mut(nf);
+                let (b, c) = rest.split_at_mut(nf);
+                input.at(t, a);
+                input.at(t + hs / 2.0, b);
+                input.before(t + hs, c);
+            }
+            std::sync::Arc::new(StageInputs {
+                t_start,
+                t_end,
+                h,
+                nf,
+                values,
+            })
+        });
+        Some(std::sync::Arc::clone(stages))
+    }
+
+    /// Step `n`'s three stage inputs (3·NF) if a step from `t0` of `hs` is that step
+    /// (the same numbers), else None (a step split at a friction-bias switch).
+    pub(crate) fn step(&self, n: usize, t0: f64, hs: f64) -> Option<&[f64]> {
+        let v = self.values.get(3 * self.nf * n..3 * self.nf * (n + 1))?;
+        let (t, _, h) = step_span(self.t_start, self.t_end, self.h, n);
+        (t == t0 && h == hs).then_some(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stored stage inputs are the numbers sampling gives at every step's stage times
+    /// (the last, shorter step included), a split step is not served from them, a second
+    /// run shares them, and other samples get their own.
+    #[test]
+    fn stored_stage_inputs_equal_sampling_and_follow_the_samples() {
+        let tau: Vec<Vec<f64>> = (0..2)
+            .map(|a| {
+                (0..50)
+                    .map(|k| ((k * (a + 3)) as f64 * 0.37).sin())
+                    .collect()
+            })
+            .collect();
+        let input = InputSignal {
+            t0: 0.001,
+            dt: 0.01,
+            tau: &tau,
+            hold: Hold::Bandlimited,
+        };
+        let (t_start, t_end, h) = (0.003, 0.4137, 1.0 / 1200.0);
+        let steps = ((t_end - t_start) / h - 1e-9_f64).ceil() as usize;
+        let stages = StageInputs::cached(&input, (t_start, t_end), h, steps).unwrap();
+        let mut direct = [0.0; 6];
+        for n in 0..steps {
+            let (t, _, hs) = step_span(t_start, t_end, h, n);
+            let (a, rest) = direct.split_at_mut(2);
+            let (b, c) = rest.split_at_mut(2);
+            input.at(t, a);
+            input.at(t + hs / 2.0, b);
+            input.before(t + hs, c);
+            assert_eq!(stages.step(n, t, hs), Some(&direct[..]), "step {n}");
+            assert_eq!(stages.step(n, t, hs / 2.0), None);
+        }
+        let (t, _, hs) = step_span(t_start, t_end, h, steps - 1);
+        assert!(hs < 0.99 * h, "the last step is shorter: {hs}");
+        assert!(stages.step(steps, t, hs).is_none());
+        let again = StageInputs::cached(&input, (t_start, t_end), h, steps).unwrap();
+        assert!(std::sync::Arc::ptr_eq(&stages, &again));
+        let mut other = tau.clone();
+        other[1][20] += 1e-9;
+        let input = InputSignal {
+            tau: &other,
+            ..input
+        };
+        let changed = StageInputs::cached(&input, (t_start, t_end), h, steps).unwrap();
+        assert!(!std::sync::Arc::ptr_eq(&stages, &changed));
+        let zoh = InputSignal {
+            hold: Hold::Zoh,
+            ..input
+        };
+        assert!(StageInputs::cached(&zoh, (t_start, t_end), h, steps).is_none());
+    }
+}

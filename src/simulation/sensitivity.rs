@@ -257,6 +257,7 @@ impl PlantModel {
             times: vec![0.0; 3 * np],
             zero: vec![0.0; np],
         };
+        w.stages = StageInputs::cached(input, (t_start, t_end), h, steps);
         let measured = w.observe(observer, input);
         let mut x = x0;
         let mut prev = x.clone();
@@ -295,9 +296,8 @@ impl PlantModel {
             next_out += 1;
         }
         for n in 0..steps {
-            let t = t_start + n as f64 * h;
-            let t1 = (t_start + (n + 1) as f64 * h).min(t_end.max(t));
-            let hs = t1 - t;
+            let (t, t1, hs) = step_span(t_start, t_end, h, n);
+            w.step = n;
             prev.copy_from(&x);
             s_prev.copy_from_slice(&s);
             self.rk4_events_tangent(
