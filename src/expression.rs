@@ -790,7 +790,13 @@ pub struct Program {
     code: Vec<Instr>,
     /// The symbols the program reads, in slot order: `eval(values)` takes their values.
     pub inputs: Vec<Symbol>,
+    /// The stack depth the program needs (≤ [`STACK`]).
+    depth: usize,
 }
+
+/// Stack depth of the evaluator's small frame ([`Program::eval_with`]): most expressions
+/// fit, and a frame this size is cleared without a call to `memset`.
+const SMALL_STACK: usize = 8;
 
 impl Program {
     /// Compile `node`, replacing each symbol for which `fixed` gives a value by that
@@ -804,8 +810,10 @@ impl Program {
         let mut p = Program {
             code: Vec::new(),
             inputs: Vec::new(),
+            depth: 0,
         };
         let depth = p.emit(&folded);
+        p.depth = depth;
         if depth > STACK {
             return Err(format!(
                 "the expression nests too deeply (needs {depth} stack levels, at most {STACK})"
@@ -860,7 +868,23 @@ impl Program {
     /// The value at `values` (one per [`Program::inputs`], same order).
     #[inline]
     pub fn eval(&self, values: &[f64]) -> f64 {
-        let mut stack = [0.0f64; STACK];
+        self.eval_with(|i| values[i])
+    }
+
+    /// The value with input slot i's value given by `load(i)` (slots as in
+    /// [`Program::inputs`]): the simulator's form, which reads the state in place.
+    #[inline]
+    pub fn eval_with(&self, load: impl Fn(usize) -> f64) -> f64 {
+        if self.depth <= SMALL_STACK {
+            self.run::<SMALL_STACK>(load)
+        } else {
+            self.run::<STACK>(load)
+        }
+    }
+
+    #[inline]
+    fn run<const N: usize>(&self, load: impl Fn(usize) -> f64) -> f64 {
+        let mut stack = [0.0f64; N];
         let mut top = 0usize;
         for ins in &self.code {
             match *ins {
@@ -869,7 +893,7 @@ impl Program {
                     top += 1;
                 }
                 Instr::Load(i) => {
-                    stack[top] = values[i];
+                    stack[top] = load(i);
                     top += 1;
                 }
                 Instr::Neg => stack[top - 1] = -stack[top - 1],
@@ -885,11 +909,7 @@ impl Program {
 
     /// The value with each input's value given by `at` (the symbol it stands for).
     pub fn eval_at(&self, at: impl Fn(Symbol) -> f64) -> f64 {
-        let mut v = [0.0; INPUTS];
-        for (slot, s) in v.iter_mut().zip(&self.inputs) {
-            *slot = at(*s);
-        }
-        self.eval(&v[..self.inputs.len()])
+        self.eval_with(|i| at(self.inputs[i]))
     }
 
     /// True when the program is a constant (reads nothing).

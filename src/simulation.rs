@@ -107,17 +107,13 @@ fn eval_term(
     t: f64,
     (q, qd, z, tau): (&[f64], &[f64], &[f64], &[f64]),
 ) -> f64 {
-    let mut v = [0.0; crate::expression::INPUTS];
-    for (slot, input) in v.iter_mut().zip(inputs) {
-        *slot = match *input {
-            TermInput::Q(a) => q[a],
-            TermInput::Qd(a) => qd[a],
-            TermInput::Z(a) => z[a],
-            TermInput::Tau(a) => tau[a],
-            TermInput::T => t,
-        };
-    }
-    program.eval(&v[..inputs.len()])
+    program.eval_with(|i| match inputs[i] {
+        TermInput::Q(a) => q[a],
+        TermInput::Qd(a) => qd[a],
+        TermInput::Z(a) => z[a],
+        TermInput::Tau(a) => tau[a],
+        TermInput::T => t,
+    })
 }
 
 /// The effects on one free joint.

@@ -149,13 +149,31 @@ pub fn refit(
         anyhow::bail!("configuration '{conf_name}': no parameters to refit");
     }
     let oe = options.output_error(vec![0.25, 1.0]);
-    // The step, checked against the data's noise on the plant before the change.
+    // The step, checked against the data's noise on the plant before the change, then from
+    // there on the changed plant: an added effect can need a finer one (a friction that
+    // switches over a narrow band of speed), and a fit at too coarse a step ends above the
+    // noise with its values biased, and the next diagnosis finds the integration error.
     let (problem, step) = crate::accuracy::with_checked_step(
         Problem::new(plant, conf, names.to_vec(), records.to_vec(), &[], oe)?,
         before,
         options.skip,
     )
     .map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
+    let (problem, step) =
+        match crate::accuracy::with_checked_step(problem.clone(), plant, options.skip) {
+            // Where the changed plant cannot be checked the fit reports what fails.
+            Ok((changed, check)) if check.h < step.h => {
+                let mut tried = step.tried;
+                tried.extend(check.tried);
+                let merged = crate::accuracy::StepCheck {
+                    requested: step.requested,
+                    tried,
+                    ..check
+                };
+                (changed, merged)
+            }
+            _ => (problem, step),
+        };
     // The initial positions are a nuisance of each model: estimated for the plant before
     // the change (its figures) and for the changed plant (the fit).
     let (before_problem, problem) = if options.estimate_initial {
