@@ -131,7 +131,10 @@ impl Refit {
 
 /// Fit `names` of `plant` (each needs a value and bounds) on `records` of configuration
 /// `conf_name` by output error, all joints weighted 1; the "before" figures are those of
-/// `before` (the plant before the change; `plant` itself for a plain refit).
+/// `before` (the plant before the change; `plant` itself for a plain refit). The step is
+/// checked against the data's noise ([`crate::accuracy::check_step`]) on `before`, then
+/// from that step on `plant`, and the finer is used ([`Refit::step`] lists both checks'
+/// trials).
 ///
 /// # Errors
 /// Unknown configuration, no parameters, a parameter without value or bounds (named),
