@@ -115,6 +115,9 @@ struct TangentScratch {
     l: Vec<f64>,
     /// The regressor Y_F, NF × NP (when an inertial direction is fitted).
     y: Vec<f64>,
+    /// Every fitted value's inertial direction as (index m into p, value j, ∂p_m/∂θ_j),
+    /// ordered by m: the forcing −Y ∂p/∂θ in one pass over the regressor's used columns.
+    inertial: Vec<(usize, usize, f64)>,
     /// Stage tangents K1..K4, 3NF × P each, and the stage state tangent.
     kt: [Vec<f64>; 4],
     sx: Vec<f64>,
@@ -246,6 +249,15 @@ impl PlantModel {
             dd: vec![0.0; 3 * nf * nf],
             l: vec![0.0; nf * nf],
             y: vec![0.0; nf * self.p.len()],
+            inertial: {
+                let mut v: Vec<(usize, usize, f64)> = params
+                    .iter()
+                    .enumerate()
+                    .flat_map(|(j, p)| p.inertial.iter().map(move |&(m, d)| (m, j, d)))
+                    .collect();
+                v.sort_by_key(|&(m, j, _)| (m, j));
+                v
+            },
             kt: std::array::from_fn(|_| vec![0.0; 3 * nf * np]),
             sx: vec![0.0; 3 * nf * np],
             st: vec![0.0; np],
@@ -632,7 +644,7 @@ impl PlantModel {
                 };
             }
         }
-        let inertial = params.iter().any(|p| !p.inertial.is_empty());
+        let inertial = !tw.inertial.is_empty();
         if inertial {
             (self.conf.regressor_trig)(&w.q_full, &w.sc, &x.qd, &k.qd, &mut tw.y);
         }
@@ -682,16 +694,17 @@ impl PlantModel {
                 out.fill(0.0);
             }
         }
-        // ∂Q/∂θ and ∂ż/∂θ.
+        // ∂Q/∂θ and ∂ż/∂θ: the rigid body's −Y_F ∂p/∂θ, then the couplings and effects.
+        let npb = self.p.len();
+        for a in 0..nf {
+            let y = &tw.y[a * npb..(a + 1) * npb];
+            let row = &mut kt[v0 + a * np..v0 + (a + 1) * np];
+            for &(m, j, d) in &tw.inertial {
+                row[j] -= y[m] * d;
+            }
+        }
         tw.forcing.fill(None);
         for (j, param) in params.iter().enumerate() {
-            if !param.inertial.is_empty() {
-                for a in 0..nf {
-                    let y = &tw.y[a * self.p.len()..(a + 1) * self.p.len()];
-                    let f: f64 = param.inertial.iter().map(|&(m, d)| y[m] * d).sum();
-                    kt[v0 + a * np + j] -= f;
-                }
-            }
             for &c in &param.couplings {
                 let c = self.couplings[c];
                 kt[v0 + c.to * np + j] += self.terms[c.to].gain * tau[c.from];
