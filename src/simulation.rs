@@ -470,14 +470,12 @@ impl Scratch {
                 tau.copy_from_slice(v);
             }
         } else {
-            input.at(t0, &mut self.tau[0]);
-            input.at(t0 + hs / 2.0, &mut self.tau[1]);
-            input.before(t0 + hs, &mut self.tau[2]);
+            let [a, b, c] = &mut self.tau;
+            input.stage_inputs(t0, hs, [a.as_mut_slice(), b, c]);
         }
         if let Some(y) = measured {
-            y.at(t0, &mut self.y[0]);
-            y.at(t0 + hs / 2.0, &mut self.y[1]);
-            y.before(t0 + hs, &mut self.y[2]);
+            let [a, b, c] = &mut self.y;
+            y.stage_inputs(t0, hs, [a.as_mut_slice(), b, c]);
         }
     }
 

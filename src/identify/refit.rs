@@ -162,21 +162,26 @@ pub fn refit(
         options.skip,
     )
     .map_err(|e| anyhow!("the plant before the change: {e:#}"))?;
-    let (problem, step) =
-        match crate::accuracy::with_checked_step(problem.clone(), plant, options.skip) {
-            // Where the changed plant cannot be checked the fit reports what fails.
-            Ok((changed, check)) if check.h < step.h => {
-                let mut tried = step.tried;
-                tried.extend(check.tried);
-                let merged = crate::accuracy::StepCheck {
-                    requested: step.requested,
-                    tried,
-                    ..check
-                };
-                (changed, merged)
-            }
-            _ => (problem, step),
-        };
+    let changed = if std::ptr::eq(before, plant) {
+        // A plain refit: the plant was just checked.
+        None
+    } else {
+        // Where the changed plant cannot be checked the fit reports what fails.
+        crate::accuracy::with_checked_step(problem.clone(), plant, options.skip).ok()
+    };
+    let (problem, step) = match changed {
+        Some((changed, check)) if check.h < step.h => {
+            let mut tried = step.tried;
+            tried.extend(check.tried);
+            let merged = crate::accuracy::StepCheck {
+                requested: step.requested,
+                tried,
+                ..check
+            };
+            (changed, merged)
+        }
+        _ => (problem, step),
+    };
     // The initial positions are a nuisance of each model: estimated for the plant before
     // the change (its figures) and for the changed plant (the fit).
     let (before_problem, problem) = if options.estimate_initial {

@@ -139,6 +139,15 @@ impl InputSignal<'_> {
         self.sample(t, true, out);
     }
 
+    /// The three stage inputs of an RK4 step of `hs` from `t0` into `out` (NF each): at
+    /// t0, at t0 + hs/2 and just before t0 + hs ([`InputSignal::before`]). The simulator
+    /// and [`StageInputs`] both form them here, so a stored step holds the same numbers.
+    pub(crate) fn stage_inputs(&self, t0: f64, hs: f64, [a, b, c]: [&mut [f64]; 3]) {
+        self.at(t0, a);
+        self.at(t0 + hs / 2.0, b);
+        self.before(t0 + hs, c);
+    }
+
     fn sample(&self, t: f64, left: bool, out: &mut [f64]) {
         let n = self.tau.first().map_or(0, Vec::len);
         if n == 0 {
@@ -361,9 +370,7 @@ impl StageInputs {
                 let (t, _, hs) = step_span(t_start, t_end, h, n);
                 let (a, rest) = v.split_at_mut(nf);
                 let (b, c) = rest.split_at_mut(nf);
-                input.at(t, a);
-                input.at(t + hs / 2.0, b);
-                input.before(t + hs, c);
+                input.stage_inputs(t, hs, [a, b, c]);
             }
             std::sync::Arc::new(StageInputs {
                 t_start,
