@@ -305,8 +305,8 @@ impl State {
 /// state's ([`State::add_rk4`]) and the sensitivities' tangent's.
 #[inline(always)]
 fn rk4_combine(y: &mut [f64], c: f64, [a, b, cc, d]: [&[f64]; 4]) {
-    for i in 0..y.len() {
-        y[i] += c * (a[i] + 2.0 * b[i] + 2.0 * cc[i] + d[i]);
+    for ((y, a), ((b, cc), d)) in y.iter_mut().zip(a).zip(b.iter().zip(cc).zip(d)) {
+        *y += c * (a + 2.0 * b + 2.0 * cc + d);
     }
 }
 

@@ -28,6 +28,42 @@
 
 use super::*;
 
+/// `$body` with `$n` bound to `$nf` as a constant for 1 to 6 free joints, so that the loops
+/// over the joints of the (inlined) functions it calls unroll and drop their bounds checks;
+/// any other count as is. A macro, not a closure: a closure is a function of its own, which
+/// would not be compiled with the AVX2 copy's target features.
+macro_rules! with_nf {
+    ($nf:expr, $n:ident => $body:expr) => {
+        match $nf {
+            1 => {
+                let $n = 1;
+                $body
+            }
+            2 => {
+                let $n = 2;
+                $body
+            }
+            3 => {
+                let $n = 3;
+                $body
+            }
+            4 => {
+                let $n = 4;
+                $body
+            }
+            5 => {
+                let $n = 5;
+                $body
+            }
+            6 => {
+                let $n = 6;
+                $body
+            }
+            $n => $body,
+        }
+    };
+}
+
 /// A value of one effect of a free joint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum EffectValue {
@@ -106,18 +142,67 @@ pub struct Sensitivities {
     pub qd: Vec<Vec<Vec<f64>>>,
 }
 
-/// Work space of the tangent computations (row-major, P = number of parameters).
+/// The tangent's rows are P values padded with zero columns to a multiple of `LANES`, and
+/// its element-wise arithmetic runs on `Lane`s: whole vector registers, no remainder loop.
+const LANES: usize = 4;
+type Lane = [f64; LANES];
+
+/// `v` (a multiple of `LANES` long) as lanes.
+#[inline(always)]
+fn lanes(v: &[f64]) -> &[Lane] {
+    v.as_chunks::<LANES>().0
+}
+
+/// `v` (a multiple of `LANES` long) as lanes.
+#[inline(always)]
+fn lanes_mut(v: &mut [f64]) -> &mut [Lane] {
+    v.as_chunks_mut::<LANES>().0
+}
+
+/// Where element (row r, column j) of a tangent with `n3` rows is stored: lane-column major,
+/// each group of `LANES` columns holding all rows in turn, so one lane's rows are contiguous.
+#[inline(always)]
+fn at(n3: usize, r: usize, j: usize) -> usize {
+    (j / LANES) * n3 * LANES + r * LANES + j % LANES
+}
+
+/// acc += a x, lane by lane.
+#[inline(always)]
+fn axpy(acc: &mut Lane, a: f64, x: &Lane) {
+    for (o, x) in acc.iter_mut().zip(x) {
+        *o += a * x;
+    }
+}
+
+/// Work space of the tangent computations. The tangents (3NF × P) are stored by [`at`], P
+/// padded to a multiple of `LANES`; the padding columns are derivatives with respect to
+/// nothing, 0.
 struct TangentScratch {
     p: usize,
     /// `[D | ∂τ/∂q | ∂τ/∂q̇]`, NF × 3NF.
     dd: Vec<f64>,
     /// Cholesky factor of D + A, NF × NF (lower, row-major).
     l: Vec<f64>,
+    /// G = [∂Q/∂q − ∂τ/∂q | ∂Q/∂q̇ − ∂τ/∂q̇], NF × 2NF: the velocity equation's
+    /// right-hand side is G S_(q,q̇) + ∂Q/∂z S_z + ∂Q/∂θ.
+    g: Vec<f64>,
     /// The regressor Y_F, NF × NP (when an inertial direction is fitted).
     y: Vec<f64>,
-    /// Every fitted value's inertial direction as (index m into p, value j, ∂p_m/∂θ_j),
-    /// ordered by m: the forcing −Y ∂p/∂θ in one pass over the regressor's used columns.
+    /// The regressor columns (indices into p) some fitted value's inertial direction uses.
+    used: Vec<usize>,
+    /// Every fitted value's inertial direction as (index u into `used`, value j, ∂p_m/∂θ_j),
+    /// ordered by j.
     inertial: Vec<(usize, usize, f64)>,
+    /// The used regressor columns, one NF-vector each (`used.len()` × NF).
+    yt: Vec<f64>,
+    /// −Y_F ∂p/∂θ by value, one NF-vector each (P × NF).
+    ft: Vec<f64>,
+    /// ∂Q/∂t per joint where a step's start moves: Kp times the coupled input's rate.
+    rate_g: Vec<f64>,
+    /// Which free joints have a LuGre state.
+    lugre: Vec<bool>,
+    /// Armature inertias per free joint (kg·m² or kg).
+    armature: Vec<f64>,
     /// Stage tangents K1..K4, 3NF × P each, and the stage state tangent.
     kt: [Vec<f64>; 4],
     sx: Vec<f64>,
@@ -227,7 +312,9 @@ impl PlantModel {
             return Err(SensitivityError::Unsupported(why));
         }
         let nf = self.nf();
-        let np = params.len();
+        // P values, stored as `np` columns (padded to whole lanes).
+        let p_count = params.len();
+        let np = p_count.div_ceil(LANES) * LANES;
         let mut out = Sensitivities {
             trajectory: Trajectory {
                 t: times.to_vec(),
@@ -235,8 +322,8 @@ impl PlantModel {
                 qd: vec![Vec::with_capacity(times.len()); nf],
                 z: vec![Vec::with_capacity(times.len()); nf],
             },
-            q: vec![vec![Vec::with_capacity(times.len()); nf]; np],
-            qd: vec![vec![Vec::with_capacity(times.len()); nf]; np],
+            q: vec![vec![Vec::with_capacity(times.len()); nf]; p_count],
+            qd: vec![vec![Vec::with_capacity(times.len()); nf]; p_count],
         };
         let Some(&t_start) = times.first() else {
             return Ok(out);
@@ -244,20 +331,34 @@ impl PlantModel {
         let t_end = *times.last().unwrap_or(&t_start);
         let steps = ((t_end - t_start) / h - 1e-9).ceil().max(0.0) as usize;
         let mut w = Scratch::new(self);
+        let mut used: Vec<usize> = params
+            .iter()
+            .flat_map(|p| p.inertial.iter().map(|&(m, _)| m))
+            .collect();
+        used.sort_unstable();
+        used.dedup();
         let mut tw = TangentScratch {
             p: np,
             dd: vec![0.0; 3 * nf * nf],
             l: vec![0.0; nf * nf],
+            g: vec![0.0; 2 * nf * nf],
             y: vec![0.0; nf * self.p.len()],
-            inertial: {
-                let mut v: Vec<(usize, usize, f64)> = params
-                    .iter()
-                    .enumerate()
-                    .flat_map(|(j, p)| p.inertial.iter().map(move |&(m, d)| (m, j, d)))
-                    .collect();
-                v.sort_by_key(|&(m, j, _)| (m, j));
-                v
-            },
+            used: used.clone(),
+            inertial: params
+                .iter()
+                .enumerate()
+                .flat_map(|(j, p)| {
+                    let used = &used;
+                    p.inertial
+                        .iter()
+                        .map(move |&(m, d)| (used.binary_search(&m).unwrap_or_default(), j, d))
+                })
+                .collect(),
+            yt: vec![0.0; used.len() * nf],
+            ft: vec![0.0; np * nf],
+            rate_g: vec![0.0; nf],
+            lugre: self.terms.iter().map(|t| t.lugre.is_some()).collect(),
+            armature: self.terms.iter().map(|t| t.armature).collect(),
             kt: std::array::from_fn(|_| vec![0.0; 3 * nf * np]),
             sx: vec![0.0; 3 * nf * np],
             st: vec![0.0; np],
@@ -274,8 +375,12 @@ impl PlantModel {
         let mut x = x0;
         let mut prev = x.clone();
         let mut s = vec![0.0; 3 * nf * np];
-        if let Some(s0) = s0 {
-            s.copy_from_slice(s0);
+        if let Some(s0) = s0.filter(|_| p_count > 0) {
+            for (r, row0) in s0.chunks_exact(p_count).enumerate() {
+                for (j, &v) in row0.iter().enumerate() {
+                    s[at(3 * nf, r, j)] = v;
+                }
+            }
         }
         let mut s_prev = s.clone();
         let mut next_out = 0;
@@ -291,15 +396,11 @@ impl PlantModel {
                 tr.q[i].push(h00 * a.q[i] + h10 * hh * a.qd[i] + h01 * b.q[i] + h11 * hh * b.qd[i]);
                 tr.qd[i].push(a.qd[i] + s * (b.qd[i] - a.qd[i]));
                 tr.z[i].push(a.z[i] + s * (b.z[i] - a.z[i]));
-                let (rq, rv) = (i * np, (nf + i) * np);
-                for j in 0..np {
-                    out.q[j][i].push(
-                        h00 * sa[rq + j]
-                            + h10 * hh * sa[rv + j]
-                            + h01 * sb[rq + j]
-                            + h11 * hh * sb[rv + j],
-                    );
-                    out.qd[j][i].push(sa[rv + j] + s * (sb[rv + j] - sa[rv + j]));
+                for j in 0..p_count {
+                    let (rq, rv) = (at(3 * nf, i, j), at(3 * nf, nf + i, j));
+                    out.q[j][i]
+                        .push(h00 * sa[rq] + h10 * hh * sa[rv] + h01 * sb[rq] + h11 * hh * sb[rv]);
+                    out.qd[j][i].push(sa[rv] + s * (sb[rv] - sa[rv]));
                 }
             }
         };
@@ -313,7 +414,7 @@ impl PlantModel {
             prev.copy_from(&x);
             s_prev.copy_from_slice(&s);
             self.rk4_events_tangent(
-                (&mut x, &mut s),
+                (&mut x, &mut s, &s_prev),
                 (t, hs),
                 (input, measured.as_ref()),
                 params,
@@ -336,11 +437,12 @@ impl PlantModel {
 
     /// [`PlantModel::rk4_with_events`] with the tangent `s` (3NF × P) stepped beside the
     /// state: the same arithmetic on the state, and a split step's switch differentiated.
+    /// `s_start` is `s` on entry (the caller's copy; it is not copied again here).
     /// A step that does not switch (nearly all) costs one tangent step; the start-time and
     /// length tangents and the input's rates are formed only after a switch.
     fn rk4_events_tangent(
         &self,
-        (x, s): (&mut State, &mut [f64]),
+        (x, s, s_start): (&mut State, &mut [f64], &[f64]),
         (t, h): (f64, f64),
         (input, measured): (&InputSignal, Option<&InputSignal>),
         params: &[PlantParameter],
@@ -383,7 +485,10 @@ impl PlantModel {
         let mut done = false;
         for _ in 0..8 {
             start.copy_from(x);
-            tw.start.copy_from_slice(s);
+            // The tangent at the start: `s_start` until the first switch, then copied.
+            if split {
+                tw.start.copy_from_slice(s);
+            }
             load(t0, rest, split, w, tw);
             let moving = split.then_some((&times[..np], &times[np..2 * np]));
             self.rk4_tangent((x, s), rest, moving, params, w, tw);
@@ -393,6 +498,7 @@ impl PlantModel {
             };
             if !split {
                 times.iter_mut().for_each(|v| *v = 0.0);
+                tw.start.copy_from_slice(s_start);
                 split = true;
             }
             let (dt0, rest_tangents) = times.split_at_mut(np);
@@ -407,17 +513,16 @@ impl PlantModel {
             let [d00, d10, d01, d11] = hermite_slopes(th);
             let slope =
                 d00 * start.q[i] + d10 * rest * start.qd[i] + d01 * x.q[i] + d11 * rest * x.qd[i];
-            let (rq, rv) = (i * np, (nf + i) * np);
             for j in 0..np {
-                let dqeq = if params[j].effects.contains(&(i, EffectValue::BiasRest)) {
-                    1.0
-                } else {
-                    0.0
-                };
-                let dh_interp = h00 * tw.start[rq + j]
-                    + h10 * (drest[j] * start.qd[i] + rest * tw.start[rv + j])
-                    + h01 * s[rq + j]
-                    + h11 * (drest[j] * x.qd[i] + rest * s[rv + j]);
+                let (rq, rv) = (at(3 * nf, i, j), at(3 * nf, nf + i, j));
+                let moves_qeq = params
+                    .get(j)
+                    .is_some_and(|p| p.effects.contains(&(i, EffectValue::BiasRest)));
+                let dqeq = if moves_qeq { 1.0 } else { 0.0 };
+                let dh_interp = h00 * tw.start[rq]
+                    + h10 * (drest[j] * start.qd[i] + rest * tw.start[rv])
+                    + h01 * s[rq]
+                    + h11 * (drest[j] * x.qd[i] + rest * s[rv]);
                 let dtheta = if slope != 0.0 {
                     (dqeq - dh_interp) / slope
                 } else {
@@ -532,8 +637,11 @@ impl PlantModel {
         for i in 0..4 {
             let (done, todo) = kt.split_at_mut(i);
             let (k_done, k_todo) = k.split_at_mut(i);
+            // The first stage's tangent is s itself (no copy) unless the step's start moves.
             let at = if i == 0 {
-                stage_tangent(&mut sx, &mut st, (s, 0.0, 0.0, None), moving, (dt0, dh));
+                if moving {
+                    stage_tangent(&mut sx, &mut st, (s, 0.0, 0.0, None), moving, (dt0, dh));
+                }
                 &*x
             } else {
                 x.axpy_into(C[i] * h, &k_done[i - 1], &mut stage);
@@ -542,10 +650,11 @@ impl PlantModel {
                 stage_tangent(&mut sx, &mut st, stage_at, moving, (dt0, dh));
                 &stage
             };
+            let sx = if i == 0 && !moving { &*s } else { &sx };
             self.stage_with_tangent(
                 (time[T[i]], at, &tau[T[i]]),
                 T[i],
-                (&sx, &st, moving),
+                (sx, &st, moving),
                 params,
                 w,
                 tw,
@@ -569,7 +678,7 @@ impl PlantModel {
                 .collect();
             for r in 0..n3 {
                 for j in 0..np {
-                    s[r * np + j] += dh[j] / 6.0 * ksum[r];
+                    s[at(n3, r, j)] += dh[j] / 6.0 * ksum[r];
                 }
             }
         }
@@ -600,7 +709,6 @@ impl PlantModel {
         kt: &mut [f64],
     ) {
         let nf = self.nf();
-        let np = tw.p;
         // The rigid body's q̈ (the derivative kernels, the regressor and the armatures read
         // it); the output injection is added to k at the end.
         self.derivative_into((t, x, tau), &[], w, k);
@@ -628,22 +736,9 @@ impl PlantModel {
             let dq_dq = -term.spring.map_or(0.0, |(ks, _)| ks);
             tw.joint[i] = [dq_dq, -b * df_dv, -b * df_dz, dzd_dv, dzd_dz];
         }
-        // [D | ∂τ/∂q | ∂τ/∂q̇] at q̈, and the Cholesky factor of D + A.
+        // [D | ∂τ/∂q | ∂τ/∂q̇] at q̈, the Cholesky factor of D + A, and G.
         (self.conf.dynamics_derivatives_trig)(&w.q_full, &w.sc, &x.qd, &k.qd, &self.p, &mut tw.dd);
-        for a in 0..nf {
-            for c in 0..=a {
-                let mut v =
-                    tw.dd[a * 3 * nf + c] + if a == c { self.terms[a].armature } else { 0.0 };
-                for m in 0..c {
-                    v -= tw.l[a * nf + m] * tw.l[c * nf + m];
-                }
-                tw.l[a * nf + c] = if a == c {
-                    v.sqrt()
-                } else {
-                    v / tw.l[c * nf + c]
-                };
-            }
-        }
+        with_nf!(nf, nf => factor(nf, tw));
         let inertial = !tw.inertial.is_empty();
         if inertial {
             (self.conf.regressor_trig)(&w.q_full, &w.sc, &x.qd, &k.qd, &mut tw.y);
@@ -651,108 +746,38 @@ impl PlantModel {
         if moving {
             self.coupled_command(&tw.rate[stage], &mut tw.rate_c);
         }
-        let (q0, v0, z0) = (0, nf * np, 2 * nf * np);
-        // Right-hand side of (D + A) K_v = R into the K_v block of kt.
-        for a in 0..nf {
-            let ja = tw.joint[a];
-            let row = &tw.dd[a * 3 * nf..(a + 1) * 3 * nf];
-            let out = &mut kt[v0 + a * np..v0 + (a + 1) * np];
-            for (j, o) in out.iter_mut().enumerate() {
-                *o = ja[2] * sx[z0 + a * np + j];
-            }
-            for bj in 0..nf {
-                let cq = if a == bj { ja[0] } else { 0.0 } - row[nf + bj];
-                let cv = if a == bj { ja[1] } else { 0.0 } - row[2 * nf + bj];
-                let (sq, sv) = (
-                    &sx[q0 + bj * np..q0 + (bj + 1) * np],
-                    &sx[v0 + bj * np..v0 + (bj + 1) * np],
-                );
-                for ((o, sq), sv) in out.iter_mut().zip(sq).zip(sv) {
-                    *o += cq * sq + cv * sv;
-                }
-            }
-            if moving {
-                let dq_dt = self.terms[a].gain * tw.rate_c[a];
-                for (o, st) in out.iter_mut().zip(st) {
-                    *o += dq_dt * st;
-                }
-            }
-        }
-        // K_z: ż's tangent.
-        for a in 0..nf {
-            let ja = tw.joint[a];
-            let (sv, sz) = (
-                &sx[v0 + a * np..v0 + (a + 1) * np],
-                &sx[z0 + a * np..z0 + (a + 1) * np],
-            );
-            let out = &mut kt[z0 + a * np..z0 + (a + 1) * np];
-            if self.terms[a].lugre.is_some() {
-                for ((o, sv), sz) in out.iter_mut().zip(sv).zip(sz) {
-                    *o = ja[3] * sv + ja[4] * sz;
-                }
-            } else {
-                out.fill(0.0);
-            }
-        }
-        // ∂Q/∂θ and ∂ż/∂θ: the rigid body's −Y_F ∂p/∂θ, then the couplings and effects.
-        let npb = self.p.len();
-        for a in 0..nf {
-            let y = &tw.y[a * npb..(a + 1) * npb];
-            let row = &mut kt[v0 + a * np..v0 + (a + 1) * np];
-            for &(m, j, d) in &tw.inertial {
-                row[j] -= y[m] * d;
-            }
-        }
+        let n3 = 3 * nf;
+        // ∂Q/∂θ and ∂ż/∂θ into the K_v and K_z rows: the rigid body's −Y_F ∂p/∂θ, then the
+        // couplings and effects.
+        let np = tw.p;
+        with_nf!(nf, nf => inertial_forcing(nf, np, &self.p, tw, kt));
         tw.forcing.fill(None);
         for (j, param) in params.iter().enumerate() {
             for &c in &param.couplings {
                 let c = self.couplings[c];
-                kt[v0 + c.to * np + j] += self.terms[c.to].gain * tau[c.from];
+                kt[at(n3, nf + c.to, j)] += self.terms[c.to].gain * tau[c.from];
             }
             for &(i, value) in &param.effects {
                 let f = *tw.forcing[i].get_or_insert_with(|| self.joint_forcing(i, x, w));
                 let (dq, dz) = self.effect_forcing(i, value, x, k, w, &f);
-                kt[v0 + i * np + j] += dq;
-                kt[z0 + i * np + j] += dz;
+                kt[at(n3, nf + i, j)] += dq;
+                kt[at(n3, 2 * nf + i, j)] += dz;
             }
         }
-        // Solve (D + A) K_v = R (the rows of R are P-vectors).
-        for a in 0..nf {
-            for m in 0..a {
-                let l = tw.l[a * nf + m];
-                let (lo, hi) = kt.split_at_mut(v0 + a * np);
-                let src = &lo[v0 + m * np..v0 + (m + 1) * np];
-                for (o, s) in hi[..np].iter_mut().zip(src) {
-                    *o -= l * s;
-                }
-            }
-            let d = tw.l[a * nf + a];
-            for o in &mut kt[v0 + a * np..v0 + (a + 1) * np] {
-                *o /= d;
+        if moving {
+            for (a, r) in tw.rate_g.iter_mut().enumerate() {
+                *r = self.terms[a].gain * tw.rate_c[a];
             }
         }
-        for a in (0..nf).rev() {
-            for m in a + 1..nf {
-                let l = tw.l[m * nf + a];
-                let (lo, hi) = kt.split_at_mut(v0 + m * np);
-                let src = &hi[..np];
-                for (o, s) in lo[v0 + a * np..v0 + (a + 1) * np].iter_mut().zip(src) {
-                    *o -= l * s;
-                }
-            }
-            let d = tw.l[a * nf + a];
-            for o in &mut kt[v0 + a * np..v0 + (a + 1) * np] {
-                *o /= d;
-            }
-        }
-        // K_q = S_v, and the output injection's −L1 S_q, −L2 S_q.
-        kt[q0..v0].copy_from_slice(&sx[v0..z0]);
-        if let Some((l1, l2)) = w.injection {
-            for e in 0..nf * np {
-                kt[q0 + e] -= l1 * sx[q0 + e];
-                kt[v0 + e] -= l2 * sx[q0 + e];
-            }
-        }
+        let pass = LanePass {
+            g: &tw.g,
+            l: &tw.l,
+            joint: &tw.joint,
+            lugre: &tw.lugre,
+            injection: w.injection,
+            rate: moving.then_some(&tw.rate_g[..]),
+        };
+        with_nf!(nf, nf => pass.run(nf, kt, sx, st));
         w.inject(x, stage, k);
     }
 
@@ -777,6 +802,7 @@ impl PlantModel {
 
     /// ∂Q_i/∂θ (the right-hand side of the velocity equation; the armature's −q̈_i) and
     /// ∂ż_i/∂θ for value `value` of free joint `i`'s effects at state `x` (derivative `k`).
+    #[inline(always)]
     fn effect_forcing(
         &self,
         i: usize,
@@ -860,6 +886,7 @@ fn stage_tangent(
     (dt0, dh): (&[f64], &[f64]),
 ) {
     let np = st.len();
+    let n3 = sx.len() / np.max(1);
     match kp {
         None => sx.copy_from_slice(s),
         Some((kt_prev, k_prev)) => {
@@ -870,13 +897,160 @@ fn stage_tangent(
                 let kv = k_prev.q.iter().chain(&k_prev.qd).chain(&k_prev.z);
                 for (r, kr) in kv.enumerate() {
                     for j in 0..np {
-                        sx[r * np + j] += cd * dh[j] * kr;
+                        sx[at(n3, r, j)] += cd * dh[j] * kr;
                     }
                 }
             }
         }
     }
-    for j in 0..np {
-        st[j] = dt0[j] + cd * dh[j];
+    if moving {
+        for j in 0..np {
+            st[j] = dt0[j] + cd * dh[j];
+        }
+    }
+}
+
+/// From `tw.dd` = [D | ∂τ/∂q | ∂τ/∂q̇] and `tw.joint`: the Cholesky factor L of D + A (the
+/// armatures) into `tw.l`, and G = [∂Q/∂q − ∂τ/∂q | ∂Q/∂q̇ − ∂τ/∂q̇] into `tw.g` (∂Q/∂x is
+/// diagonal: each joint's effects read its own state).
+#[inline(always)]
+fn factor(nf: usize, tw: &mut TangentScratch) {
+    let (n2, n3) = (2 * nf, 3 * nf);
+    let (dd, l) = (&tw.dd[..nf * n3], &mut tw.l[..nf * nf]);
+    for a in 0..nf {
+        for c in 0..=a {
+            let mut v = dd[a * n3 + c] + if a == c { tw.armature[a] } else { 0.0 };
+            for m in 0..c {
+                v -= l[a * nf + m] * l[c * nf + m];
+            }
+            l[a * nf + c] = if a == c { v.sqrt() } else { v / l[c * nf + c] };
+        }
+    }
+    for a in 0..nf {
+        let ja = tw.joint[a];
+        let g = &mut tw.g[a * n2..(a + 1) * n2];
+        for (g, d) in g.iter_mut().zip(&dd[a * n3 + nf..(a + 1) * n3]) {
+            *g = -d;
+        }
+        g[a] += ja[0];
+        g[nf + a] += ja[1];
+    }
+}
+
+/// The rigid body's forcing −Y_F ∂p/∂θ (NF × P) into the K_v rows of `kt`, which it sets
+/// (the K_z rows are zeroed): the used regressor columns gathered once (`yt`, one NF-vector
+/// each), each fitted value's inertial direction summed into its NF-vector (`ft`,
+/// contiguous per value), then stored by [`at`].
+#[inline(always)]
+fn inertial_forcing(nf: usize, np: usize, p: &[f64], tw: &mut TangentScratch, kt: &mut [f64]) {
+    let (n3, npb) = (3 * nf, p.len());
+    if n3 == 0 {
+        return;
+    }
+    for (u, &m) in tw.used.iter().enumerate() {
+        for (a, o) in tw.yt[u * nf..(u + 1) * nf].iter_mut().enumerate() {
+            *o = tw.y[a * npb + m];
+        }
+    }
+    tw.ft.fill(0.0);
+    for &(u, j, d) in &tw.inertial {
+        let (src, dst) = (
+            &tw.yt[u * nf..(u + 1) * nf],
+            &mut tw.ft[j * nf..(j + 1) * nf],
+        );
+        for (o, y) in dst.iter_mut().zip(src) {
+            *o -= y * d;
+        }
+    }
+    for (c, block) in kt.chunks_exact_mut(n3 * LANES).enumerate() {
+        let (_, rest) = block.split_at_mut(nf * LANES);
+        let (v, z) = rest.split_at_mut(nf * LANES);
+        for lane in 0..LANES {
+            let f = &tw.ft[(c * LANES + lane) * nf..(c * LANES + lane + 1) * nf];
+            for (a, &fa) in f.iter().enumerate() {
+                v[a * LANES + lane] = fa;
+            }
+        }
+        z.fill(0.0);
+    }
+    debug_assert_eq!(kt.len(), n3 * np);
+}
+
+/// A stage's tangent lane by lane, each lane's rows contiguous ([`at`]): K_v from
+/// (D + A) K_v = ∂Q/∂θ + G S_(q,q̇) + ∂Q/∂z S_z (+ ∂Q/∂t st where the step's start moves) by
+/// the Cholesky factor L, K_z = ∂ż/∂θ + ∂ż/∂q̇ S_q̇ + ∂ż/∂z S_z, K_q = S_q̇, and the output
+/// injection's −L1 S_q, −L2 S_q. `kt` holds ∂Q/∂θ and ∂ż/∂θ in its K_v and K_z rows on entry.
+struct LanePass<'a> {
+    /// G, NF × 2NF.
+    g: &'a [f64],
+    /// L, NF × NF (lower).
+    l: &'a [f64],
+    /// Per joint: ∂Q/∂q, ∂Q/∂q̇, ∂Q/∂z, ∂ż/∂q̇, ∂ż/∂z.
+    joint: &'a [[f64; 5]],
+    /// Which joints have a LuGre state.
+    lugre: &'a [bool],
+    injection: Option<(f64, f64)>,
+    /// ∂Q/∂t per joint, where the step's start time moves.
+    rate: Option<&'a [f64]>,
+}
+
+impl LanePass<'_> {
+    #[inline(always)]
+    fn run(&self, nf: usize, kt: &mut [f64], sx: &[f64], st: &[f64]) {
+        let (n2, n3) = (2 * nf, 3 * nf);
+        if n3 == 0 {
+            return;
+        }
+        let (g, l) = (&self.g[..nf * n2], &self.l[..nf * nf]);
+        let blocks = lanes_mut(kt)
+            .chunks_exact_mut(n3)
+            .zip(lanes(sx).chunks_exact(n3));
+        for ((block, sxb), stc) in blocks.zip(lanes(st)) {
+            let (kq, kvz) = block.split_at_mut(nf);
+            let (kv, kz) = kvz.split_at_mut(nf);
+            let (sqv, sz) = sxb.split_at(n2);
+            let (sq, sv) = sqv.split_at(nf);
+            for a in 0..nf {
+                let mut r = kv[a];
+                axpy(&mut r, self.joint[a][2], &sz[a]);
+                // Two chains (positions, velocities): half the dependent adds.
+                let mut rv = [0.0; LANES];
+                let ga = &g[a * n2..(a + 1) * n2];
+                let (gq, gv) = ga.split_at(nf);
+                for b in 0..nf {
+                    axpy(&mut r, gq[b], &sq[b]);
+                    axpy(&mut rv, gv[b], &sv[b]);
+                }
+                axpy(&mut r, 1.0, &rv);
+                if let Some(rate) = self.rate {
+                    axpy(&mut r, rate[a], stc);
+                }
+                for m in 0..a {
+                    axpy(&mut r, -l[a * nf + m], &kv[m]);
+                }
+                let d = l[a * nf + a];
+                kv[a] = r.map(|v| v / d);
+            }
+            for a in (0..nf).rev() {
+                let mut r = kv[a];
+                for m in a + 1..nf {
+                    axpy(&mut r, -l[m * nf + a], &kv[m]);
+                }
+                let d = l[a * nf + a];
+                kv[a] = r.map(|v| v / d);
+            }
+            for a in 0..nf {
+                if self.lugre[a] {
+                    let ja = self.joint[a];
+                    axpy(&mut kz[a], ja[3], &sv[a]);
+                    axpy(&mut kz[a], ja[4], &sz[a]);
+                }
+                kq[a] = sv[a];
+                if let Some((l1, l2)) = self.injection {
+                    axpy(&mut kq[a], -l1, &sq[a]);
+                    axpy(&mut kv[a], -l2, &sq[a]);
+                }
+            }
+        }
     }
 }
