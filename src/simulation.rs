@@ -418,6 +418,10 @@ struct Scratch {
     sc: Vec<f64>,
     /// (free index a, joint k) of the free joints in the configuration's `trig`.
     trig_free: Vec<(usize, usize)>,
+    /// Forward dynamics' loop invariants: its intermediates that depend only on the locked
+    /// joints' positions and on p, computed once
+    /// ([`generated::Configuration::forward_dynamics_invariants`]).
+    inv: Vec<f64>,
     /// D_FF(q) (NF × NF, column-major) for the armatures.
     mass: Vec<f64>,
     tau_c: Vec<f64>,
@@ -534,10 +538,13 @@ impl Scratch {
             .filter(|(_, k)| conf.trig.contains(k))
             .map(|(a, &k)| (a, k))
             .collect();
+        let mut inv = vec![0.0; conf.forward_dynamics_invariant_count];
+        (conf.forward_dynamics_invariants)(&model.q_locked, &sc, &model.p, &mut inv);
         Scratch {
             q_full: model.q_locked.clone(),
             sc,
             trig_free,
+            inv,
             mass: vec![0.0; nf * nf],
             tau_c: vec![0.0; nf],
             applied: vec![0.0; nf],
@@ -738,12 +745,13 @@ impl PlantModel {
             *q += e;
         }
         out.q.copy_from_slice(&x.qd);
-        (self.conf.forward_dynamics_trig)(
+        (self.conf.forward_dynamics_trig_inv)(
             &w.q_full,
             &w.sc,
             &x.qd,
             &w.applied,
             &self.p,
+            &w.inv,
             &mut out.qd,
         );
         if self.adds_inertia() {

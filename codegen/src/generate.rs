@@ -385,6 +385,81 @@ fn check_configuration(
         .collect())
 }
 
+/// Forward dynamics split for a simulation (loop-invariant code motion): what depends only
+/// on the locked joints' trigonometry and on p is computed once per run by
+/// `forward_dynamics_invariants(q, sc, p) -> [f64; FORWARD_DYNAMICS_INVARIANTS]`, and
+/// `forward_dynamics_trig_inv(q, sc, qd, tau, p, inv)` computes the rest at each stage. The
+/// same expressions as `forward_dynamics_trig`, so the same bits. `dh` are D's lower
+/// triangle and h, `used` the joints whose trigonometry they read, `solve` the tail from
+/// their results.
+fn hoisted_forward_dynamics(
+    sm: &SymbolicModel,
+    cd: &ConfigDynamics,
+    free: &[usize],
+    dh: &[Atom],
+    used: &[(usize, bool, bool)],
+    solve: &dyn Fn(&[TokenStream]) -> TokenStream,
+) -> TokenStream {
+    let v = &sm.vars;
+    let varies = |s: Symbol| {
+        free.iter()
+            .any(|&k| s == v.s[k] || s == v.c[k] || s == v.q[k])
+            || v.qd.contains(&s)
+            || v.qdd.contains(&s)
+    };
+    let h = cd
+        .graph
+        .emit_hoisted(dh, &|s| sm.spelling(free, s), &varies);
+    let prelude = |set: &std::collections::HashSet<Symbol>| {
+        let used: Vec<(usize, bool, bool)> = used
+            .iter()
+            .map(|&(k, s, c)| (k, s && set.contains(&v.s[k]), c && set.contains(&v.c[k])))
+            .filter(|&(_, s, c)| s || c)
+            .collect();
+        trig_prelude(&used)
+    };
+    let (pre_inv, pre_var) = (prelude(&h.invariant_inputs), prelude(&h.varying_inputs));
+    let k = h.frontier.len();
+    let (invariant, frontier, varying) = (&h.invariant, &h.frontier, &h.varying);
+    let tail = solve(&h.results);
+    let np_ts = quote!(super::NP);
+    quote! {
+        /// Number of [`forward_dynamics_invariants`]' values.
+        pub const FORWARD_DYNAMICS_INVARIANTS: usize = #k;
+        /// The intermediates of [`forward_dynamics_trig`] that depend only on the locked
+        /// joints' positions (their sines and cosines in `sc`) and on `p`: computed once per
+        /// simulation for [`forward_dynamics_trig_inv`].
+        #[inline]
+        pub fn forward_dynamics_invariants(
+            q: &[f64; super::NJ],
+            sc: &[f64; 2 * super::NJ],
+            p: &[f64; #np_ts],
+        ) -> [f64; FORWARD_DYNAMICS_INVARIANTS] {
+            let _ = (q, sc, p);
+            #(#pre_inv)*
+            #(#invariant)*
+            [#(#frontier),*]
+        }
+        /// [`forward_dynamics_trig`] reading its loop invariants from `inv`
+        /// ([`forward_dynamics_invariants`] of the same locked positions and `p`): the same
+        /// values, computing only what depends on the free joints' state and `tau`.
+        #[inline]
+        pub fn forward_dynamics_trig_inv(
+            q: &[f64; super::NJ],
+            sc: &[f64; 2 * super::NJ],
+            qd: &[f64; NF],
+            tau: &[f64; NF],
+            p: &[f64; #np_ts],
+            inv: &[f64; FORWARD_DYNAMICS_INVARIANTS],
+        ) -> [f64; NF] {
+            let _ = (q, sc, qd, p, inv);
+            #(#pre_var)*
+            #(#varying)*
+            #tail
+        }
+    }
+}
+
 /// Unrolled Cholesky solve of `D x = b` (D symmetric positive definite, NF × NF).
 fn cholesky_solve(nf: usize) -> TokenStream {
     let mut st = Vec::new();
@@ -571,38 +646,47 @@ fn config_module(
         ops: o,
     } = body(sm, &cd, free, &dh);
     trig.extend(used.iter().map(|u| u.0));
-    let mut k = 0;
-    let mut d_rows = Vec::new();
-    for a in 0..nf {
-        let mut row = Vec::new();
-        for _ in 0..=a {
-            row.push(results[k].clone());
-            k += 1;
+    // D's lower triangle and h as results → D, the right-hand side τ − h and the solve.
+    let solve = |results: &[TokenStream]| -> TokenStream {
+        let mut k = 0;
+        let mut d_rows = Vec::new();
+        for a in 0..nf {
+            let mut row = Vec::new();
+            for _ in 0..=a {
+                row.push(results[k].clone());
+                k += 1;
+            }
+            d_rows.push(row);
         }
-        d_rows.push(row);
-    }
-    let mut d_full = Vec::new();
-    for a in 0..nf {
-        let row: Vec<TokenStream> = (0..nf)
-            .map(|b| {
-                if b <= a {
-                    d_rows[a][b].clone()
-                } else {
-                    d_rows[b][a].clone()
-                }
+        let mut d_full = Vec::new();
+        for a in 0..nf {
+            let row: Vec<TokenStream> = (0..nf)
+                .map(|b| {
+                    if b <= a {
+                        d_rows[a][b].clone()
+                    } else {
+                        d_rows[b][a].clone()
+                    }
+                })
+                .collect();
+            d_full.push(quote!([#(#row),*]));
+        }
+        let h: Vec<TokenStream> = results[k..].to_vec();
+        let rhs: Vec<TokenStream> = (0..nf)
+            .map(|a| {
+                let aa = proc_macro2::Literal::usize_unsuffixed(a);
+                let ha = &h[a];
+                quote!(tau[#aa] - #ha)
             })
             .collect();
-        d_full.push(quote!([#(#row),*]));
-    }
-    let h: Vec<TokenStream> = results[k..].to_vec();
-    let rhs: Vec<TokenStream> = (0..nf)
-        .map(|a| {
-            let aa = proc_macro2::Literal::usize_unsuffixed(a);
-            let ha = &h[a];
-            quote!(tau[#aa] - #ha)
-        })
-        .collect();
-    let chol = cholesky_solve(nf);
+        let chol = cholesky_solve(nf);
+        quote! {
+            let d: [[f64; NF]; NF] = [#(#d_full),*];
+            let rhs: [f64; NF] = [#(#rhs),*];
+            #chol
+        }
+    };
+    let solve_all = solve(&results);
     let mut fo = o;
     // Cholesky (n³/6 multiply-adds, n square roots) and two triangular solves.
     fo.add += nf + (nf * nf * nf - nf) / 6 + nf * (nf - 1);
@@ -620,11 +704,10 @@ fn config_module(
         &pre,
         quote! {
             #(#stmts)*
-            let d: [[f64; NF]; NF] = [#(#d_full),*];
-            let rhs: [f64; NF] = [#(#rhs),*];
-            #chol
+            #solve_all
         },
     ));
+    items.push(hoisted_forward_dynamics(sm, &cd, free, &dh, &used, &solve));
     trig.sort_unstable();
     trig.dedup();
     let trig_lits: Vec<proc_macro2::Literal> = trig
@@ -705,6 +788,12 @@ fn config_module(
             pub(crate) fn forward_dynamics_trig_dyn(q: &[f64], sc: &[f64], qd: &[f64], tau: &[f64], p: &[f64], out: &mut [f64]) {
                 out.copy_from_slice(&forward_dynamics_trig(q.try_into().unwrap(), sc.try_into().unwrap(), qd.try_into().unwrap(), tau.try_into().unwrap(), p.try_into().unwrap()));
             }
+            pub(crate) fn forward_dynamics_invariants_dyn(q: &[f64], sc: &[f64], p: &[f64], out: &mut [f64]) {
+                out.copy_from_slice(&forward_dynamics_invariants(q.try_into().unwrap(), sc.try_into().unwrap(), p.try_into().unwrap()));
+            }
+            pub(crate) fn forward_dynamics_trig_inv_dyn(q: &[f64], sc: &[f64], qd: &[f64], tau: &[f64], p: &[f64], inv: &[f64], out: &mut [f64]) {
+                out.copy_from_slice(&forward_dynamics_trig_inv(q.try_into().unwrap(), sc.try_into().unwrap(), qd.try_into().unwrap(), tau.try_into().unwrap(), p.try_into().unwrap(), inv.try_into().unwrap()));
+            }
             pub(crate) fn dynamics_derivatives_trig_dyn(q: &[f64], sc: &[f64], qd: &[f64], qdd: &[f64], p: &[f64], out: &mut [f64]) {
                 let m = dynamics_derivatives_trig(q.try_into().unwrap(), sc.try_into().unwrap(), qd.try_into().unwrap(), qdd.try_into().unwrap(), p.try_into().unwrap());
                 out.copy_from_slice(m.as_flattened());
@@ -728,6 +817,9 @@ fn config_module(
                 trig: TRIG,
                 mass_matrix_trig: mass_matrix_trig_dyn,
                 forward_dynamics_trig: forward_dynamics_trig_dyn,
+                forward_dynamics_invariant_count: FORWARD_DYNAMICS_INVARIANTS,
+                forward_dynamics_invariants: forward_dynamics_invariants_dyn,
+                forward_dynamics_trig_inv: forward_dynamics_trig_inv_dyn,
                 dynamics_derivatives_trig: dynamics_derivatives_trig_dyn,
                 regressor_trig: regressor_trig_dyn,
             };

@@ -408,6 +408,125 @@ impl Graph {
     }
 }
 
+/// [`Graph::emit_hoisted`]'s two bodies.
+pub struct Hoisted {
+    /// The statements of the intermediates that do not depend on a varying input, in order.
+    pub invariant: Vec<TokenStream>,
+    /// The invariant intermediates the varying part reads (their names), in order.
+    pub frontier: Vec<TokenStream>,
+    /// The varying part: one `let` per frontier intermediate from `inv[i]`, then one per
+    /// intermediate that depends on a varying input.
+    pub varying: Vec<TokenStream>,
+    /// One expression per output (in the varying part's names).
+    pub results: Vec<TokenStream>,
+    /// The input symbols the invariant statements read.
+    pub invariant_inputs: std::collections::HashSet<Symbol>,
+    /// The input symbols the varying statements and the outputs read.
+    pub varying_inputs: std::collections::HashSet<Symbol>,
+}
+
+impl Graph {
+    /// [`Graph::emit`] split for loop-invariant code motion: the intermediates that depend
+    /// only on inputs `varies` rejects (a locked joint's trigonometry, the parameters p) are
+    /// computed once by the first body, which returns those the rest reads (the frontier);
+    /// the second body reads them from `inv` and computes only what depends on a varying
+    /// input. Each intermediate's expression is printed as in [`Graph::emit`], so the
+    /// values are the same bits.
+    ///
+    /// # Panics
+    /// When an input symbol has no spelling (a generator bug, not a user error).
+    pub fn emit_hoisted(
+        &self,
+        outputs: &[Atom],
+        name: &dyn Fn(Symbol) -> Option<TokenStream>,
+        varies: &dyn Fn(Symbol) -> bool,
+    ) -> Hoisted {
+        let needed = self.needed(outputs);
+        let local: HashMap<usize, usize> =
+            needed.iter().enumerate().map(|(i, &n)| (n, i)).collect();
+        let mut varying_bits = Bits::default();
+        for (&s, &i) in &self.base {
+            if varies(s) {
+                varying_bits.set(i);
+            }
+        }
+        let varying: Vec<bool> = needed
+            .iter()
+            .map(|&n| self.deps[n].meets(&varying_bits))
+            .collect();
+        let is_varying = |n: usize| varying[local[&n]];
+        // The frontier: invariant intermediates read by a varying one or by an output.
+        let mut read = vec![false; needed.len()];
+        for (i, &n) in needed.iter().enumerate() {
+            if varying[i] {
+                for &r in &self.refs[n] {
+                    read[local[&r]] = true;
+                }
+            }
+        }
+        for o in outputs {
+            for r in self.deps_of(o).1 {
+                read[local[&r]] = true;
+            }
+        }
+        let tname = |n: usize| Ident::new(&format!("t{}", local[&n]), Span::call_site());
+        let spell = |s: Symbol| -> TokenStream {
+            if let Some(n) = self.ids.get(&s) {
+                let id = tname(*n);
+                quote!(#id)
+            } else {
+                name(s).unwrap_or_else(|| panic!("no Rust spelling for input {s}"))
+            }
+        };
+        let mut ops = Ops::default();
+        let mut out = Hoisted {
+            invariant: Vec::new(),
+            frontier: Vec::new(),
+            varying: Vec::new(),
+            results: Vec::new(),
+            invariant_inputs: Default::default(),
+            varying_inputs: Default::default(),
+        };
+        let inputs_of = |e: &Atom| {
+            e.get_all_symbols(false)
+                .into_iter()
+                .filter(|s| !self.ids.contains_key(s))
+                .collect::<Vec<_>>()
+        };
+        for (i, &n) in needed.iter().enumerate() {
+            let inputs = inputs_of(&self.defs[n]);
+            if varying[i] {
+                out.varying_inputs.extend(inputs);
+            } else {
+                out.invariant_inputs.extend(inputs);
+            }
+        }
+        for o in outputs {
+            out.varying_inputs.extend(inputs_of(o));
+        }
+        for (i, &n) in needed.iter().enumerate() {
+            let id = tname(n);
+            let e = print(self.defs[n].as_view(), &spell, &mut ops);
+            if is_varying(n) {
+                out.varying.push(quote!(let #id = #e;));
+            } else {
+                out.invariant.push(quote!(let #id = #e;));
+                if read[i] {
+                    let k = proc_macro2::Literal::usize_unsuffixed(out.frontier.len());
+                    out.varying
+                        .insert(out.frontier.len(), quote!(let #id = inv[#k];));
+                    out.frontier.push(quote!(#id));
+                }
+            }
+        }
+        out.results = outputs
+            .iter()
+            .map(|o| print(o.as_view(), &spell, &mut ops))
+            .collect();
+        out
+    }
+}
+
 fn eval_view(v: AtomView, vals: &HashMap<Symbol, f64>) -> f64 {
     match v {
         AtomView::Num(n) => coeff_f64(&n.get_coeff_view()),

@@ -44,6 +44,9 @@ pub type TrigPositionKernel = fn(&[f64], &[f64], &[f64], &mut [f64]);
 pub type TrigStateKernel = fn(&[f64], &[f64], &[f64], &[f64], &[f64], &mut [f64]);
 /// The [`RegressorKernel`] reading the trigonometric table: `(q[NJ], sc[2NJ], qd[NF], qdd[NF], out)`.
 pub type TrigRegressorKernel = fn(&[f64], &[f64], &[f64], &[f64], &mut [f64]);
+/// A [`TrigStateKernel`] reading its loop invariants too:
+/// `(q[NJ], sc[2NJ], v[NF], w[NF], p[NP], inv, out)`.
+pub type TrigStateInvKernel = fn(&[f64], &[f64], &[f64], &[f64], &[f64], &[f64], &mut [f64]);
 
 /// Kernels of one configuration behind slices (row-major matrices).
 #[derive(Debug, Clone, Copy)]
@@ -81,6 +84,15 @@ pub struct Configuration {
     /// [`Configuration::forward_dynamics`] reading `sc`:
     /// `(q[NJ], sc[2NJ], qd[NF], tau[NF], p[NP], out[NF])`.
     pub forward_dynamics_trig: TrigStateKernel,
+    /// The number of [`Configuration::forward_dynamics_invariants`]' values.
+    pub forward_dynamics_invariant_count: usize,
+    /// The intermediates of forward dynamics that depend only on the locked joints'
+    /// positions and on p (loop invariants of a simulation): `(q[NJ], sc[2NJ], p[NP],
+    /// out[forward_dynamics_invariant_count])`.
+    pub forward_dynamics_invariants: TrigPositionKernel,
+    /// [`Configuration::forward_dynamics_trig`] reading those invariants:
+    /// `(q[NJ], sc[2NJ], qd[NF], tau[NF], p[NP], inv, out[NF])`; the same values.
+    pub forward_dynamics_trig_inv: TrigStateInvKernel,
     /// [`Configuration::dynamics_derivatives`] reading `sc`:
     /// `(q[NJ], sc[2NJ], qd[NF], qdd[NF], p[NP], out[NF·3NF])`.
     pub dynamics_derivatives_trig: TrigStateKernel,

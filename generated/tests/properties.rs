@@ -2,7 +2,8 @@
 //! consistent parameters (proptest): D symmetric positive definite; Ḋ − 2C skew-symmetric;
 //! energy conserved by frictionless RK4; the generated state derivatives of τ equal
 //! differences of τ; locked configurations are the full model's rows and
-//! columns with the locked velocities zeroed; the `_trig` forms equal the plain ones.
+//! columns with the locked velocities zeroed; the `_trig` forms (and forward dynamics from
+//! its loop invariants) equal the plain ones.
 
 mod support;
 
@@ -235,7 +236,8 @@ proptest! {
 
     /// The `_trig` forms read only the joints in `trig`, and read there what the forms that
     /// compute their own trigonometry compute: with every other entry of the table NaN,
-    /// each equals its plain form bit for bit.
+    /// each equals its plain form bit for bit. So does forward dynamics from its loop
+    /// invariants, which are computed with the free joints' entries NaN too.
     #[test]
     fn trig_forms_read_only_their_table_and_equal_the_plain_forms(m in models(), seed in any::<u64>()) {
         let mut rng = Rng(seed | 1);
@@ -250,12 +252,23 @@ proptest! {
                 (sc[2 * k], sc[2 * k + 1]) = q[k].sin_cos();
             }
             let np = m.params.len();
+            // Forward dynamics' loop invariants read only the locked joints and p: computed
+            // with the free joints' positions and table entries NaN.
+            let (mut q_locked, mut sc_locked) = (q.clone(), sc.clone());
+            for &k in c.free {
+                q_locked[k] = f64::NAN;
+                (sc_locked[2 * k], sc_locked[2 * k + 1]) = (f64::NAN, f64::NAN);
+            }
+            let mut inv = vec![0.0; c.forward_dynamics_invariant_count];
+            (c.forward_dynamics_invariants)(&q_locked, &sc_locked, &p, &mut inv);
+            prop_assert!(inv.iter().all(|x| x.is_finite()), "{} {}: an invariant reads a free joint", m.name, c.name);
             type Form<'a> = Box<dyn Fn(&mut [f64]) + 'a>;
-            let pairs: [(usize, Form, Form); 4] = [
+            let pairs: [(usize, Form, Form); 5] = [
                 (nf * nf, Box::new(|o| (c.mass_matrix)(&q, &p, o)), Box::new(|o| (c.mass_matrix_trig)(&q, &sc, &p, o))),
                 (nf, Box::new(|o| (c.forward_dynamics)(&q, &qd, &w, &p, o)), Box::new(|o| (c.forward_dynamics_trig)(&q, &sc, &qd, &w, &p, o))),
                 (3 * nf * nf, Box::new(|o| (c.dynamics_derivatives)(&q, &qd, &w, &p, o)), Box::new(|o| (c.dynamics_derivatives_trig)(&q, &sc, &qd, &w, &p, o))),
                 (nf * np, Box::new(|o| (c.regressor)(&q, &qd, &w, o)), Box::new(|o| (c.regressor_trig)(&q, &sc, &qd, &w, o))),
+                (nf, Box::new(|o| (c.forward_dynamics)(&q, &qd, &w, &p, o)), Box::new(|o| (c.forward_dynamics_trig_inv)(&q, &sc, &qd, &w, &p, &inv, o))),
             ];
             for (i, (len, plain, trig)) in pairs.iter().enumerate() {
                 let (mut a, mut b) = (vec![0.0; *len], vec![0.0; *len]);
