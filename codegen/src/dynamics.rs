@@ -321,6 +321,21 @@ pub fn config_dynamics(
         })
         .collect();
 
+    // The kernels from the locked subtrees folded into composite bodies; the regressor from
+    // the links one by one, where its columns are cheaper (a folded body's parameters enter
+    // through its transfer's rotations).
+    let mut folded: Vec<NodeInertia> = inertia
+        .iter()
+        .map(|x| NodeInertia {
+            m: x.m.clone(),
+            h: x.h.clone(),
+            j: x.j.clone(),
+        })
+        .collect();
+    let any_folded = fold_locked(&mut g, nodes, &kin, &mut folded, free);
+    let tau_links =
+        any_folded.then(|| rnea(&mut g, nodes, &kin, &inertia, model, free, true, true, true));
+    let inertia = folded;
     let tau = rnea(&mut g, nodes, &kin, &inertia, model, free, true, true, true);
     let cqd = rnea(
         &mut g, nodes, &kin, &inertia, model, free, true, false, false,
@@ -356,10 +371,11 @@ pub fn config_dynamics(
             c[k][j] = g.value(e);
         }
     }
+    let tau_y = tau_links.as_ref().unwrap_or(&tau);
     let y = (0..nf)
         .map(|r| {
             (0..params.len())
-                .map(|j| g.derivative(&tau[r], Direction::Param(j)))
+                .map(|j| g.derivative(&tau_y[r], Direction::Param(j)))
                 .collect()
         })
         .collect();
@@ -572,6 +588,127 @@ fn joint_columns(node: &Node, k: usize) -> Option<(bool, V3)> {
     }
 }
 
+/// A body's barycentric parameters (m, h = m·c, J about the origin) in node `i`'s frame,
+/// expressed in its parent's (the composite-rigid-body transfer); None for the world node.
+fn to_parent(
+    g: &mut Graph,
+    node: &Node,
+    kin: &Kin,
+    i: usize,
+    (m, h, j): (Atom, V3, Sym3),
+) -> Option<(Atom, V3, Sym3)> {
+    match &node.motion {
+        Motion::Rot { axis, .. } => {
+            let (s, c) = kin.sc[i].clone().expect("rotation node has sin/cos");
+            let hr = g.values(rot(*axis, &s, &c, &h));
+            // R J Rᵀ, column by column: R (J Rᵀ e_c) = R J (row c of R)ᵀ.
+            let rows: [V3; 3] = std::array::from_fn(|r| {
+                let e = rot_t(*axis, &s, &c, &unit(r, Atom::num(1)));
+                let je = g.values(sym_mul(&j, &e));
+                g.values(rot(*axis, &s, &c, &je))
+            });
+            let jr: Sym3 = std::array::from_fn(|k| {
+                let (r, cc) = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)][k];
+                rows[cc][r].clone()
+            });
+            Some((m, hr, jr))
+        }
+        Motion::Trans { .. } => {
+            let p = kin.p[i].clone().expect("translation node has p");
+            // J_parent = J + m(|p|² I − p pᵀ) − (h pᵀ + p hᵀ) + 2 (p·h) I.
+            let pp = g.value((0..3).fold(Atom::num(0), |acc, a| acc + &p[a] * &p[a]));
+            let ph = g.value((0..3).fold(Atom::num(0), |acc, a| acc + &p[a] * &h[a]));
+            let mp = g.values(scale3(&p, &m));
+            let jp: Sym3 = std::array::from_fn(|k| {
+                let (r, cc) = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)][k];
+                let mut e = &j[k] - &mp[r] * &p[cc] - &h[r] * &p[cc] - &p[r] * &h[cc];
+                if r == cc {
+                    e = e + &m * &pp + Atom::num(2) * &ph;
+                }
+                e
+            });
+            let hp = add3(&h, &mp);
+            Some((m, hp, jp))
+        }
+        Motion::World => None,
+    }
+}
+
+/// The links of every subtree in which no joint moves (its nodes' motions read only locked
+/// joints) folded into the node it hangs from, as one composite body (the
+/// composite-rigid-body transfer, [`to_parent`]): the recursive algorithms then neither
+/// propagate velocities through the locked links nor form their wrenches one by one, and
+/// the composite's parameters read only the locked joints and p, which the emitted
+/// simulator kernel computes once per run.
+fn fold_locked(
+    g: &mut Graph,
+    nodes: &[Node],
+    kin: &Kin,
+    inertia: &mut [NodeInertia],
+    free: &[usize],
+) -> bool {
+    let n = nodes.len();
+    let moves = |node: &Node| free.iter().any(|&k| joint_columns(node, k).is_some());
+    let reads_a_joint = |node: &Node| match &node.motion {
+        Motion::Rot { joints, .. } => joints.iter().any(|&c| c != 0),
+        Motion::Trans { u, .. } => u.iter().flatten().any(|&x| x != 0.0),
+        Motion::World => false,
+    };
+    // Bottom-up: whether a free joint moves a node of the subtree, and whether a (locked)
+    // joint does.
+    let mut moving_below = vec![false; n];
+    let mut joint_below = vec![false; n];
+    for i in (1..n).rev() {
+        moving_below[i] |= moves(&nodes[i]);
+        joint_below[i] |= reads_a_joint(&nodes[i]);
+        let pi = nodes[i].parent;
+        moving_below[pi] |= moving_below[i];
+        joint_below[pi] |= joint_below[i];
+    }
+    // Top-down: a subtree no free joint moves is folded where it holds a locked joint (a
+    // subtree of constant transforms alone, such as a last link's fixed rotation, stays:
+    // folding it gains nothing and spreads its inertia over more terms).
+    let mut fold = vec![false; n];
+    for i in 1..n {
+        let pi = nodes[i].parent;
+        fold[i] = !moving_below[i]
+            && if moving_below[pi] {
+                joint_below[i]
+            } else {
+                fold[pi]
+            };
+    }
+    let mut any = false;
+    for i in (1..n).rev() {
+        if !fold[i] {
+            continue;
+        }
+        let ni = std::mem::replace(
+            &mut inertia[i],
+            NodeInertia {
+                m: Atom::num(0),
+                h: zero3(),
+                j: std::array::from_fn(|_| Atom::num(0)),
+            },
+        );
+        if ni.m.is_zero() && ni.h.iter().all(|x| x.is_zero()) && ni.j.iter().all(|x| x.is_zero()) {
+            continue;
+        }
+        let body = (g.value(ni.m), g.values(ni.h), g.values(ni.j));
+        let pi = nodes[i].parent;
+        any = true;
+        if let Some((m, h, j)) = to_parent(g, &nodes[i], kin, i, body) {
+            let parent = &mut inertia[pi];
+            parent.m = &parent.m + &m;
+            parent.h = add3(&parent.h, &h);
+            for (a, b) in parent.j.iter_mut().zip(j) {
+                *a = &*a + &b;
+            }
+        }
+    }
+    any
+}
+
 /// Composite-rigid-body algorithm: D_FF.
 fn crba(
     g: &mut Graph,
@@ -592,45 +729,12 @@ fn crba(
         cj[i] = g.values(cj[i].clone());
         let pi = nodes[i].parent;
         let (m, h, j) = (cm[i].clone(), ch[i].clone(), cj[i].clone());
-        match &nodes[i].motion {
-            Motion::Rot { axis, .. } => {
-                let (s, c) = kin.sc[i].clone().expect("rotation node has sin/cos");
-                let hr = g.values(rot(*axis, &s, &c, &h));
-                // R J Rᵀ, column by column: R (J Rᵀ e_c) = R J (row c of R)ᵀ.
-                let rows: [V3; 3] = std::array::from_fn(|r| {
-                    let e = rot_t(*axis, &s, &c, &unit(r, Atom::num(1)));
-                    let je = g.values(sym_mul(&j, &e));
-                    g.values(rot(*axis, &s, &c, &je))
-                });
-                cm[pi] = &cm[pi] + &m;
-                ch[pi] = add3(&ch[pi], &hr);
-                for r in 0..3 {
-                    for cc in r..3 {
-                        let k = sym_index(r, cc);
-                        cj[pi][k] = &cj[pi][k] + &rows[cc][r];
-                    }
-                }
+        if let Some((m, h, j)) = to_parent(g, &nodes[i], kin, i, (m, h, j)) {
+            cm[pi] = &cm[pi] + &m;
+            ch[pi] = add3(&ch[pi], &h);
+            for (a, b) in cj[pi].iter_mut().zip(j) {
+                *a = &*a + &b;
             }
-            Motion::Trans { .. } => {
-                let p = kin.p[i].clone().expect("translation node has p");
-                // J_parent = J + m(|p|² I − p pᵀ) − (h pᵀ + p hᵀ) + 2 (p·h) I.
-                let pp = g.value((0..3).fold(Atom::num(0), |acc, a| acc + &p[a] * &p[a]));
-                let ph = g.value((0..3).fold(Atom::num(0), |acc, a| acc + &p[a] * &h[a]));
-                let mp = g.values(scale3(&p, &m));
-                for r in 0..3 {
-                    for cc in r..3 {
-                        let k = sym_index(r, cc);
-                        let mut e = &j[k] - &mp[r] * &p[cc] - &h[r] * &p[cc] - &p[r] * &h[cc];
-                        if r == cc {
-                            e = e + &m * &pp + Atom::num(2) * &ph;
-                        }
-                        cj[pi][k] = &cj[pi][k] + e;
-                    }
-                }
-                cm[pi] = &cm[pi] + &m;
-                ch[pi] = add3(&ch[pi], &add3(&h, &mp));
-            }
-            Motion::World => {}
         }
     }
     let mut d = vec![vec![Atom::num(0); nf]; nf];
