@@ -20,6 +20,13 @@
 //! `sc[2k + 1] = cos q_k`, the joints in the module's `TRIG`) instead of computing them: a
 //! simulation computes a locked joint's once per run and a free joint's once per stage.
 //!
+//! Forward dynamics also comes split for a simulation: `forward_dynamics_invariants(q, sc,
+//! p)` returns the intermediates that read only the locked joints and `p` (computed once per
+//! run), and `forward_dynamics_trig_inv(q, sc, qd, tau, p, inv)` computes the rest, with
+//! the same bits as `forward_dynamics_trig`. Links held by locked joints are folded into
+//! composite bodies before the recursive algorithms run, so a configuration's kernels do no
+//! work per locked link (the regressor excepted: it is formed link by link).
+//!
 //! `q` is the full joint vector `[f64; NJ]` (rad or m); `qd`, `qdd`, `tau` hold the free
 //! joints only, in ascending joint order; `p` is the barycentric parameter vector
 //! `[f64; NP]` of the model (per link: mass m (kg), first moments m·c (kg·m), inertia about

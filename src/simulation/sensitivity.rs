@@ -34,31 +34,14 @@ use super::*;
 /// would not be compiled with the AVX2 copy's target features.
 macro_rules! with_nf {
     ($nf:expr, $n:ident => $body:expr) => {
+        with_nf!(@arms $nf, $n, $body; 1, 2, 3, 4, 5, 6)
+    };
+    (@arms $nf:expr, $n:ident, $body:expr; $($k:literal),*) => {
         match $nf {
-            1 => {
-                let $n = 1;
+            $($k => {
+                let $n = $k;
                 $body
-            }
-            2 => {
-                let $n = 2;
-                $body
-            }
-            3 => {
-                let $n = 3;
-                $body
-            }
-            4 => {
-                let $n = 4;
-                $body
-            }
-            5 => {
-                let $n = 5;
-                $body
-            }
-            6 => {
-                let $n = 6;
-                $body
-            }
+            })*
             $n => $body,
         }
     };
