@@ -803,7 +803,7 @@ impl Program {
     /// constant (parameters, locked joints' positions) and folding constants.
     ///
     /// # Errors
-    /// The expression needs a deeper stack than [`STACK`] (too deeply nested) or reads
+    /// The expression needs a deeper stack than `STACK` (too deeply nested) or reads
     /// more than [`INPUTS`] state variables.
     pub fn compile(node: &Node, fixed: &dyn Fn(Symbol) -> Option<f64>) -> Result<Program, String> {
         let folded = fold(node, fixed);

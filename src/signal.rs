@@ -351,9 +351,9 @@ pub const DIFFERENTIATOR_BETA: f64 = 18.0;
 
 /// First and second derivatives of a signal sampled every `dt` below its Nyquist frequency:
 /// the derivatives of its band-limited (sinc) reconstruction at the samples, the ideal
-/// differentiators' kernels h₁[m] = (−1)^(m+1)/(m·dt), h₂[0] = −π²/(3 dt²),
-/// h₂[m] = 2 (−1)^(m+1)/(m² dt²) (m ≠ 0) windowed by a Kaiser window over
-/// ±[`DIFFERENTIATOR_TAPS`] samples (β = [`DIFFERENTIATOR_BETA`]), h₂[0] set so that the
+/// differentiators' kernels h₁\[m\] = (−1)^(m+1)/(m·dt), h₂\[0\] = −π²/(3 dt²),
+/// h₂\[m\] = 2 (−1)^(m+1)/(m² dt²) (m ≠ 0) windowed by a Kaiser window over
+/// ±[`DIFFERENTIATOR_TAPS`] samples (β = [`DIFFERENTIATOR_BETA`]), h₂\[0\] set so that the
 /// second's DC gain is 0.
 ///
 /// Central differences (`d[k] = (x[k+1] − x[k−1]) / 2dt`, applied twice) have a gain of

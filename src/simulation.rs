@@ -199,9 +199,9 @@ pub enum Integrator {
     /// velocities −D_FF⁻¹ C (D_FF the inertia matrix (3.2), C = diag(∂F_i/∂q̇_i) with F_i all
     /// friction of joint i and its bias, at the current (q̇_i, z_i); growth capped at
     /// λh = 10), the positions integrated along that same flow, and ∂ż_i/∂z_i = −σ0|q̇_i|/g on
-    /// each LuGre deflection ([`PlantModel::etd_lambda`]); springs, gravity, Coriolis terms
+    /// each LuGre deflection (`PlantModel::etd_lambda`); springs, gravity, Coriolis terms
     /// stay in N. A step in which a joint's friction switches regime is redone in substeps
-    /// ([`PlantModel::etdrk4_with_switches`]). Fourth order where A h is small, exact for a
+    /// (`PlantModel::etdrk4_with_switches`). Fourth order where A h is small, exact for a
     /// joint whose damping dominates under a constant force, and within 2.3e-5 rad of a
     /// converged RK4 on the Freedom 6S's wrist at 1/2000 s over 10 s, where RK4 diverges.
     /// Its local error is far above RK4's at RK4's stable step, though: on a 40 s Table 4.7
@@ -210,7 +210,7 @@ pub enum Integrator {
     /// (`tests/plant_simulation.rs`). Per step on top of RK4's four right-hand sides: the
     /// inertia matrix and the friction slopes; the velocity block's decomposition (Cholesky
     /// factor, inverse, symmetric eigendecomposition) only when it has drifted
-    /// ([`REFREEZE`]; ≈ 1 step in 7 on the Freedom 6S runs). A 40 s file at 1/2000 s costs
+    /// (`REFREEZE`; ≈ 1 step in 7 on the Freedom 6S runs). A 40 s file at 1/2000 s costs
     /// 0.3–0.4 × RK4 at 1/12000 s.
     Etdrk4,
 }

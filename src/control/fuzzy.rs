@@ -161,7 +161,7 @@ fn one() -> f64 {
 }
 
 /// A two-input fuzzy controller: the FAM `rules[i][j]` is the singleton output (N·m) of the
-/// rule "if q is position.labels[i] and q̇ is velocity.labels[j]".
+/// rule "if q is position.labels\[i\] and q̇ is velocity.labels\[j\]".
 #[derive(Debug, Clone, PartialEq)]
 pub struct Fam {
     /// Position input (rad).

@@ -18,7 +18,7 @@
 //! fitted by output error within their bounds (beside the configuration's values, as the
 //! catalogue's confirmations are); its figures are those of the fitted plant. Torque
 //! space: each candidate linear in its parameters gives one regressor column per
-//! parameter through the same filter and decimation as the plant's own ([`column_sets`]),
+//! parameter through the same filter and decimation as the plant's own (`column_sets`),
 //! fitted by least squares together with the plant's parameters; a candidate not linear
 //! in its parameters is refused there (named), as torque space refits only such effects.
 

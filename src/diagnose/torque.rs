@@ -18,7 +18,7 @@
 //!
 //! Catalogue (per joint i; `kind` names the plant effect that implements it):
 //! Coulomb sign(q̇); viscous q̇; offset 1; Stribeck e^{−(q̇/vs)²} sign(q̇) (vs on a grid);
-//! cable-drag spring q − qeq (columns q and 1); friction position bias [q < qeq]·(sign q̇, q̇)
+//! cable-drag spring q − qeq (columns q and 1); friction position bias \[q < qeq\]·(sign q̇, q̇)
 //! (qeq on a grid of position quantiles); tendon input coupling j → i, y_j. A plant-gain
 //! error is not a torque-space candidate: with every parameter of W refitted, scaling the
 //! torque scales θ (its column y⊥ is the residual itself); it shows in output space. Refitting the plant's own parameters (W) is reported first as

@@ -25,7 +25,7 @@
 //! (so that every joint's equation counts alike). Dividing by Kp keeps the exact scale
 //! symmetry of the output-error cost (Kp with every force of its joint): the equation error
 //! is the same all along it, as the positions are. The friction position bias's switch at
-//! qeq is smoothed over [`BIAS_WIDTH`] (a jump would stall the finite-difference optimiser).
+//! qeq is smoothed over `BIAS_WIDTH` (a jump would stall the finite-difference optimiser).
 
 use super::output_error::Record;
 use crate::plant::{ConsistencyPolicy, Plant};

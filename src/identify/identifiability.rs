@@ -645,7 +645,7 @@ fn base_jacobian(
 /// ([`structural_companions`]) whose null directions a finite-difference Jacobian fills
 /// with noise and a Levenberg–Marquardt step then wanders along.
 ///
-/// Chosen greedily by column pivoting (Businger–Golub) on G = ∂β/∂s ([`base_jacobian`]),
+/// Chosen greedily by column pivoting (Businger–Golub) on G = ∂β/∂s (`base_jacobian`),
 /// each column times its symbol's bound width `width(i)` and each row in units of its |β|
 /// (floored at 1e-9 of the largest, so that a small product of inertia weighs like a large
 /// mass): the symbol that can move β furthest within its bounds first, then the one that

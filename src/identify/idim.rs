@@ -45,7 +45,7 @@ pub struct IdimOptions {
     /// How q̇ and q̈ are taken from the filtered positions.
     pub differentiator: Differentiator,
     /// Leave out the rows at a record's ends that start or end in motion, where the
-    /// filters' start-up spoils them ([`moving_edges`]); off in the EMPS benchmark's own
+    /// filters' start-up spoils them (`moving_edges`); off in the EMPS benchmark's own
     /// processing (its records start and end moving, and its published figures keep every
     /// row).
     pub trim_moving_edges: bool,
@@ -1009,7 +1009,7 @@ pub fn least_squares(obs: &Observation) -> Result<Fit> {
 /// # Errors
 /// As [`least_squares`] on the kept columns (fewer rows than base parameters, a kept
 /// column the data do not determine, non-finite estimates); a dependency that holds at the
-/// data only is named with the joints' excitation ([`explain_deficiency`]).
+/// data only is named with the joints' excitation (`explain_deficiency`).
 pub fn least_squares_base(
     obs: &Observation,
     model: &generated::Model,

@@ -382,8 +382,8 @@ impl JointProblem {
     /// the configurations' files: the stacked Jacobian (central differences, step
     /// [`OutputErrorOptions::fd_step`] of the bound width; a column only where the
     /// parameter enters), each residual's variance from its configuration and joint
-    /// ([`Problem::residual_variances`]), the structural ties that no configuration breaks
-    /// ([`fitted_companions`]); fit figures per configuration and joint, named
+    /// (`Problem::residual_variances`), the structural ties that no configuration breaks
+    /// (`fitted_companions`); fit figures per configuration and joint, named
     /// "k3 q2".
     ///
     /// # Errors
@@ -514,7 +514,7 @@ impl Residuals for JointProblem {
         Ok(blocks.concat())
     }
 
-    /// A configuration whose fit takes sensitivities ([`Problem::sensitivities_apply`])
+    /// A configuration whose fit takes sensitivities (`Problem::sensitivities_apply`)
     /// gives its rows of every column from one augmented simulation per file; otherwise
     /// column i simulates only the configurations that parameter i enters, by finite
     /// differences. The other rows are zero. The configurations, and the (parameter,

@@ -210,7 +210,7 @@ pub struct BandTrial {
 /// friction's sign changes, and lowers that error while its rows are as trustworthy as the
 /// narrow band's; it raises it once the twice-differentiated position noise (errors in the
 /// regressor) or vibration the model lacks dominate. The band whose error is lower than
-/// every narrower one's by more than [`WIDER_GAIN`] is chosen, the widest such.
+/// every narrower one's by more than `WIDER_GAIN` is chosen, the widest such.
 ///
 /// # Errors
 /// None of the bands gives a fit (the first failure returned).
@@ -267,9 +267,9 @@ pub fn cross_validated(
     }
 }
 
-/// The observation's rows split into the even and the odd of [`BLOCKS`] blocks of each
+/// The observation's rows split into the even and the odd of `BLOCKS` blocks of each
 /// record's time span (the training and the held-out rows of [`cross_validated`]), the
-/// rows within [`SPLIT_MARGIN`] of the span's ends in neither: there the filters' start-up
+/// rows within `SPLIT_MARGIN` of the span's ends in neither: there the filters' start-up
 /// differs from band to band (a record that ends in motion put 900 N on its last row at
 /// one cut-off and 100 N at another).
 pub fn split(obs: &Observation) -> (Observation, Observation) {

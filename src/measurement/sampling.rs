@@ -20,12 +20,12 @@
 //!   naming the rows.
 //!
 //! Time that goes backwards, or a repeated time with other values, is left for
-//! [`check_sampling`] to refuse with its row.
+//! `check_sampling` to refuse with its row.
 
 use super::*;
 
 /// Largest relative deviation of a step from the median period for a record to count as
-/// evenly sampled (as [`check_sampling`] requires).
+/// evenly sampled (as `check_sampling` requires).
 pub const EVEN_TOLERANCE: f64 = 1e-3;
 
 /// Largest step, in median periods, that resampling bridges; a longer one is a gap of

@@ -79,8 +79,8 @@ impl std::fmt::Display for Hold {
 }
 
 /// Commanded torques sampled at evenly spaced times, held by [`Hold`]: the input of
-/// [`PlantModel::simulate_at`]. Before the first sample the first value holds, after the
-/// last the last.
+/// [`crate::simulation::PlantModel::simulate_at`]. Before the first sample the first value
+/// holds, after the last the last.
 #[derive(Debug, Clone, Copy)]
 pub struct InputSignal<'a> {
     /// First sample time (s).

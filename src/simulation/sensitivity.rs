@@ -221,7 +221,7 @@ struct JointForcing {
 }
 
 impl PlantModel {
-    /// Whether [`PlantModel::simulate_at_with_sensitivities`] covers this plant; the reason
+    /// Whether [`PlantModel::predict_at_with_sensitivities`] covers this plant; the reason
     /// when not.
     pub fn sensitivities_unsupported(&self) -> Option<String> {
         if self.integrator != Integrator::Rk4 {

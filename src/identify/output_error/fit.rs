@@ -740,13 +740,13 @@ impl Problem {
 
     /// Stribeck re-seed of scaled parameters `u` (a fitted minimum) for
     /// [`WarmUp::StribeckBranch`]. Where a joint's fitted Stribeck dip has collapsed
-    /// (Fs ≤ (1 + [`STRIBECK_COLLAPSED`]) Fc) or its Stribeck velocity vs sits on a bound, the cost does not depend
+    /// (Fs ≤ (1 + `STRIBECK_COLLAPSED`) Fc) or its Stribeck velocity vs sits on a bound, the cost does not depend
     /// on vs (at Fs = Fc) or barely (vs past the files' velocities), and the gradient
     /// cannot bring the dip back: k3 of the Freedom 6S from the Appendix D guess ended with
     /// vs_q2 on its upper bound, Fs_q2 = Fc_q2 and q4 at 1.66 σ̂ (truth: vs_q2 = 0.019 rad/s,
     /// Fs_q2 = 1.61 Fc_q2). Per such joint, the whole files' cost on a grid of
-    /// [`STRIBECK_VS_GRID`] Stribeck velocities log-spaced over vs's bounds times levels
-    /// Fs = Fc (1 + r), r in [`STRIBECK_RATIOS`], the other parameters kept. Where vs sits
+    /// `STRIBECK_VS_GRID` Stribeck velocities log-spaced over vs's bounds times levels
+    /// Fs = Fc (1 + r), r in `STRIBECK_RATIOS`, the other parameters kept. Where vs sits
     /// on its upper bound, the friction the files saw was Fs at every velocity
     /// (g(v) = Fc + (Fs − Fc) e^{−(v/vs)²} ≈ Fs) and Fc was unseen, so the grid also tries
     /// Fc = that Fs: the rerun's k3 ended with vs_q2 = 9.48 rad/s on its bound, Fs_q2 =

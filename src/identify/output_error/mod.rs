@@ -75,7 +75,7 @@ const PREDICTOR_FTOL: f64 = 1e-4;
 /// Largest root-mean-square difference on any free joint, in units of that joint's noise
 /// σ̂, between the positions predicted at [`OutputErrorOptions::predictor_step`] and at
 /// the user's step for which a predictor stage runs on the coarse step
-/// ([`Problem::checked_predictor`]): a quarter of the noise, so the coarse stage's minimum
+/// (`Problem::checked_predictor`): a quarter of the noise, so the coarse stage's minimum
 /// lies well within the scatter the data allow.
 pub const COARSE_PREDICTOR_AGREEMENT: f64 = 0.25;
 
@@ -88,7 +88,7 @@ const STRIBECK_VS_GRID: usize = 9;
 
 /// A predictor stage that ends above this factor times the larger of the noise floor and
 /// the previous predictor stage's end is rerun through an intermediate bandwidth
-/// ([`Problem::run_predictor_refined`]). Near the data the predictor's cost rises slowly
+/// (`Problem::run_predictor_refined`). Near the data the predictor's cost rises slowly
 /// as ω falls, toward the whole files' floor: on the Freedom 6S paths that reached the
 /// floor (k2..k5), every predictor stage ended below 1.4 × the step's final cost (k5's
 /// ω = 1 rad/s: 0.419 against 0.310). Where a stage lost the path its cost jumped: k4
@@ -196,7 +196,7 @@ pub enum WarmUp {
     /// without the equation error).
     Predictor,
     /// The best start's Stribeck dip re-seeded where it collapsed, then the predictor's
-    /// bandwidths up to [`STRIBECK_BRANCH_OMEGA`] and the whole files
+    /// bandwidths up to `STRIBECK_BRANCH_OMEGA` and the whole files
     /// ([`Problem::stribeck_reseed`]).
     StribeckBranch,
     /// None: the joint fit of a locking sequence starts from the values its steps left
@@ -840,7 +840,7 @@ impl Residuals for Problem {
         Ok(self.residuals_of(&self.trajectories(p)?))
     }
 
-    /// By sensitivities where the problem allows ([`Problem::sensitivity_columns`]), else
+    /// By sensitivities where the problem allows (`Problem::sensitivity_columns`), else
     /// by finite differences.
     fn jacobian_columns(&self, stencil: &Stencil) -> Vec<Vec<f64>> {
         self.sensitivity_columns(stencil)

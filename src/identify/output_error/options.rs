@@ -103,7 +103,7 @@ pub struct OutputErrorOptions {
     /// Integration scheme ([`crate::simulation::Integrator`]).
     pub integrator: Integrator,
     /// Hold of the measured torques between samples for every record; `None`: each
-    /// record's own ([`Record::hold`], from its side file). Recorded in a report's
+    /// record's own (`Record::hold`, from its side file). Recorded in a report's
     /// options, so a replay holds the torques as the run did.
     #[serde(default)]
     pub hold: Option<Hold>,
@@ -149,13 +149,13 @@ pub struct OutputErrorOptions {
     pub horizons: Vec<f64>,
     /// Multiple-shooting warm-up: segment lengths (s). When not empty, a second start from
     /// the plant's values fits every file cut into segments of each length in turn
-    /// (simulated from the measured state at their starts, [`Problem::segmented`]) and
+    /// (simulated from the measured state at their starts, `Problem::segmented`) and
     /// then the whole files; it runs beside the start through the horizons and the lower
     /// final cost wins (neither warm-up reaches the noise floor on every step of the
     /// Freedom 6S sequence alone). Empty: no such start.
     pub segments: Vec<f64>,
     /// After the fit, move the rigid-body symbols back toward the plant's values along the
-    /// exact ties of the configuration's base parameters ([`Problem::least_change`]): of
+    /// exact ties of the configuration's base parameters (`Problem::least_change`): of
     /// all points the data cannot tell apart from the minimum that way, report the one
     /// closest to the initial values, so that the next
     /// step of a locking sequence starts from prior knowledge and not from where the
@@ -183,7 +183,7 @@ pub struct OutputErrorOptions {
     /// the wrist above the noise floor. Overrides [`Self::prior`] for those symbols.
     pub carried_prior: bool,
     /// Equation-error warm start: when set, one more start from the plant's values first
-    /// fits the equation error of the whole files ([`Problem::equation_error_stage`]: the
+    /// fits the equation error of the whole files (`Problem::equation_error_stage`: the
     /// torque balance at every sample from the filtered, differentiated positions, no
     /// simulation, so no drift), then the whole files (not the horizons: on the isolated
     /// c4 of the Freedom 6S from the Appendix D guess, a 10 % horizon fitted from the
@@ -194,7 +194,7 @@ pub struct OutputErrorOptions {
     /// `None`: no such start.
     pub equation_error: Option<Cutoff>,
     /// Prediction-error homotopy: output-injection bandwidths ω (rad/s), fitted in turn
-    /// ([`Problem::predictor`]: the simulation pulled toward the measured positions, a
+    /// (`Problem::predictor`: the simulation pulled toward the measured positions, a
     /// low-passed equation error at large ω, the output error at ω → 0) before the whole
     /// files. With `equation_error` set, that start runs through them after the equation
     /// error; otherwise one more start from the plant's values does. On the isolated c4 of
@@ -211,8 +211,8 @@ pub struct OutputErrorOptions {
     /// at 1/2000 s: 3.0e-3 rad, [`crate::simulation::Integrator::Etdrk4`]). The whole
     /// files, the segments, the horizons and the final report stay on [`Self::h`], so the
     /// fit ends on the accurate simulation. A stage runs on this step only where, at its
-    /// start, it predicts the positions within [`COARSE_PREDICTOR_AGREEMENT`] × the noise of
-    /// the user's step; otherwise on the user's step ([`Problem::predictor_step_disagreement`];
+    /// start, it predicts the positions within `COARSE_PREDICTOR_AGREEMENT` × the noise of
+    /// the user's step; otherwise on the user's step (`Problem::predictor_step_disagreement`;
     /// the report names each stage's step and the figure). `None`: the predictor's stages
     /// on [`Self::h`].
     pub predictor_step: Option<(f64, Integrator)>,
@@ -226,7 +226,7 @@ pub struct OutputErrorOptions {
     /// 1.5 σ̂) cannot be reached without them, and a fit from the first sample moves
     /// parameters to make up for the start. Done at the whole files' stage, alternating
     /// (the stage from the first samples, then a Gauss–Newton step of q(0) per file,
-    /// [`Problem::estimate_initial_positions`], and the stage again while an estimate
+    /// `Problem::estimate_initial_positions`, and the stage again while an estimate
     /// moves an initial position by more than [`INITIAL_POSITION_SETTLED`] × its joint's
     /// σ̂, at most [`INITIAL_POSITION_ROUNDS`] stages); the warm-ups (predictor, segments, equation
     /// error) keep the measured samples, which their output injection or cuts absorb. The
@@ -241,14 +241,14 @@ pub struct OutputErrorOptions {
     /// above the sensor's 2.02e-4 rad), which makes the floor check lenient there.
     pub noise_sigma: Option<f64>,
     /// After the starts, re-seed a collapsed Stribeck dip of the best one and fit that
-    /// branch too ([`WarmUp::StribeckBranch`], [`Problem::stribeck_reseed`]). `false` for
+    /// branch too (`WarmUp::StribeckBranch`, `Problem::stribeck_reseed`). `false` for
     /// a refit from a fitted minimum that already had the branch (the release of held
-    /// values, [`crate::identify::sequence::release_held`]).
+    /// values, `crate::identify::sequence::release_held`).
     pub stribeck_reseed: bool,
     /// The optimiser of the predictor's stages ([`StageOptimiser`]).
     pub predictor_optimiser: StageOptimiser,
     /// The optimiser of the whole files' stage, the cost (4.2)/(4.3) itself
-    /// ([`Stage::is_final`]), and of the refits that release held values. Every other
+    /// (`Stage::is_final`), and of the refits that release held values. Every other
     /// stage (horizons, segments, equation error, the joint fit) runs rmpfit's
     /// Levenberg–Marquardt.
     pub whole_files_optimiser: StageOptimiser,
@@ -290,7 +290,7 @@ pub const INITIAL_POSITION_ROUNDS: usize = 3;
 
 impl OutputErrorOptions {
     /// Whether anything fits the plant's values: the horizons, or one of the warm-ups
-    /// (segments, equation error, predictor). [`Problem::fit`] refuses options without.
+    /// (segments, equation error, predictor). `Problem::fit` refuses options without.
     pub fn fits_the_plant_values(&self) -> bool {
         !self.horizons.is_empty()
             || !self.segments.is_empty()

@@ -19,7 +19,7 @@ pub struct ParameterSpace<'a> {
     pub lower: &'a [f64],
     /// Upper bounds (n).
     pub upper: &'a [f64],
-    /// (Fc, Fs) index pairs within `names` under Fs ≥ Fc ([`feasible_bounds`]).
+    /// (Fc, Fs) index pairs within `names` under Fs ≥ Fc (`feasible_bounds`).
     pub pairs: &'a [(usize, usize)],
     /// Rigid-body symbols held at the plant's values although they tie exactly with
     /// fitted ones ([`Problem::with_held_ties`]).
@@ -118,13 +118,13 @@ pub trait Residuals: Sync {
             .map(|r| r.iter().map(|x| x * x).sum())
             .unwrap_or(f64::INFINITY)
     }
-    /// Physical parameters from scaled ones u ∈ [0, 1]ⁿ ([`scaled_to_physical`]).
+    /// Physical parameters from scaled ones u ∈ [0, 1]ⁿ (`scaled_to_physical`).
     fn to_physical(&self, u: &[f64]) -> Vec<f64> {
         let s = self.space();
         scaled_to_physical(s.lower, s.upper, s.pairs, u)
     }
     /// Scaled parameters of physical ones, clamped into the feasible set
-    /// ([`physical_to_scaled`]).
+    /// (`physical_to_scaled`).
     fn to_scaled(&self, p: &[f64]) -> Vec<f64> {
         let s = self.space();
         physical_to_scaled(s.lower, s.upper, s.pairs, p)

@@ -56,7 +56,7 @@ impl Problem {
     /// plant's values) counted by the structural check of [`Problem::statistics`]: a
     /// fitted symbol that trades exactly with one of them is determined only given the
     /// held value, so it is not called identifiable and its `only_with` names the held
-    /// symbol. Set by `--rigid-body spanning` ([`super::sequence::RigidBodyFit`]).
+    /// symbol. Set by `--rigid-body spanning` (`super::sequence::RigidBodyFit`).
     pub fn with_held_ties(mut self, names: Vec<String>) -> Problem {
         self.held_ties = names;
         self

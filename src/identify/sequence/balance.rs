@@ -9,7 +9,7 @@ use super::*;
 pub struct Balance {
     /// Per free joint: name, RMS error over the fitted samples over its noise σ̂ before
     /// and after the balanced refit; None where the files give no σ̂
-    /// ([`JointFit::floor_ratio`](super::output_error::JointFit::floor_ratio)).
+    /// ([`JointFit::floor_ratio`](crate::identify::output_error::JointFit::floor_ratio)).
     pub joints: Vec<(String, Option<f64>, Option<f64>)>,
     /// The cost (4.2)/(4.3) with the step's joint weights (the thesis's) at the step's fit
     /// and at the balanced refit's result.
@@ -25,7 +25,7 @@ pub struct Balance {
 
 impl Balance {
     /// The worst free joint's RMS / σ̂ before and after, over the joints whose σ̂ the files
-    /// give ([`JointFit::floor_ratio`](super::output_error::JointFit::floor_ratio)); 0 when
+    /// give ([`JointFit::floor_ratio`](crate::identify::output_error::JointFit::floor_ratio)); 0 when
     /// none does.
     pub fn worst(&self) -> (f64, f64) {
         self.joints.iter().fold((0.0_f64, 0.0_f64), |(a, b), j| {
