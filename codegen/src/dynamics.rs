@@ -232,6 +232,9 @@ fn rot_t(axis: usize, s: &Atom, c: &Atom, x: &V3) -> V3 {
 /// A symmetric 3×3 tensor as `[xx, xy, xz, yy, yz, zz]`.
 type Sym3 = [Atom; 6];
 
+/// The entries (row, column) of a [`Sym3`] in its storage order ([`sym_index`]'s inverse).
+const SYM_PAIRS: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+
 fn sym_index(r: usize, c: usize) -> usize {
     match (r.min(c), r.max(c)) {
         (0, 0) => 0,
@@ -249,10 +252,25 @@ fn sym_mul(j: &Sym3, x: &V3) -> V3 {
 
 /// Barycentric inertial parameters of the links on a node, summed: (m, h = m·c, J about the
 /// node origin), as sums of parameter symbols.
+#[derive(Clone)]
 struct NodeInertia {
     m: Atom,
     h: V3,
     j: Sym3,
+}
+
+impl NodeInertia {
+    fn zero() -> NodeInertia {
+        NodeInertia {
+            m: Atom::num(0),
+            h: zero3(),
+            j: std::array::from_fn(|_| Atom::num(0)),
+        }
+    }
+
+    fn is_zero(&self) -> bool {
+        self.m.is_zero() && self.h.iter().all(|x| x.is_zero()) && self.j.iter().all(|x| x.is_zero())
+    }
 }
 
 /// The configuration's dynamics for the free joints `free` (ascending joint indices).
@@ -301,11 +319,7 @@ pub fn config_dynamics(
     let inertia: Vec<NodeInertia> = nodes
         .iter()
         .map(|node| {
-            let mut ni = NodeInertia {
-                m: Atom::num(0),
-                h: zero3(),
-                j: std::array::from_fn(|_| Atom::num(0)),
-            };
+            let mut ni = NodeInertia::zero();
             for (pi, b) in params.iter().enumerate() {
                 if !node.links.contains(&b.link) {
                     continue;
@@ -324,14 +338,7 @@ pub fn config_dynamics(
     // The kernels from the locked subtrees folded into composite bodies; the regressor from
     // the links one by one, where its columns are cheaper (a folded body's parameters enter
     // through its transfer's rotations).
-    let mut folded: Vec<NodeInertia> = inertia
-        .iter()
-        .map(|x| NodeInertia {
-            m: x.m.clone(),
-            h: x.h.clone(),
-            j: x.j.clone(),
-        })
-        .collect();
+    let mut folded = inertia.clone();
     let any_folded = fold_locked(&mut g, nodes, &kin, &mut folded, free);
     let tau_links =
         any_folded.then(|| rnea(&mut g, nodes, &kin, &inertia, model, free, true, true, true));
@@ -525,8 +532,7 @@ fn rnea(
     let mut tau = vec![Atom::num(0); nf];
     for i in (1..n).rev() {
         let ni = &inertia[i];
-        if !ni.m.is_zero() || ni.h.iter().any(|x| !x.is_zero()) || ni.j.iter().any(|x| !x.is_zero())
-        {
+        if !ni.is_zero() {
             let u = u_of(g, i, &w[i].clone(), &wd[i].clone());
             let uh = g.values(umul(&u, &ni.h));
             let mv = g.values(scale3(&vd[i], &ni.m));
@@ -608,7 +614,7 @@ fn to_parent(
                 g.values(rot(*axis, &s, &c, &je))
             });
             let jr: Sym3 = std::array::from_fn(|k| {
-                let (r, cc) = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)][k];
+                let (r, cc) = SYM_PAIRS[k];
                 rows[cc][r].clone()
             });
             Some((m, hr, jr))
@@ -620,7 +626,7 @@ fn to_parent(
             let ph = g.value((0..3).fold(Atom::num(0), |acc, a| acc + &p[a] * &h[a]));
             let mp = g.values(scale3(&p, &m));
             let jp: Sym3 = std::array::from_fn(|k| {
-                let (r, cc) = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)][k];
+                let (r, cc) = SYM_PAIRS[k];
                 let mut e = &j[k] - &mp[r] * &p[cc] - &h[r] * &p[cc] - &p[r] * &h[cc];
                 if r == cc {
                     e = e + &m * &pp + Atom::num(2) * &ph;
@@ -683,15 +689,8 @@ fn fold_locked(
         if !fold[i] {
             continue;
         }
-        let ni = std::mem::replace(
-            &mut inertia[i],
-            NodeInertia {
-                m: Atom::num(0),
-                h: zero3(),
-                j: std::array::from_fn(|_| Atom::num(0)),
-            },
-        );
-        if ni.m.is_zero() && ni.h.iter().all(|x| x.is_zero()) && ni.j.iter().all(|x| x.is_zero()) {
+        let ni = std::mem::replace(&mut inertia[i], NodeInertia::zero());
+        if ni.is_zero() {
             continue;
         }
         let body = (g.value(ni.m), g.values(ni.h), g.values(ni.j));

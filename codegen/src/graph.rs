@@ -381,22 +381,12 @@ impl Graph {
         outputs: &[Atom],
         name: &dyn Fn(Symbol) -> Option<TokenStream>,
     ) -> (Vec<TokenStream>, Vec<TokenStream>, Ops) {
-        // Intermediates are numbered t0, t1, … within each function.
-        let needed = self.needed(outputs);
-        let local: HashMap<usize, usize> =
-            needed.iter().enumerate().map(|(i, &n)| (n, i)).collect();
-        let spell = |s: Symbol| -> TokenStream {
-            if let Some(n) = self.ids.get(&s) {
-                let id = Ident::new(&format!("t{}", local[n]), Span::call_site());
-                quote!(#id)
-            } else {
-                name(s).unwrap_or_else(|| panic!("no Rust spelling for input {s}"))
-            }
-        };
+        let (needed, local) = self.numbered(outputs);
+        let spell = |s: Symbol| self.spell(&local, name, s);
         let mut ops = Ops::default();
         let mut stmts = Vec::new();
         for &n in &needed {
-            let id = Ident::new(&format!("t{}", local[&n]), Span::call_site());
+            let id = local_name(&local, n);
             let e = print(self.defs[n].as_view(), &spell, &mut ops);
             stmts.push(quote!(let #id = #e;));
         }
@@ -405,6 +395,36 @@ impl Graph {
             .map(|o| print(o.as_view(), &spell, &mut ops))
             .collect();
         (stmts, results, ops)
+    }
+}
+
+/// The Rust name of intermediate `n` in a function's numbering `local`.
+fn local_name(local: &HashMap<usize, usize>, n: usize) -> Ident {
+    Ident::new(&format!("t{}", local[&n]), Span::call_site())
+}
+
+impl Graph {
+    /// The intermediates `outputs` need, in creation order, and their numbering within one
+    /// function (t0, t1, …).
+    fn numbered(&self, outputs: &[Atom]) -> (Vec<usize>, HashMap<usize, usize>) {
+        let needed = self.needed(outputs);
+        let local = needed.iter().enumerate().map(|(i, &n)| (n, i)).collect();
+        (needed, local)
+    }
+
+    /// Symbol `s` in Rust: an intermediate by its number in `local`, an input by `name`.
+    fn spell(
+        &self,
+        local: &HashMap<usize, usize>,
+        name: &dyn Fn(Symbol) -> Option<TokenStream>,
+        s: Symbol,
+    ) -> TokenStream {
+        if let Some(&n) = self.ids.get(&s) {
+            let id = local_name(local, n);
+            quote!(#id)
+        } else {
+            name(s).unwrap_or_else(|| panic!("no Rust spelling for input {s}"))
+        }
     }
 }
 
@@ -441,9 +461,7 @@ impl Graph {
         name: &dyn Fn(Symbol) -> Option<TokenStream>,
         varies: &dyn Fn(Symbol) -> bool,
     ) -> Hoisted {
-        let needed = self.needed(outputs);
-        let local: HashMap<usize, usize> =
-            needed.iter().enumerate().map(|(i, &n)| (n, i)).collect();
+        let (needed, local) = self.numbered(outputs);
         let mut varying_bits = Bits::default();
         for (&s, &i) in &self.base {
             if varies(s) {
@@ -454,7 +472,6 @@ impl Graph {
             .iter()
             .map(|&n| self.deps[n].meets(&varying_bits))
             .collect();
-        let is_varying = |n: usize| varying[local[&n]];
         // The frontier: invariant intermediates read by a varying one or by an output.
         let mut read = vec![false; needed.len()];
         for (i, &n) in needed.iter().enumerate() {
@@ -469,15 +486,7 @@ impl Graph {
                 read[local[&r]] = true;
             }
         }
-        let tname = |n: usize| Ident::new(&format!("t{}", local[&n]), Span::call_site());
-        let spell = |s: Symbol| -> TokenStream {
-            if let Some(n) = self.ids.get(&s) {
-                let id = tname(*n);
-                quote!(#id)
-            } else {
-                name(s).unwrap_or_else(|| panic!("no Rust spelling for input {s}"))
-            }
-        };
+        let spell = |s: Symbol| self.spell(&local, name, s);
         let mut ops = Ops::default();
         let mut out = Hoisted {
             invariant: Vec::new(),
@@ -493,23 +502,18 @@ impl Graph {
                 .filter(|s| !self.ids.contains_key(s))
                 .collect::<Vec<_>>()
         };
-        for (i, &n) in needed.iter().enumerate() {
-            let inputs = inputs_of(&self.defs[n]);
-            if varying[i] {
-                out.varying_inputs.extend(inputs);
-            } else {
-                out.invariant_inputs.extend(inputs);
-            }
-        }
         for o in outputs {
             out.varying_inputs.extend(inputs_of(o));
         }
         for (i, &n) in needed.iter().enumerate() {
-            let id = tname(n);
+            let id = local_name(&local, n);
             let e = print(self.defs[n].as_view(), &spell, &mut ops);
-            if is_varying(n) {
+            let inputs = inputs_of(&self.defs[n]);
+            if varying[i] {
+                out.varying_inputs.extend(inputs);
                 out.varying.push(quote!(let #id = #e;));
             } else {
+                out.invariant_inputs.extend(inputs);
                 out.invariant.push(quote!(let #id = #e;));
                 if read[i] {
                     let k = proc_macro2::Literal::usize_unsuffixed(out.frontier.len());

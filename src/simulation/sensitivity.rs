@@ -320,24 +320,25 @@ impl PlantModel {
             .collect();
         used.sort_unstable();
         used.dedup();
+        let inertial = params
+            .iter()
+            .enumerate()
+            .flat_map(|(j, p)| {
+                let used = &used;
+                p.inertial
+                    .iter()
+                    .map(move |&(m, d)| (used.binary_search(&m).unwrap_or_default(), j, d))
+            })
+            .collect();
         let mut tw = TangentScratch {
             p: np,
             dd: vec![0.0; 3 * nf * nf],
             l: vec![0.0; nf * nf],
             g: vec![0.0; 2 * nf * nf],
             y: vec![0.0; nf * self.p.len()],
-            used: used.clone(),
-            inertial: params
-                .iter()
-                .enumerate()
-                .flat_map(|(j, p)| {
-                    let used = &used;
-                    p.inertial
-                        .iter()
-                        .map(move |&(m, d)| (used.binary_search(&m).unwrap_or_default(), j, d))
-                })
-                .collect(),
             yt: vec![0.0; used.len() * nf],
+            used,
+            inertial,
             ft: vec![0.0; np * nf],
             rate_g: vec![0.0; nf],
             lugre: self.terms.iter().map(|t| t.lugre.is_some()).collect(),
