@@ -20,7 +20,7 @@ fn base() -> Plant {
     common::appendix_d_coupled()
 }
 
-/// Simulate `truth` on 15 s of an excitation of `config` (table, test) with noise
+/// Simulate `truth` on 8 s of an excitation of `config` (table, test) with noise
 /// 2e-4 rad and quantisation 1e-4 rad, and read the file back as a record.
 fn data(dir: &Path, truth: &Plant, config: &str, table: &str, test: Option<&str>) -> Record {
     let tau = dir.join(format!("tau_{config}.csv"));
@@ -35,7 +35,7 @@ fn data(dir: &Path, truth: &Plant, config: &str, table: &str, test: Option<&str>
         "--config",
         config,
         "--duration",
-        "15",
+        "8",
         "-o",
         tau.to_str().unwrap(),
     ];
@@ -177,7 +177,12 @@ fn hidden_plant_gain_error_on_joint_2_c4() {
     );
 }
 
+/// The friction bias missing on q0 and q1 (c7), on the simulator's own 15 s file: two
+/// diagnoses in turn. Opt-in: `independent_data.rs`'s
+/// `hidden_friction_bias_on_independent_data_c7` runs the same loop on data from another
+/// integrator and checks more (both values within 2 %, both joints at the noise).
 #[test]
+#[ignore = "slow end-to-end diagnosis (minutes), covered on independent data by hidden_friction_bias_on_independent_data_c7; cargo test --release -- --ignored"]
 fn hidden_friction_bias_on_joints_0_and_1_c7() {
     let dir = tmp();
     let truth = base();
