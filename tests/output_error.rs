@@ -1136,6 +1136,11 @@ fn the_least_change_returns_a_scaled_gain_family_to_the_initial_plant_gain() {
             "{} vs {c_truth}",
             lc.cost
         );
+        assert!(
+            (lc.gains_after.unwrap() - 1.0).abs() < 1e-9,
+            "{:?}",
+            lc.gains_after
+        );
     }
 }
 

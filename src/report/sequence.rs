@@ -340,9 +340,16 @@ fn step_markdown(
             fmt_g(lc.allowed_rise),
         );
         if let Some(alpha) = lc.gain_scale {
+            let returned = match lc.gains_after {
+                Some(r) if (r - 1.0).abs() > 1e-6 => format!(
+                    "as far toward the initial plant gains as the members' bounds allow: the fitted gains end at {} × their initial values (geometric mean)",
+                    fmt_g(r)
+                ),
+                _ => "which returns the fitted plant gains to their initial values (geometric mean)".to_string(),
+            };
             let _ = writeln!(
                 s,
-                "Plant-gain scale: position data fix the plant gains only together with every force of the configuration (an exact symmetry); all of them were scaled by α = {}, which returns the fitted plant gains to their initial values (geometric mean), the cost unchanged within one noise variance. Their scale is the initial gains': hold one gain at a known value (bounds lower = upper) to set it.\n",
+                "Plant-gain scale: position data fix the plant gains only together with every force of the configuration (an exact symmetry); all of them were scaled by α = {}, {returned}, the cost unchanged within one noise variance. Their scale is the initial gains': hold one gain at a known value (bounds lower = upper) to set it.\n",
                 fmt_g(alpha)
             );
         }

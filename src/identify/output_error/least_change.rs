@@ -68,6 +68,8 @@ impl Problem {
                 break;
             }
         }
+        // Where the bounds stopped the scale short of α*, the gains do not return: say how far.
+        let gains_after = gain_scale.map(|_| self.gains_to_initial(&fitted, &p0));
         let moved = (0..p.len())
             .filter(|&i| (fitted[i] - p[i]).abs() > 1e-6 * (self.upper[i] - self.lower[i]))
             .map(|i| self.names[i].clone())
@@ -82,7 +84,23 @@ impl Problem {
             moved,
             accepted,
             gain_scale,
+            gains_after,
         })
+    }
+
+    /// The geometric mean of p / p₀ over the fitted plant gains `Kp_j` (1 where every
+    /// gain is at its initial value; the measure α* of [`Problem::gain_scale_toward`]
+    /// brings to 1).
+    fn gains_to_initial(&self, p: &[f64], p0: &[f64]) -> f64 {
+        let log_rho: Vec<f64> = (0..p.len())
+            .filter(|&i| self.names[i].starts_with("Kp_") && p0[i] != 0.0 && p[i] / p0[i] > 0.0)
+            .map(|i| (p[i] / p0[i]).ln())
+            .collect();
+        if log_rho.is_empty() {
+            1.0
+        } else {
+            (log_rho.iter().sum::<f64>() / log_rho.len() as f64).exp()
+        }
     }
 
     /// The same problem with the plant's values of the (not fitted) parameters `values`
@@ -205,6 +223,12 @@ pub struct LeastChange {
     /// times α), when that move was kept; `None` when there was none or it raised the
     /// cost.
     pub gain_scale: Option<f64>,
+    /// After that move, the fitted plant gains over their initial values (geometric
+    /// mean): 1 where the move returned them, another value where a member's bounds
+    /// stopped it short. `None` without the move (and in reports written before it was
+    /// recorded).
+    #[serde(default)]
+    pub gains_after: Option<f64>,
 }
 
 /// One candidate of the plant-gain scale move ([`Problem::least_change`]).
