@@ -69,7 +69,8 @@ impl Problem {
             }
         }
         // Where the bounds stopped the scale short of α*, the gains do not return: say how far.
-        let gains_after = gain_scale.map(|_| self.gains_to_initial(&fitted, &p0));
+        let gains_after =
+            gain_scale.map(|_| self.log_gain_ratio(&fitted, &p0).map_or(1.0, f64::exp));
         let moved = (0..p.len())
             .filter(|&i| (fitted[i] - p[i]).abs() > 1e-6 * (self.upper[i] - self.lower[i]))
             .map(|i| self.names[i].clone())
@@ -88,19 +89,16 @@ impl Problem {
         })
     }
 
-    /// The geometric mean of p / p₀ over the fitted plant gains `Kp_j` (1 where every
-    /// gain is at its initial value; the measure α* of [`Problem::gain_scale_toward`]
-    /// brings to 1).
-    fn gains_to_initial(&self, p: &[f64], p0: &[f64]) -> f64 {
+    /// The mean of ln(p / p₀) over the fitted plant gains `Kp_j` (the log of their
+    /// geometric mean ratio: 0 where every gain is at its initial value; α* of
+    /// [`Problem::gain_scale_toward`] is its exp(−·)). `None` without a fitted gain of
+    /// the same sign as its initial value.
+    fn log_gain_ratio(&self, p: &[f64], p0: &[f64]) -> Option<f64> {
         let log_rho: Vec<f64> = (0..p.len())
             .filter(|&i| self.names[i].starts_with("Kp_") && p0[i] != 0.0 && p[i] / p0[i] > 0.0)
             .map(|i| (p[i] / p0[i]).ln())
             .collect();
-        if log_rho.is_empty() {
-            1.0
-        } else {
-            (log_rho.iter().sum::<f64>() / log_rho.len() as f64).exp()
-        }
+        (!log_rho.is_empty()).then(|| log_rho.iter().sum::<f64>() / log_rho.len() as f64)
     }
 
     /// The same problem with the plant's values of the (not fitted) parameters `values`
@@ -153,15 +151,10 @@ impl Problem {
                 (v != 0.0).then_some((n, v, lo, hi))
             })
             .collect();
-        let log_rho: Vec<f64> = members
-            .iter()
-            .filter(|&&i| self.names[i].starts_with("Kp_") && p[i] / p0[i] > 0.0)
-            .map(|&i| (p[i] / p0[i]).ln())
-            .collect();
-        if log_rho.is_empty() {
+        let Some(log_rho) = self.log_gain_ratio(p, p0) else {
             return Vec::new();
-        }
-        let alpha = (-log_rho.iter().sum::<f64>() / log_rho.len() as f64).exp();
+        };
+        let alpha = (-log_rho).exp();
         let mut within = alpha;
         let values = members
             .iter()
