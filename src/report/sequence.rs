@@ -342,7 +342,10 @@ fn step_markdown(
         if let Some(alpha) = lc.gain_scale {
             let returned = match lc.gains_after {
                 Some(r) if (r - 1.0).abs() > 1e-6 => format!(
-                    "as far toward the initial plant gains as the members' bounds allow: the fitted gains end at {} × their initial values (geometric mean)",
+                    "as far toward the initial plant gains as {} allow: the fitted gains end at {} × their initial values (geometric mean)",
+                    lc.gain_scale_bound_by
+                        .as_ref()
+                        .map_or("the members' bounds".to_string(), |n| format!("the bounds of {n}")),
                     fmt_g(r)
                 ),
                 _ => "which returns the fitted plant gains to their initial values (geometric mean)".to_string(),

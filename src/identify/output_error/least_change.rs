@@ -59,12 +59,14 @@ impl Problem {
             (p.to_vec(), cost_at_minimum)
         };
         let mut gain_scale = None;
+        let mut gain_scale_bound_by = None;
         let mut held = Vec::new();
         for m in self.gain_scale_toward(&fitted, &p0) {
             let c = self.with_plant_values(&m.held).cost(&m.fitted);
             if c <= cost_at_minimum + allowed_rise {
                 (fitted, cost, held) = (m.fitted, c, m.held);
                 gain_scale = Some(m.alpha);
+                gain_scale_bound_by = m.bound_by;
                 break;
             }
         }
@@ -86,6 +88,7 @@ impl Problem {
             accepted,
             gain_scale,
             gains_after,
+            gain_scale_bound_by,
         })
     }
 
@@ -156,16 +159,22 @@ impl Problem {
         };
         let alpha = (-log_rho).exp();
         let mut within = alpha;
+        // The member whose bounds clamp α last (the tightest: every interval holds 1).
+        let mut binding: Option<&String> = None;
         let values = members
             .iter()
-            .map(|&i| (p[i], self.lower[i], self.upper[i]))
-            .chain(held.iter().map(|&(_, v, lo, hi)| (v, lo, hi)));
-        for (v, lo, hi) in values {
+            .map(|&i| (&self.names[i], p[i], self.lower[i], self.upper[i]))
+            .chain(held.iter().copied());
+        for (name, v, lo, hi) in values {
             // α v within [lo, hi].
             let (a, b) = (lo / v, hi / v);
-            within = within.clamp(a.min(b), a.max(b));
+            let clamped = within.clamp(a.min(b), a.max(b));
+            if clamped != within {
+                binding = Some(name);
+            }
+            within = clamped;
         }
-        let scaled = |alpha: f64| {
+        let scaled = |alpha: f64, bound_by: Option<&String>| {
             let mut fitted = p.to_vec();
             for &i in &members {
                 fitted[i] = (alpha * p[i]).clamp(self.lower[i], self.upper[i]);
@@ -178,13 +187,14 @@ impl Problem {
                 alpha,
                 fitted,
                 held,
+                bound_by: bound_by.cloned(),
             }
         };
         let mut out: Vec<GainScaleMove> = Vec::new();
-        for a in [alpha, within] {
+        for (a, bound_by) in [(alpha, None), (within, binding)] {
             let new = out.iter().all(|m| (a - m.alpha).abs() > 1e-9);
             if a.is_finite() && a > 0.0 && (a - 1.0).abs() >= 1e-9 && new {
-                out.push(scaled(a));
+                out.push(scaled(a, bound_by));
             }
         }
         out
@@ -222,6 +232,10 @@ pub struct LeastChange {
     /// recorded).
     #[serde(default)]
     pub gains_after: Option<f64>,
+    /// The fitted value or held tie whose bounds stopped that move short of returning the
+    /// gains (None where it returned them, or without the move).
+    #[serde(default)]
+    pub gain_scale_bound_by: Option<String>,
 }
 
 /// One candidate of the plant-gain scale move ([`Problem::least_change`]).
@@ -232,6 +246,8 @@ pub(super) struct GainScaleMove {
     fitted: Vec<f64>,
     /// The held ties it scales, with their new values.
     held: Vec<(String, f64)>,
+    /// The member whose bounds stopped α short of α* (None for α* itself).
+    bound_by: Option<String>,
 }
 
 /// Whether parameter `name` scales with the plant gain in the exact symmetry of position
