@@ -177,12 +177,10 @@ fn hidden_plant_gain_error_on_joint_2_c4() {
     );
 }
 
-/// The friction bias missing on q0 and q1 (c7), on the simulator's own 15 s file: two
-/// diagnoses in turn. Opt-in: `independent_data.rs`'s
-/// `hidden_friction_bias_on_independent_data_c7` runs the same loop on data from another
-/// integrator and checks more (both values within 2 %, both joints at the noise).
+/// The friction bias missing on q0 and q1 (c7), on the simulator's own file: two diagnoses
+/// in turn. `independent_data.rs`'s `hidden_friction_bias_on_independent_data_c7` runs the
+/// same loop on data from another integrator.
 #[test]
-#[ignore = "slow end-to-end diagnosis (minutes), covered on independent data by hidden_friction_bias_on_independent_data_c7; cargo test --release -- --ignored"]
 fn hidden_friction_bias_on_joints_0_and_1_c7() {
     let dir = tmp();
     let truth = base();
