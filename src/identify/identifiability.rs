@@ -353,10 +353,6 @@ struct BaseMap<'a> {
 }
 
 impl<'a> BaseMap<'a> {
-    fn new(model: &Model, conf: &'a Configuration) -> BaseMap<'a> {
-        Self::at(model, conf, &[])
-    }
-
     /// The base parameters of data with the locked joints at `locked_at`
     /// ([`base_parameters_at`]).
     fn at(model: &Model, conf: &'a Configuration, locked_at: &[Vec<f64>]) -> BaseMap<'a> {
@@ -452,16 +448,105 @@ pub fn least_change_along_ties_at(
     lower: &[f64],
     upper: &[f64],
 ) -> anyhow::Result<Vec<f64>> {
-    let model = plant.model;
+    if rigid_body_indices(plant.model, names).is_empty() {
+        return names.iter().map(|n| plant.value(n)).collect();
+    }
+    let base = BaseMap::at(plant.model, conf, locked_at);
+    let beta = base.values(plant)?;
+    let (_, values) = tie_projection(plant, &base, &beta, names, initial, lower, upper, None)?;
+    Ok(values)
+}
+
+/// The least change along the plant-gain scale and the ties together: the scale α and the
+/// values of `names` that keep the base parameters β of `conf` (locked joints at
+/// `locked_at`, [`base_parameters_at`]) at α × their values in `plant` — the same
+/// simulated positions when every force of the configuration is scaled by α with them
+/// (Kp τ = D q̈ + … all × α) — nearest the `initial` values: min over α and the rigid-body
+/// symbols s among `names` of ‖(s − s₀) / width‖² + Σ_g ((α Kp_g − Kp₀_g) / width_g)²
+/// over the plant gains g = `gains` (indices into `names`, values in `plant`), with α
+/// within `alpha_range`, every symbol within its bounds, and widths `upper − lower`.
+/// Solved as [`least_change_along_ties`] with ln α one more unknown. Returns α and the
+/// values of `names` (the rigid-body symbols moved; the rest, the gains included, as in
+/// `plant`: the caller scales what scales with α). Where no values within the bounds keep
+/// α β the penalty ends at the nearest it found: the caller checks β
+/// ([`base_parameter_values_at`]).
+///
+/// The rigid-body symbols a step holds along ties belong among `names` with their plant
+/// values as `initial`: left out, they would have to be scaled with the family (changing
+/// values the next step sees) or make the fitted symbols carry α β alone (c4 of the Freedom
+/// 6S from the Appendix D guess: its single fitted inertia I7_22 cannot, and the plant's
+/// Kp_q2 = 1 is 4.6 × off, so returning the gains alone would halve every held link mass).
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing); `alpha_range`
+/// not a positive interval.
+#[allow(clippy::too_many_arguments)]
+pub fn least_change_along_scale(
+    plant: &crate::plant::Plant,
+    conf: &Configuration,
+    locked_at: &[Vec<f64>],
+    names: &[String],
+    gains: &[usize],
+    initial: &[f64],
+    lower: &[f64],
+    upper: &[f64],
+    alpha_range: (f64, f64),
+) -> anyhow::Result<(f64, Vec<f64>)> {
+    let (lo, hi) = alpha_range;
+    anyhow::ensure!(
+        lo > 0.0 && lo <= hi && hi.is_finite(),
+        "the range of the plant-gain scale α must be a positive interval, not [{lo}, {hi}]"
+    );
+    let base = BaseMap::at(plant.model, conf, locked_at);
+    let beta = base.values(plant)?;
+    let scale = Scale {
+        gains,
+        ln_alpha: (lo.ln(), hi.ln()),
+    };
+    tie_projection(
+        plant,
+        &base,
+        &beta,
+        names,
+        initial,
+        lower,
+        upper,
+        Some(&scale),
+    )
+}
+
+/// The plant-gain scale as an unknown of [`tie_projection`].
+struct Scale<'a> {
+    /// Indices (into the names) of the plant gains, whose change counts.
+    gains: &'a [usize],
+    /// Bounds of ln α.
+    ln_alpha: (f64, f64),
+}
+
+/// min ‖z − z₀‖² (+ the gains' terms of `scale`) over z = s / width within the bounds,
+/// subject to β(z) = α β_fit (α = 1 without `scale`), by a penalty K ‖scaled β
+/// violation‖² raised in steps (each fit warm-starts the next) with bounded
+/// Levenberg–Marquardt; [`least_change_along_ties_at`], [`least_change_along_scale`].
+#[allow(clippy::too_many_arguments)]
+fn tie_projection(
+    plant: &crate::plant::Plant,
+    base: &BaseMap<'_>,
+    beta_fit: &[f64],
+    names: &[String],
+    initial: &[f64],
+    lower: &[f64],
+    upper: &[f64],
+    scale: Option<&Scale<'_>>,
+) -> anyhow::Result<(f64, Vec<f64>)> {
     let mut values: Vec<f64> = names
         .iter()
         .map(|n| plant.value(n))
         .collect::<anyhow::Result<_>>()?;
-    let rigid = rigid_body_indices(model, names);
-    if rigid.is_empty() {
-        return Ok(values);
+    let rigid = rigid_body_indices(plant.model, names);
+    let largest = beta_fit.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    if scale.is_none() && (rigid.is_empty() || largest == 0.0) {
+        return Ok((1.0, values));
     }
-    let base = BaseMap::at(model, conf, locked_at);
     let width: Vec<f64> = rigid.iter().map(|&i| upper[i] - lower[i]).collect();
     let nr = rigid.len();
     let beta_at = |at: &mut crate::plant::Plant, z: &[f64]| -> anyhow::Result<Vec<f64>> {
@@ -470,18 +555,16 @@ pub fn least_change_along_ties_at(
         }
         base.values(at)
     };
-    let beta_fit = base.values(plant)?;
-    let largest = beta_fit.iter().fold(0.0f64, |a, b| a.max(b.abs()));
-    if largest == 0.0 {
-        return Ok(values);
-    }
     let row_scale: Vec<f64> = beta_fit
         .iter()
-        .map(|b| 1.0 / b.abs().max(1e-9 * largest))
+        .map(|b| {
+            if largest > 0.0 {
+                1.0 / b.abs().max(1e-9 * largest)
+            } else {
+                1.0
+            }
+        })
         .collect();
-    let violation = |beta: &[f64]| -> nalgebra::DVector<f64> {
-        nalgebra::DVector::from_fn(beta.len(), |k, _| (beta[k] - beta_fit[k]) * row_scale[k])
-    };
     // The rigid-body entries of a vector over `names`, in units of their bound widths.
     let to_z =
         |x: &[f64]| -> Vec<f64> { rigid.iter().zip(&width).map(|(&i, w)| x[i] / w).collect() };
@@ -491,22 +574,54 @@ pub fn least_change_along_ties_at(
         .enumerate()
         .map(|(c, &x)| x.clamp(zlo[c], zhi[c]))
         .collect();
-    // min ‖z − z₀‖² subject to β(z) = β(fit) and the bounds, by a penalty K ‖scaled β
-    // violation‖² raised in steps (each fit warm-starts the next) with bounded
-    // Levenberg–Marquardt.
+    // The last unknown is ln α where the scale is one.
+    let gains: &[usize] = scale.map_or(&[], |s| s.gains);
+    if let Some(s) = scale {
+        z.push(0.0f64.clamp(s.ln_alpha.0, s.ln_alpha.1));
+    }
+    let n = z.len();
+    let ln_alpha = |zt: &[f64]| if scale.is_some() { zt[nr] } else { 0.0 };
     let at = std::cell::RefCell::new(plant.clone());
     for k in [1e2, 1e4, 1e6, 1e8] {
         let residuals = |zt: &[f64]| -> Vec<f64> {
-            let mut out: Vec<f64> = match beta_at(&mut at.borrow_mut(), zt) {
-                Ok(beta) => violation(&beta).iter().map(|v| k * v).collect(),
+            let alpha = ln_alpha(zt).exp();
+            let mut out: Vec<f64> = match beta_at(&mut at.borrow_mut(), &zt[..nr]) {
+                Ok(beta) => (0..beta.len())
+                    .map(|r| k * (beta[r] - alpha * beta_fit[r]) * row_scale[r])
+                    .collect(),
                 Err(_) => vec![f64::NAN; base.len()],
             };
             out.extend((0..nr).map(|c| zt[c] - z0[c]));
+            out.extend(
+                gains
+                    .iter()
+                    .map(|&g| (alpha * values[g] - initial[g]) / (upper[g] - lower[g])),
+            );
             out
         };
+        let mut pars: Vec<MPPar> = (0..nr)
+            .map(|c| MPPar {
+                limited_low: true,
+                limited_up: true,
+                limit_low: zlo[c],
+                limit_up: zhi[c],
+                step: 1e-7 * z[c].abs().max(1e-3),
+                ..MPPar::new()
+            })
+            .collect();
+        if let Some(s) = scale {
+            pars.push(MPPar {
+                limited_low: true,
+                limited_up: true,
+                limit_low: s.ln_alpha.0,
+                limit_up: s.ln_alpha.1,
+                step: 1e-7,
+                ..MPPar::new()
+            });
+        }
         let mut fitter = TieProjection {
             residuals: &residuals,
-            m: base.len() + nr,
+            m: base.len() + nr + gains.len(),
             config: MPConfig {
                 xtol: 1e-14,
                 ftol: 1e-14,
@@ -514,28 +629,20 @@ pub fn least_change_along_ties_at(
                 max_iter: 500,
                 ..MPConfig::new()
             },
-            pars: (0..nr)
-                .map(|c| MPPar {
-                    limited_low: true,
-                    limited_up: true,
-                    limit_low: zlo[c],
-                    limit_up: zhi[c],
-                    step: 1e-7 * z[c].abs().max(1e-3),
-                    ..MPPar::new()
-                })
-                .collect(),
+            pars,
         };
         let mut zt = z.clone();
         if fitter.mpfit(&mut zt).is_ok() && zt.iter().all(|x| x.is_finite()) {
             z = zt;
         }
     }
+    debug_assert_eq!(z.len(), n);
     for (c, &i) in rigid.iter().enumerate() {
         // z × width can round past a bound that z reached exactly; the plant file must read
         // back.
         values[i] = (z[c] * width[c]).clamp(lower[i], upper[i]);
     }
-    Ok(values)
+    Ok((ln_alpha(&z).exp(), values))
 }
 
 /// How far the held rigid-body symbols `held` can carry, within their bounds, the base
@@ -876,7 +983,20 @@ pub fn base_parameter_values(
     plant: &crate::plant::Plant,
     conf: &Configuration,
 ) -> anyhow::Result<Vec<(String, f64)>> {
-    let base = BaseMap::new(plant.model, conf);
+    base_parameter_values_at(plant, conf, &[])
+}
+
+/// [`base_parameter_values`] of data with the locked joints at `locked_at` (rad, every
+/// joint's position per file; [`base_parameters_at`]).
+///
+/// # Errors
+/// The plant's barycentric parameters cannot be formed (a value missing).
+pub fn base_parameter_values_at(
+    plant: &crate::plant::Plant,
+    conf: &Configuration,
+    locked_at: &[Vec<f64>],
+) -> anyhow::Result<Vec<(String, f64)>> {
+    let base = BaseMap::at(plant.model, conf, locked_at);
     let values = base.values(plant)?;
     Ok(base.names.into_iter().zip(values).collect())
 }

@@ -31,12 +31,14 @@ mod refinements;
 mod release;
 mod steps;
 mod tie_reach;
+mod warm_ups;
 pub use balance::*;
 pub use data::*;
 pub use refinements::*;
 pub use release::*;
 use steps::*;
 pub use tie_reach::*;
+pub use warm_ups::*;
 
 /// One step of a locking sequence.
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
@@ -257,6 +259,10 @@ pub struct StepReport {
     pub tie_reach: Option<TieReach>,
     /// The balanced refit ([`SequenceOptions::balance`], [`StepRefit::balance`]), when tried.
     pub balance: Option<Balance>,
+    /// The warm-up start ([`SequenceOptions::warm_up_start`], [`StepRefit::warm_up_start`]),
+    /// when tried (absent from reports written before stop 82).
+    #[serde(default)]
+    pub warm_up_start: Option<WarmUpStart>,
 }
 
 /// Links that `plant` leaves physically impossible ([`crate::plant::Finding::is_blocking`])
@@ -326,6 +332,9 @@ pub struct SequenceOptions {
     /// the rest's ([`StepRefit::balance`]): the whole files once more with every free joint
     /// weighted 1, kept when the worst free joint's RMS / σ̂ falls.
     pub balance: bool,
+    /// A second start through the warm-ups where a step's fit through the growing horizons
+    /// ends above the noise floor ([`StepRefit::warm_up_start`]); the lower cost is kept.
+    pub warm_up_start: bool,
     /// Continue the sequence recorded in `out` ([`previous_report`]): the steps its report
     /// lists as completed are skipped; the plant given to [`run`] should be `out`'s
     /// `plant.toml` ([`resume_plant`]).
@@ -336,8 +345,9 @@ impl SequenceOptions {
     /// The preset of a locking sequence: `sequence` (`isolated` or `coupled`, the model
     /// file's names) with [`OutputErrorOptions::isolated`] or [`OutputErrorOptions::coupled`]
     /// (any other name: the coupled fit), every step of it, written to `out`; locked joints
-    /// may move 0.01 rad; spanning rigid-body symbols; no joint fit; held values released,
-    /// ties reached across and the balanced refit after each step.
+    /// may move 0.01 rad; spanning rigid-body symbols; no joint fit; the warm-up start where
+    /// the horizons end above the floor; held values released, ties reached across and the
+    /// balanced refit after each step.
     pub fn preset(sequence: &str, out: PathBuf) -> Self {
         SequenceOptions {
             sequence: sequence.to_string(),
@@ -350,6 +360,7 @@ impl SequenceOptions {
             release_held: true,
             tie_reach: true,
             balance: true,
+            warm_up_start: true,
             resume: false,
         }
     }
@@ -605,6 +616,11 @@ pub fn run(
             held_ties: &s.tied_held,
             progress: &step_progress,
         };
+        let (fit, warm_up_start) = if opts.warm_up_start {
+            refit.warm_up_start(&current, fit)?
+        } else {
+            (fit, None)
+        };
         let refined = refit.refine(&mut current, fit, opts)?;
         keep_step(&mut current, &mut undetermined, &refined, &s.tied_held);
         let Refined {
@@ -623,6 +639,7 @@ pub fn run(
             release,
             tie_reach,
             balance,
+            warm_up_start,
         });
         report.steps.sort_by_key(|d| position(&d.step.config));
         current.description = format!(
@@ -761,6 +778,7 @@ fn joint_fit(
         carried_prior: Vec::new(),
         release: None,
         tie_reach: None,
+        warm_up_start: None,
         balance: None,
     })
 }

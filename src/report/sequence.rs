@@ -245,6 +245,20 @@ fn step_markdown(
             fmt_g(f.prior_penalty)
         );
     }
+    if let Some(w) = &st.warm_up_start {
+        let _ = writeln!(
+            s,
+            "Warm-up start (`--warm-up-start on`; the fit through the growing horizons ended above the noise floor: {}): a second start from the same plant through the equation-error start and the prediction-error homotopy, then the whole files; cost {} (horizons) against {} (warm-ups): {} ({} cost evaluations, {} Jacobians, {:.1} s; {}).\n",
+            w.above_floor.join(", "),
+            fmt_g(w.cost.0),
+            fmt_g(w.cost.1),
+            if w.kept { "the warm-ups' kept" } else { "the horizons' kept" },
+            w.work.evaluations,
+            w.work.jacobians,
+            w.work.wall_s,
+            w.work.status
+        );
+    }
     if let Some(t) = &st.tie_reach {
         let _ = writeln!(
             s,
@@ -340,19 +354,34 @@ fn step_markdown(
             fmt_g(lc.allowed_rise),
         );
         if let Some(alpha) = lc.gain_scale {
-            let returned = match lc.gains_after {
+            let gains = match lc.gains_after {
                 Some(r) if (r - 1.0).abs() > 1e-6 => format!(
-                    "as far toward the initial plant gains as {} allow: the fitted gains end at {} × their initial values (geometric mean)",
-                    lc.gain_scale_bound_by
-                        .as_ref()
-                        .map_or("the members' bounds".to_string(), |n| format!("the bounds of {n}")),
+                    "the fitted gains end at {} × their initial values (geometric mean)",
                     fmt_g(r)
                 ),
-                _ => "which returns the fitted plant gains to their initial values (geometric mean)".to_string(),
+                Some(_) => {
+                    "the fitted gains end at their initial values (geometric mean)".to_string()
+                }
+                None => String::new(),
+            };
+            let stopped = lc.gain_scale_bound_by.as_ref().map_or(String::new(), |n| {
+                format!(", α stopped by the bounds of {n}")
+            });
+            let held = if lc.held.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; held ties moved with it: {}",
+                    lc.held
+                        .iter()
+                        .map(|(n, v)| format!("{n} to {}", fmt_g(*v)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
             };
             let _ = writeln!(
                 s,
-                "Plant-gain scale: position data fix the plant gains only together with every force of the configuration (an exact symmetry); all of them were scaled by α = {}, {returned}, the cost unchanged within one noise variance. Their scale is the initial gains': hold one gain at a known value (bounds lower = upper) to set it.\n",
+                "Plant-gain scale: position data fix the plant gains only together with every force of the configuration (an exact symmetry). All of them were scaled by α = {}, the point of the symmetry nearest the plant's values (the gains and the rigid-body symbols, held ties included, changed least in units of their bounds' widths){stopped}: {gains}{held}; the cost unchanged within one noise variance. The scale is set by the plant's values, not by these data: hold one gain at a known value (bounds lower = upper) to set it.\n",
                 fmt_g(alpha)
             );
         }

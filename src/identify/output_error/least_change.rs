@@ -22,15 +22,14 @@ impl Problem {
     /// position data cannot fix α; when every such parameter the configuration has is
     /// fitted, the fit ends anywhere on that line (k1 of the Freedom 6S from the Appendix
     /// D guess through the prediction-error homotopy: all −46 %, which k2 then inherits as
-    /// "identifiable" values −46 % off). They are scaled by the α* that returns the fitted
-    /// plant gains to their initial values (geometric mean of p₀ / p over them; the rest of
-    /// the family follows, the held ties among it included: [`LeastChange::held`]), each
-    /// clamped to its bounds, and the move is kept by the same rule; if the cost rises,
-    /// α* clamped to keep every member inside its bounds is tried.
-    /// (An earlier α* = Σρ/Σρ² over the whole family was set by its worst-determined
-    /// member: k1's Fs_q5 at 50 × its initial value, with vs_q5 → 0, held the family at
-    /// −50 %.) Where a held parameter breaks the symmetry the cost rises and the move is
-    /// dropped.
+    /// "identifiable" values −46 % off). They are moved to the point of that line nearest
+    /// the plant's values: α and the rigid-body symbols (the step's held ties among them,
+    /// [`LeastChange::held`]) chosen together so that the plant gains and the rigid-body
+    /// symbols change least in units of their bounds' widths, the friction levels, springs
+    /// and offsets following α ([`Problem::gain_scale_toward`]); the move is kept by the
+    /// same rule; if the cost rises, the same with α limited to keep every member inside
+    /// its bounds is tried. Where a held parameter breaks the symmetry the cost rises and
+    /// the move is dropped.
     ///
     /// Directions the data determine only weakly (small but not zero singular values of
     /// the Jacobian) are left where the fit put them: a linearised move along them was
@@ -121,83 +120,180 @@ impl Problem {
         std::borrow::Cow::Owned(q)
     }
 
-    /// The moves along the plant-gain scale of [`Problem::least_change`], best first: every
-    /// fitted parameter that [`scales_with_the_gain`] times α*, where α* brings the fitted
-    /// plant gains back to their initial values (the geometric mean of p₀ / p over the
-    /// fitted `Kp_j`: a gain is amplifier × gearing, the force scale a user knows best; a
-    /// member the data do not determine, such as a Stribeck level with vs → 0, must not set
-    /// the scale). The held ties among the members ([`Problem::with_held_ties`]: inertias
-    /// left at arbitrary values along exact ties, which the fitted symbols compensate)
-    /// are scaled too, or the move would not be exact (k1 of the Freedom 6S: I7_13 held,
-    /// the move from × 0.5 raised the RMS error from 2.0e-4 to 3.3e-4 rad). First each
-    /// member is clamped to its own bounds (exact where a clamped member does not matter);
-    /// then α* is clamped so that every member stays inside (exact always). Empty when no
-    /// plant gain is fitted or α* is within 1e-9 of 1.
+    /// The moves along the plant-gain scale of [`Problem::least_change`], best first: the
+    /// point of the exact symmetry nearest the plant's values
+    /// ([`least_change_along_scale`](crate::identify::identifiability::least_change_along_scale)):
+    /// every fitted parameter that [`scales_with_the_gain`] times α, the rigid-body symbols
+    /// — fitted, and the step's held ties ([`Problem::with_held_ties`]: inertias left at
+    /// arbitrary values along exact ties) — moved along the ties so that the base
+    /// parameters are α × the minimum's, with α and those symbols chosen together to change
+    /// the plant gains and the rigid-body symbols least, each in units of its bounds'
+    /// width (the spread the user gave it). The other members (friction levels, springs,
+    /// offsets) follow α and do not count: a member the data do not determine, such as a
+    /// Stribeck level with vs → 0, must not set the scale (k1 of the Freedom 6S: Fs_q5 at
+    /// 50 × its initial value held the family at −50 %).
+    ///
+    /// Neither the gains nor the held ties alone may set it. Returning the gains to their
+    /// initial values with the held ties scaled along (as before stop 82) halved link 7's
+    /// mass in c2 of the Freedom 6S (a held tie, 0.060 → 0.030 kg, its bound), which c3
+    /// then saw; and in c4, where the Appendix D guess has Kp_q2 = 1 against the truth's
+    /// 4.6, it scaled every held link mass by 0.67 and c5 ended at 2 σ̂. Keeping the held
+    /// ties while returning the gains is impossible there (I7_22, c4's one fitted inertia,
+    /// would have to leave its bounds).
+    ///
+    /// First α within the range that keeps the gains inside their bounds, the other members
+    /// clamped to theirs (exact where a clamped member does not matter); then α within the
+    /// range that keeps every member inside (exact always). Empty when no plant gain is
+    /// fitted or the nearest point is the minimum itself.
     pub(super) fn gain_scale_toward(&self, p: &[f64], p0: &[f64]) -> Vec<GainScaleMove> {
         let model = self.plant.model;
+        let inertial = model.inertial_symbols;
         let members: Vec<usize> = (0..p.len())
             .filter(|&i| scales_with_the_gain(model, &self.names[i]) && p[i] != 0.0 && p0[i] != 0.0)
             .collect();
-        // Held ties that scale: (name, value, bounds (±∞ without)).
-        let held: Vec<(&String, f64, f64, f64)> = self
+        let followers: Vec<usize> = members
+            .iter()
+            .copied()
+            .filter(|&i| !inertial.contains(&self.names[i].as_str()))
+            .collect();
+        let gains: Vec<usize> = followers
+            .iter()
+            .copied()
+            .filter(|&i| self.names[i].starts_with("Kp_"))
+            .collect();
+        if gains.is_empty() {
+            return Vec::new();
+        }
+        // The held ties with bounds join the fitted symbols as unknowns of the tie move.
+        let held: Vec<(String, f64, f64, f64)> = self
             .held_ties
             .iter()
-            .filter(|n| scales_with_the_gain(model, n))
+            .filter(|n| !self.names.contains(n))
             .filter_map(|n| {
                 let v = *self.plant.parameters.get(n)?;
-                let (lo, hi) = self
-                    .plant
-                    .bounds
-                    .get(n)
-                    .copied()
-                    .unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
-                (v != 0.0).then_some((n, v, lo, hi))
+                let (lo, hi) = *self.plant.bounds.get(n)?;
+                Some((n.clone(), v, lo, hi))
             })
             .collect();
-        let Some(log_rho) = self.log_gain_ratio(p, p0) else {
-            return Vec::new();
-        };
-        let alpha = (-log_rho).exp();
-        let mut within = alpha;
-        // The member whose bounds clamp α last (the tightest: every interval holds 1).
-        let mut binding: Option<&String> = None;
-        let values = members
-            .iter()
-            .map(|&i| (&self.names[i], p[i], self.lower[i], self.upper[i]))
-            .chain(held.iter().copied());
-        for (name, v, lo, hi) in values {
-            // α v within [lo, hi].
-            let (a, b) = (lo / v, hi / v);
-            let clamped = within.clamp(a.min(b), a.max(b));
-            if clamped != within {
-                binding = Some(name);
-            }
-            within = clamped;
+        let mut names = self.names.clone();
+        let (mut initial, mut lower, mut upper) =
+            (p0.to_vec(), self.lower.clone(), self.upper.clone());
+        for (n, v, lo, hi) in &held {
+            names.push(n.clone());
+            initial.push(*v);
+            lower.push(*lo);
+            upper.push(*hi);
         }
-        let scaled = |alpha: f64, bound_by: Option<&String>| {
-            let mut fitted = p.to_vec();
-            for &i in &members {
-                fitted[i] = (alpha * p[i]).clamp(self.lower[i], self.upper[i]);
+        // α p within [lo, hi] for each of `over`: the range, and whose bound ends each side.
+        let range = |over: &[usize]| {
+            let (mut a, mut b) = ((1e-3f64, None), (1e3f64, None));
+            for &i in over {
+                let (x, y) = (self.lower[i] / p[i], self.upper[i] / p[i]);
+                let (x, y) = (x.min(y), x.max(y));
+                if x > a.0 {
+                    a = (x, Some(self.names[i].clone()));
+                }
+                if y < b.0 {
+                    b = (y, Some(self.names[i].clone()));
+                }
             }
-            let held = held
-                .iter()
-                .map(|&(n, v, lo, hi)| (n.clone(), (alpha * v).clamp(lo, hi)))
-                .collect();
-            GainScaleMove {
-                alpha,
-                fitted,
-                held,
-                bound_by: bound_by.cloned(),
-            }
+            (a, b)
         };
         let mut out: Vec<GainScaleMove> = Vec::new();
-        for (a, bound_by) in [(alpha, None), (within, binding)] {
-            let new = out.iter().all(|m| (a - m.alpha).abs() > 1e-9);
-            if a.is_finite() && a > 0.0 && (a - 1.0).abs() >= 1e-9 && new {
-                out.push(scaled(a, bound_by));
+        for over in [&gains, &followers] {
+            let (a, b) = range(over);
+            if out.iter().any(|m| m.range == (a.0, b.0)) || a.0 > b.0 {
+                continue;
+            }
+            let Some(mut m) =
+                self.nearest_on_scale(p, &names, &gains, &initial, (&lower, &upper), (a.0, b.0))
+            else {
+                continue;
+            };
+            m.bound_by = if (m.alpha / a.0 - 1.0).abs() < 1e-9 {
+                a.1.clone()
+            } else if (m.alpha / b.0 - 1.0).abs() < 1e-9 {
+                b.1.clone()
+            } else {
+                None
+            };
+            for &i in &followers {
+                m.fitted[i] = (m.alpha * p[i]).clamp(self.lower[i], self.upper[i]);
+            }
+            let moved = (m.alpha - 1.0).abs() >= 1e-9
+                || m.fitted.iter().zip(p).any(|(f, x)| f != x)
+                || !m.held.is_empty();
+            if moved {
+                out.push(m);
             }
         }
         out
+    }
+
+    /// One solve of [`Problem::gain_scale_toward`]: the nearest point with α within
+    /// `alpha_range`, over `names` (the fitted parameters, then the held ties) with
+    /// `initial` values and `bounds`. The fitted members that follow α are left at `p`
+    /// (the caller scales them). `None` where the rigid-body symbols cannot keep α β
+    /// within their bounds (a base parameter missed by more than 1e-6 of it) or β cannot
+    /// be formed.
+    fn nearest_on_scale(
+        &self,
+        p: &[f64],
+        names: &[String],
+        gains: &[usize],
+        initial: &[f64],
+        (lower, upper): (&[f64], &[f64]),
+        alpha_range: (f64, f64),
+    ) -> Option<GainScaleMove> {
+        use crate::identify::identifiability::{
+            base_parameter_values_at, least_change_along_scale,
+        };
+        let locked_at = self.locked_at();
+        let at_p = self.plant_at(p);
+        let (alpha, values) = least_change_along_scale(
+            &at_p,
+            self.conf,
+            &locked_at,
+            names,
+            gains,
+            initial,
+            lower,
+            upper,
+            alpha_range,
+        )
+        .ok()?;
+        let n = p.len();
+        let mut moved_plant = at_p.clone();
+        for (name, v) in names.iter().zip(&values) {
+            moved_plant.parameters.insert(name.clone(), *v);
+        }
+        let beta = |plant: &Plant| -> Option<Vec<f64>> {
+            let named = base_parameter_values_at(plant, self.conf, &locked_at).ok()?;
+            Some(named.into_iter().map(|(_, b)| b).collect())
+        };
+        let target: Vec<f64> = beta(&at_p)?.iter().map(|b| alpha * b).collect();
+        let reached = beta(&moved_plant)?;
+        let largest = target.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        let exact = reached
+            .iter()
+            .zip(&target)
+            .all(|(r, t)| (r - t).abs() <= 1e-6 * t.abs().max(1e-9 * largest));
+        if !exact {
+            return None;
+        }
+        let held = names[n..]
+            .iter()
+            .zip(&values[n..])
+            .filter(|(name, v)| self.plant.parameters.get(*name) != Some(*v))
+            .map(|(name, v)| (name.clone(), *v))
+            .collect();
+        Some(GainScaleMove {
+            alpha,
+            fitted: values[..n].to_vec(),
+            held,
+            bound_by: None,
+            range: alpha_range,
+        })
     }
 }
 
@@ -208,8 +304,8 @@ pub struct LeastChange {
     #[serde(skip)]
     pub fitted: Vec<f64>,
     /// Held ties (not fitted; [`Problem::with_held_ties`]) the plant-gain scale move
-    /// scaled with the rest, with their new values (physical units): the plant's values
-    /// must change with the fitted ones ([`FitResult::apply`] writes both).
+    /// moved along the ties with the rest, with their new values (physical units): the
+    /// plant's values must change with the fitted ones ([`FitResult::apply`] writes both).
     pub held: Vec<(String, f64)>,
     /// Cost at the minimum the move started from.
     pub cost_at_minimum: f64,
@@ -227,13 +323,13 @@ pub struct LeastChange {
     /// cost.
     pub gain_scale: Option<f64>,
     /// After that move, the fitted plant gains over their initial values (geometric
-    /// mean): 1 where the move returned them, another value where a member's bounds
-    /// stopped it short. `None` without the move (and in reports written before it was
-    /// recorded).
+    /// mean): 1 where the nearest point of the symmetry returns them, another value where
+    /// the rigid-body symbols or a member's bounds hold them elsewhere. `None` without the
+    /// move (and in reports written before it was recorded).
     #[serde(default)]
     pub gains_after: Option<f64>,
-    /// The fitted value or held tie whose bounds stopped that move short of returning the
-    /// gains (None where it returned them, or without the move).
+    /// The fitted value whose bounds stopped α (None where α is inside its range, or
+    /// without the move).
     #[serde(default)]
     pub gain_scale_bound_by: Option<String>,
 }
@@ -246,8 +342,10 @@ pub(super) struct GainScaleMove {
     fitted: Vec<f64>,
     /// The held ties it scales, with their new values.
     held: Vec<(String, f64)>,
-    /// The member whose bounds stopped α short of α* (None for α* itself).
+    /// The member whose bound stopped α (None where α is inside its range).
     bound_by: Option<String>,
+    /// The range of α searched.
+    range: (f64, f64),
 }
 
 /// Whether parameter `name` scales with the plant gain in the exact symmetry of position
