@@ -1,8 +1,8 @@
 //! Parameter occurrence and base parameters from the generated regressors.
 
 use lockstep::identify::identifiability::{
-    base_parameter_values, base_parameters, base_parameters_at, least_change_along_ties,
-    occurrence, spanning_symbols,
+    base_parameter_values, base_parameters, base_parameters_at, least_change_along_scale,
+    least_change_along_ties, occurrence, spanning_symbols,
 };
 use lockstep::plant::Plant;
 use std::path::Path;
@@ -147,6 +147,114 @@ fn least_change_along_ties_keeps_the_base_parameters_and_returns_along_the_tie()
     for ((n, b), t) in names.iter().zip(&back).zip(&truth) {
         assert!((b - t).abs() <= 1e-4 * t.abs(), "{n}: back to {b}, was {t}");
     }
+}
+
+/// The least change along the plant-gain scale and the ties together (one Levenberg–Marquardt
+/// solve with ln α an unknown) against a nested search: on a grid of α, the family scaled
+/// by α (β = α β exactly), then the least change along the ties alone at that α, and the
+/// objective ‖(s − s₀)/w‖² + ((α Kp − Kp₀)/w)² evaluated there. c1 (joint 4) with m7, x7,
+/// y7 and I7_33 and the gain Kp_q4, from a minimum on the symmetry at × 0.6 of the truth,
+/// toward initial values that lie on no point of it (m7 × 1.3, the gain × 0.8): the joint
+/// solve must keep the base parameters at α × the minimum's, reach the grid's lowest
+/// objective (to the grid's resolution), and find its α.
+#[test]
+fn the_least_change_along_the_scale_matches_a_search_over_the_scale() {
+    let plant = coupled_plant();
+    let conf = plant.model.configuration("c1").unwrap();
+    let names: Vec<String> = ["m7", "x7", "y7", "I7_33", "Kp_q4"]
+        .map(String::from)
+        .to_vec();
+    let truth: Vec<f64> = names.iter().map(|n| plant.parameters[n]).collect();
+    let scales = |n: &str| ["m7", "I7_33", "Kp_q4"].contains(&n);
+    // The minimum: the family × 0.6 (the same motion).
+    let mut at_min = plant.clone();
+    for (n, v) in names.iter().zip(&truth) {
+        if scales(n) {
+            at_min.parameters.insert(n.clone(), 0.6 * v);
+        }
+    }
+    let initial: Vec<f64> = truth
+        .iter()
+        .zip([1.3, 1.0, 1.0, 1.0, 0.8])
+        .map(|(v, f)| v * f)
+        .collect();
+    let lower: Vec<f64> = truth.iter().map(|v| v - 3.0 * v.abs()).collect();
+    let upper: Vec<f64> = truth.iter().map(|v| v + 3.0 * v.abs()).collect();
+    let objective = |values: &[f64], alpha: f64| -> f64 {
+        (0..names.len())
+            .map(|i| {
+                let v = if i == 4 {
+                    alpha * 0.6 * truth[4]
+                } else {
+                    values[i]
+                };
+                ((v - initial[i]) / (upper[i] - lower[i])).powi(2)
+            })
+            .sum()
+    };
+    let (alpha, values) = least_change_along_scale(
+        &at_min,
+        conf,
+        &[],
+        &names,
+        &[4],
+        &initial,
+        &lower,
+        &upper,
+        (0.2, 5.0),
+    )
+    .unwrap();
+    let joint = objective(&values, alpha);
+    // β at the result is α × β at the minimum.
+    let mut at = at_min.clone();
+    for (n, v) in names.iter().zip(&values) {
+        at.parameters.insert(n.clone(), *v);
+    }
+    let beta_min = base_parameter_values(&at_min, conf).unwrap();
+    let beta = base_parameter_values(&at, conf).unwrap();
+    for ((name, b0), (_, b1)) in beta_min.iter().zip(&beta) {
+        assert!(
+            (b1 - alpha * b0).abs() <= 1e-7 * b0.abs(),
+            "{name}: {b1} against α × {b0}"
+        );
+    }
+    // The nested search: 241 values of ln α over [ln 0.5, ln 4].
+    let rigid: Vec<String> = names[..4].to_vec();
+    let (mut best, mut best_alpha) = (f64::INFINITY, 0.0);
+    let (a, b) = (0.5f64.ln(), 4.0f64.ln());
+    for k in 0..=240 {
+        let a_k = (a + (b - a) * k as f64 / 240.0).exp();
+        let mut scaled = at_min.clone();
+        for n in ["m7", "I7_33"] {
+            scaled
+                .parameters
+                .insert(n.into(), a_k * at_min.parameters[n]);
+        }
+        let moved = least_change_along_ties(
+            &scaled,
+            conf,
+            &rigid,
+            &initial[..4],
+            &lower[..4],
+            &upper[..4],
+        )
+        .unwrap();
+        let mut full = moved.clone();
+        full.push(0.0);
+        let f = objective(&full, a_k);
+        if f < best {
+            (best, best_alpha) = (f, a_k);
+        }
+    }
+    println!("joint: α = {alpha:.6}, objective {joint:.6e}; search: α = {best_alpha:.6}, objective {best:.6e}");
+    assert!(joint <= best * (1.0 + 1e-6) + 1e-15, "{joint} vs {best}");
+    // The grid's step in ln α is 0.0087: the search's α within two steps.
+    assert!(
+        (alpha / best_alpha).ln().abs() < 0.0174,
+        "α {alpha} vs {best_alpha}"
+    );
+    // Not the plain return of the gain (α = 1 / 0.6 × 0.8) nor of the masses (× 1.3).
+    assert!((alpha * 0.6 - 0.8).abs() > 0.02 && (alpha * 0.6 - 1.3).abs() > 0.02);
 }
 
 /// A symbol that the least change presses against a bound comes back exactly within it

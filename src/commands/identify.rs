@@ -175,7 +175,7 @@ pub struct OutputErrorArgs {
     #[arg(long, default_value_t = 100)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub max_iter: usize,
-    /// Jacobian of the simulated positions: sensitivities (integrated beside the state: one augmented simulation per file), differences (one simulation per file and parameter), or auto (sensitivities from 8 fitted values). Default: differences for the coupled method, auto for the isolated
+    /// Jacobian of the simulated positions: sensitivities (one augmented simulation per file), differences (one simulation per file and parameter), or auto (sensitivities from 8 fitted values). Default: differences for the coupled method, auto for the isolated
     ///
     /// Where sensitivities are not available (the etdrk4 integrator, user-defined effects, backlash) differences are used.
     #[arg(long)]
@@ -199,9 +199,9 @@ pub struct OutputErrorArgs {
     #[arg(long)]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub horizons: Option<String>,
-    /// Least change: after each step, move the rigid-body symbols back toward the plant's values along the ties the step cannot tell apart
+    /// After each step, move what it cannot tell apart (ties, gain scale) back toward the plant's values
     ///
-    /// Its base parameters are held exactly; kept if the cost rises by less than one noise variance, so the next step starts from the prior, not from where the optimiser drifted.
+    /// The rigid-body symbols along the ties with the base parameters held exactly, then the plant-gain scale to the point of that symmetry nearest the plant's values (gains and rigid-body symbols, held ties included, in units of their bounds' widths); each kept if the cost rises by less than one noise variance, so the next step starts from the prior, not from where the optimiser drifted.
     #[arg(long, value_enum, default_value = "on")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub least_change: Switch,
@@ -235,9 +235,9 @@ pub struct OutputErrorArgs {
     #[arg(long, value_enum, default_value = "on")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub balance: Switch,
-    /// Where a step's fit through the growing horizons ends above the noise floor, a second start through the coupled method's warm-ups
+    /// Where a step's horizons end above the noise floor, a second start through the warm-ups
     ///
-    /// From the same plant: the equation-error start, the prediction-error homotopy (ω = 100, 30, 10, 3, 1 rad/s at 1/2000 s), then the whole files at --step; the lower cost is kept. Steps whose options have warm-ups of their own do not run it.
+    /// The coupled method's, from the same plant: the equation-error start, the prediction-error homotopy (ω = 100, 30, 10, 3, 1 rad/s at 1/2000 s), then the whole files at --step; the lower cost is kept. Steps whose options have warm-ups of their own do not run it.
     #[arg(long, value_enum, default_value = "on")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub warm_up_start: Switch,
@@ -273,7 +273,7 @@ pub struct OutputErrorArgs {
     #[arg(long, value_enum)]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub initial_positions: Option<InitialPositionsArg>,
-    /// Joint fit: after the steps, refine every parameter they fit on all their files at once (after); that fit alone (only); or off
+    /// Joint fit of every parameter the steps fit, on all their files at once: after the steps, only it, or off
     ///
     /// Each file in its configuration, every free joint weighted 1; its standard errors are those of all the data. It covers the steps up to --config's (all without it); their files must be in --data.
     #[arg(long, value_enum, default_value = "off")]

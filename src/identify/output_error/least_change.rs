@@ -164,7 +164,8 @@ impl Problem {
         if gains.is_empty() {
             return Vec::new();
         }
-        // The held ties with bounds join the fitted symbols as unknowns of the tie move.
+        // The held ties with bounds join the fitted symbols as unknowns of the tie move; the
+        // rest stay where they are.
         let held: Vec<(String, f64, f64, f64)> = self
             .held_ties
             .iter()
@@ -172,7 +173,8 @@ impl Problem {
             .filter_map(|n| {
                 let v = *self.plant.parameters.get(n)?;
                 let (lo, hi) = *self.plant.bounds.get(n)?;
-                Some((n.clone(), v, lo, hi))
+                // One pinned by its bounds (lower = upper) stays, as one without bounds.
+                (hi > lo).then(|| (n.clone(), v, lo, hi))
             })
             .collect();
         let mut names = self.names.clone();
@@ -233,7 +235,8 @@ impl Problem {
     /// One solve of [`Problem::gain_scale_toward`]: the nearest point with α within
     /// `alpha_range`, over `names` (the fitted parameters, then the held ties) with
     /// `initial` values and `bounds`. The fitted members that follow α are left at `p`
-    /// (the caller scales them). `None` where the rigid-body symbols cannot keep α β
+    /// (the caller scales them); a held tie moved by less than 1e-6 of its bounds' width
+    /// stays where it was. `None` where the rigid-body symbols cannot keep α β
     /// within their bounds (a base parameter missed by more than 1e-6 of it) or β cannot
     /// be formed.
     fn nearest_on_scale(
@@ -263,8 +266,18 @@ impl Problem {
         )
         .ok()?;
         let n = p.len();
+        // A held tie the solve moved by less than 1e-6 of its bounds' width stays: its share
+        // is rounding, and the plant keeps the value an earlier step or the user gave.
+        let held: Vec<(String, f64)> = (n..names.len())
+            .filter(|&i| (values[i] - initial[i]).abs() > 1e-6 * (upper[i] - lower[i]))
+            .map(|i| (names[i].clone(), values[i]))
+            .collect();
         let mut moved_plant = at_p.clone();
-        for (name, v) in names.iter().zip(&values) {
+        for (name, v) in names[..n]
+            .iter()
+            .zip(&values)
+            .chain(held.iter().map(|(a, b)| (a, b)))
+        {
             moved_plant.parameters.insert(name.clone(), *v);
         }
         let beta = |plant: &Plant| -> Option<Vec<f64>> {
@@ -281,12 +294,6 @@ impl Problem {
         if !exact {
             return None;
         }
-        let held = names[n..]
-            .iter()
-            .zip(&values[n..])
-            .filter(|(name, v)| self.plant.parameters.get(*name) != Some(*v))
-            .map(|(name, v)| (name.clone(), *v))
-            .collect();
         Some(GainScaleMove {
             alpha,
             fitted: values[..n].to_vec(),

@@ -21,7 +21,8 @@ pub struct WarmUpStart {
 
 impl StepRefit<'_> {
     /// Where the step's `fit` ended above the noise floor and the step's options have no
-    /// warm-up of their own (no equation-error start, no predictor stage), a second fit of
+    /// warm-up of their own (no equation-error start, predictor stage or segments), a
+    /// second fit of
     /// the same parameters from the plant the step started from (`plant`) through the
     /// warm-ups of [`OutputErrorOptions::coupled`] — the equation-error start (the torque
     /// balance at every sample, no simulation), then the prediction-error homotopy (the
@@ -44,7 +45,9 @@ impl StepRefit<'_> {
         fit: FitResult,
     ) -> Result<(FitResult, Option<WarmUpStart>)> {
         let options = self.problem.options();
-        let own_warm_ups = options.equation_error.is_some() || !options.predictor.is_empty();
+        let own_warm_ups = options.equation_error.is_some()
+            || !options.predictor.is_empty()
+            || !options.segments.is_empty();
         if own_warm_ups || fit.statistics.above_floor.is_empty() {
             return Ok((fit, None));
         }
