@@ -1046,11 +1046,18 @@ mod method_tests {
                 step(c.predictor_step),
                 step(i.predictor_step)
             ),
-            format!(
-                "Default: {} for the coupled method, {} for the isolated",
-                initial(c.estimate_initial_positions),
-                initial(i.estimate_initial_positions)
-            ),
+            if c.estimate_initial_positions == i.estimate_initial_positions {
+                format!(
+                    "the first measured sample. Default: {}",
+                    initial(c.estimate_initial_positions)
+                )
+            } else {
+                format!(
+                    "Default: {} for the coupled method, {} for the isolated",
+                    initial(c.estimate_initial_positions),
+                    initial(i.estimate_initial_positions)
+                )
+            },
             format!(
                 "or auto (sensitivities from {} fitted values). Default: {} for the coupled method, {} for the isolated",
                 lockstep::identify::output_error::SENSITIVITIES_FROM,

@@ -57,7 +57,9 @@ impl StepRefit<'_> {
             predictor: warm.predictor,
             predictor_step: warm.predictor_step,
             predictor_optimiser: warm.predictor_optimiser,
-            horizons: vec![1.0],
+            // The warm-ups alone: the plant's values through the whole files would repeat
+            // the first start's path (`--horizons none`).
+            horizons: Vec::new(),
             segments: Vec::new(),
             ..options.clone()
         };
