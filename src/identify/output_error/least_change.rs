@@ -26,7 +26,9 @@ impl Problem {
     /// the plant's values: α and the rigid-body symbols (the step's held ties among them,
     /// [`LeastChange::held`]) chosen together so that the plant gains and the rigid-body
     /// symbols change least in units of their bounds' widths, the friction levels, springs
-    /// and offsets following α ([`Problem::gain_scale_toward`]); the move is kept by the
+    /// and offsets following α
+    /// ([`least_change_along_scale`](crate::identify::identifiability::least_change_along_scale));
+    /// the move is kept by the
     /// same rule; if the cost rises, the same with α limited to keep every member inside
     /// its bounds is tried. Where a held parameter breaks the symmetry the cost rises and
     /// the move is dropped.
