@@ -146,7 +146,8 @@ impl Problem {
     /// First α within the range that keeps the gains inside their bounds, the other members
     /// clamped to theirs (exact where a clamped member does not matter); then α within the
     /// range that keeps every member inside (exact always). Empty when no plant gain is
-    /// fitted or the nearest point is the minimum itself.
+    /// fitted or the nearest point is the minimum itself (α within 1e-6 of 1, every value
+    /// within 1e-6 of its bounds' width).
     pub(super) fn gain_scale_toward(&self, p: &[f64], p0: &[f64]) -> Vec<GainScaleMove> {
         let model = self.plant.model;
         let inertial = model.inertial_symbols;
@@ -224,8 +225,11 @@ impl Problem {
             for &i in &followers {
                 m.fitted[i] = (m.alpha * p[i]).clamp(self.lower[i], self.upper[i]);
             }
-            let moved = (m.alpha - 1.0).abs() >= 1e-9
-                || m.fitted.iter().zip(p).any(|(f, x)| f != x)
+            // The solve's rounding is no move: α within 1e-6 of 1, no value by 1e-6 of its
+            // bounds' width.
+            let moved = (m.alpha - 1.0).abs() >= 1e-6
+                || (0..p.len())
+                    .any(|i| (m.fitted[i] - p[i]).abs() > 1e-6 * (self.upper[i] - self.lower[i]))
                 || !m.held.is_empty();
             if moved {
                 out.push(m);
