@@ -579,7 +579,6 @@ fn tie_projection(
     if let Some(s) = scale {
         z.push(0.0f64.clamp(s.ln_alpha.0, s.ln_alpha.1));
     }
-    let n = z.len();
     let ln_alpha = |zt: &[f64]| if scale.is_some() { zt[nr] } else { 0.0 };
     let at = std::cell::RefCell::new(plant.clone());
     for k in [1e2, 1e4, 1e6, 1e8] {
@@ -636,7 +635,6 @@ fn tie_projection(
             z = zt;
         }
     }
-    debug_assert_eq!(z.len(), n);
     for (c, &i) in rigid.iter().enumerate() {
         // z × width can round past a bound that z reached exactly; the plant file must read
         // back.

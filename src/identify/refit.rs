@@ -68,16 +68,7 @@ impl RefitOptions {
     /// The output-error settings of these options: joints weighted 1, the first `skip`
     /// samples of each file left out, growing `horizons`.
     pub fn output_error(&self, horizons: Vec<f64>) -> OutputErrorOptions {
-        let warm = if self.warm_ups {
-            OutputErrorOptions::coupled()
-        } else {
-            OutputErrorOptions::thesis()
-        };
-        OutputErrorOptions {
-            equation_error: warm.equation_error,
-            predictor: warm.predictor,
-            predictor_step: warm.predictor_step,
-            predictor_optimiser: warm.predictor_optimiser,
+        let options = OutputErrorOptions {
             weighting: TimeWeighting::SkipTransient(self.skip),
             interest_weight: 1.0,
             h: self.h,
@@ -89,6 +80,11 @@ impl RefitOptions {
             horizons,
             jacobian: self.jacobian,
             ..OutputErrorOptions::thesis()
+        };
+        if self.warm_ups {
+            options.with_coupled_warm_ups()
+        } else {
+            options
         }
     }
 }

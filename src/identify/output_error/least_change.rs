@@ -71,11 +71,11 @@ impl Problem {
                 break;
             }
         }
-        // Where the bounds stopped the scale short of α*, the gains do not return: say how far.
+        // Where the gains end after the move (the nearest point need not return them).
         let gains_after =
             gain_scale.map(|_| self.log_gain_ratio(&fitted, &p0).map_or(1.0, f64::exp));
-        let moved = (0..p.len())
-            .filter(|&i| (fitted[i] - p[i]).abs() > 1e-6 * (self.upper[i] - self.lower[i]))
+        let moved = self
+            .moved_between(p, &fitted)
             .map(|i| self.names[i].clone())
             .chain(held.iter().map(|(n, _)| n.clone()))
             .collect();
@@ -93,10 +93,16 @@ impl Problem {
         })
     }
 
+    /// The indices of the fitted values that differ between `a` and `b` by more than
+    /// 1e-6 of their bounds' width (less is a solve's rounding, no move).
+    fn moved_between<'a>(&'a self, a: &'a [f64], b: &'a [f64]) -> impl Iterator<Item = usize> + 'a {
+        (0..a.len()).filter(move |&i| (b[i] - a[i]).abs() > 1e-6 * (self.upper[i] - self.lower[i]))
+    }
+
     /// The mean of ln(p / p₀) over the fitted plant gains `Kp_j` (the log of their
-    /// geometric mean ratio: 0 where every gain is at its initial value; α* of
-    /// [`Problem::gain_scale_toward`] is its exp(−·)). `None` without a fitted gain of
-    /// the same sign as its initial value.
+    /// geometric mean ratio: 0 where every gain is at its initial value; the report's
+    /// [`LeastChange::gains_after`] is its exp). `None` without a fitted gain of the same
+    /// sign as its initial value.
     fn log_gain_ratio(&self, p: &[f64], p0: &[f64]) -> Option<f64> {
         let log_rho: Vec<f64> = (0..p.len())
             .filter(|&i| self.names[i].starts_with("Kp_") && p0[i] != 0.0 && p[i] / p0[i] > 0.0)
@@ -106,7 +112,7 @@ impl Problem {
     }
 
     /// The same problem with the plant's values of the (not fitted) parameters `values`
-    /// replaced: the held ties the plant-gain scale move scales
+    /// replaced: the held ties the plant-gain scale move moves
     /// ([`Problem::least_change`]). Borrowed when `values` is empty.
     pub(super) fn with_plant_values(
         &self,
@@ -150,14 +156,15 @@ impl Problem {
     /// within 1e-6 of its bounds' width).
     pub(super) fn gain_scale_toward(&self, p: &[f64], p0: &[f64]) -> Vec<GainScaleMove> {
         let model = self.plant.model;
-        let inertial = model.inertial_symbols;
-        let members: Vec<usize> = (0..p.len())
-            .filter(|&i| scales_with_the_gain(model, &self.names[i]) && p[i] != 0.0 && p0[i] != 0.0)
-            .collect();
-        let followers: Vec<usize> = members
-            .iter()
-            .copied()
-            .filter(|&i| !inertial.contains(&self.names[i].as_str()))
+        // The members that follow α (the rigid-body ones move in the solve).
+        let followers: Vec<usize> = (0..p.len())
+            .filter(|&i| {
+                let name = self.names[i].as_str();
+                scales_with_the_gain(model, name)
+                    && !model.inertial_symbols.contains(&name)
+                    && p[i] != 0.0
+                    && p0[i] != 0.0
+            })
             .collect();
         let gains: Vec<usize> = followers
             .iter()
@@ -225,11 +232,9 @@ impl Problem {
             for &i in &followers {
                 m.fitted[i] = (m.alpha * p[i]).clamp(self.lower[i], self.upper[i]);
             }
-            // The solve's rounding is no move: α within 1e-6 of 1, no value by 1e-6 of its
-            // bounds' width.
+            // The solve's rounding is no move: α within 1e-6 of 1, no value moved.
             let moved = (m.alpha - 1.0).abs() >= 1e-6
-                || (0..p.len())
-                    .any(|i| (m.fitted[i] - p[i]).abs() > 1e-6 * (self.upper[i] - self.lower[i]))
+                || self.moved_between(p, &m.fitted).next().is_some()
                 || !m.held.is_empty();
             if moved {
                 out.push(m);

@@ -401,4 +401,21 @@ impl OutputErrorOptions {
             ..Self::thesis()
         }
     }
+
+    /// These options with the warm-ups of [`OutputErrorOptions::coupled`] — the
+    /// equation-error start, the prediction-error homotopy and its step and optimiser —
+    /// in place of their own; every other setting kept. A refit's extra start
+    /// ([`RefitOptions::warm_ups`](crate::identify::refit::RefitOptions::warm_ups)) and a
+    /// sequence step's warm-up start
+    /// ([`StepRefit::warm_up_start`](crate::identify::sequence::StepRefit::warm_up_start)).
+    pub fn with_coupled_warm_ups(self) -> Self {
+        let warm = Self::coupled();
+        OutputErrorOptions {
+            equation_error: warm.equation_error,
+            predictor: warm.predictor,
+            predictor_step: warm.predictor_step,
+            predictor_optimiser: warm.predictor_optimiser,
+            ..self
+        }
+    }
 }

@@ -1,4 +1,4 @@
-//! The warm-up start ([`SequenceOptions::warm_ups`]): where a step's fit through the growing
+//! The warm-up start ([`SequenceOptions::warm_up_start`]): where a step's fit through the growing
 //! horizons ends above the noise floor, a second start from the same plant through the
 //! coupled preset's warm-ups, the lower final cost kept.
 
@@ -22,8 +22,8 @@ pub struct WarmUpStart {
 impl StepRefit<'_> {
     /// Where the step's `fit` ended above the noise floor and the step's options have no
     /// warm-up of their own (no equation-error start, predictor stage or segments), a
-    /// second fit of
-    /// the same parameters from the plant the step started from (`plant`) through the
+    /// second fit of the same parameters from the plant the step started from (`plant`)
+    /// through the
     /// warm-ups of [`OutputErrorOptions::coupled`] — the equation-error start (the torque
     /// balance at every sample, no simulation), then the prediction-error homotopy (the
     /// simulation pulled toward the measured positions less and less, at
@@ -51,18 +51,14 @@ impl StepRefit<'_> {
         if own_warm_ups || fit.statistics.above_floor.is_empty() {
             return Ok((fit, None));
         }
-        let warm = OutputErrorOptions::coupled();
         let warm_options = OutputErrorOptions {
-            equation_error: warm.equation_error,
-            predictor: warm.predictor,
-            predictor_step: warm.predictor_step,
-            predictor_optimiser: warm.predictor_optimiser,
             // The warm-ups alone: the plant's values through the whole files would repeat
             // the first start's path (`--horizons none`).
             horizons: Vec::new(),
             segments: Vec::new(),
             ..options.clone()
-        };
+        }
+        .with_coupled_warm_ups();
         let second = self
             .refit_problem(plant, fit.names.clone(), warm_options)
             .context("the warm-up start")?
