@@ -468,8 +468,12 @@ pub(crate) fn statistics_at(
 /// and `joints` (the fit per joint, for the noise floor) go into the verdict and the
 /// result as they are.
 ///
+/// A held value whose column is not finite (its simulation fails where it moves) has an
+/// unknown share: every `std_err` is then infinite (nothing is called identifiable), while
+/// `std_err_given_held` stays this fit's own.
+///
 /// # Errors
-/// The Jacobian is not finite.
+/// The fitted values' Jacobian, weighted by `sigma`, is not finite.
 pub(crate) fn covariance_statistics(
     names: &[String],
     p: &[f64],
@@ -535,6 +539,9 @@ pub(crate) fn covariance_statistics(
     // value k) is −A⁺ J̃ᵀ J_h,k; Σ_h = D R D.
     let mut cov_scaled = given_held.clone();
     let mut g_columns = Vec::with_capacity(held.cols.len());
+    // A held value whose column is not finite (a simulation fails where it moves): its
+    // share is unknown, and so is every total standard error.
+    let mut unknown_share = false;
     for (k, (col, se)) in held.cols.iter().zip(&held.std_err).enumerate() {
         let g = match held.make_up.get(k).and_then(|d| d.as_ref()) {
             // Scaled parameter i is p_i times its column's norm.
@@ -551,6 +558,11 @@ pub(crate) fn covariance_statistics(
             }
         };
         let g = g * *se;
+        if !g.iter().all(|x| x.is_finite()) {
+            unknown_share = true;
+            g_columns.push(nalgebra::DVector::zeros(n));
+            continue;
+        }
         cov_scaled += &g * g.transpose();
         g_columns.push(g);
     }
@@ -561,17 +573,22 @@ pub(crate) fn covariance_statistics(
             cov_scaled += &cross + cross.transpose();
         }
     }
-    if !cov_scaled.iter().all(|x| x.is_finite()) {
-        bail!("the Jacobian of the held values at the fitted values is not finite");
-    }
     let standard_error = |cov: &DMatrix<f64>, i: usize| {
-        if norms[i] > 0.0 && !undetermined[i] {
+        if norms[i] > 0.0 && !undetermined[i] && cov[(i, i)].is_finite() {
             cov[(i, i)].max(0.0).sqrt() / norms[i]
         } else {
             f64::INFINITY
         }
     };
-    let std_err: Vec<f64> = (0..n).map(|i| standard_error(&cov_scaled, i)).collect();
+    let std_err: Vec<f64> = (0..n)
+        .map(|i| {
+            if unknown_share {
+                f64::INFINITY
+            } else {
+                standard_error(&cov_scaled, i)
+            }
+        })
+        .collect();
     let std_err_given_held: Vec<f64> = (0..n).map(|i| standard_error(&given_held, i)).collect();
     let held_information = held_information(&cols, &held, sigma);
     let mut correlation = vec![vec![0.0; n]; n];

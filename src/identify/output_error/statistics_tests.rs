@@ -430,3 +430,43 @@ fn the_floor_ratio_is_undefined_without_a_noise_estimate() {
     assert_eq!(noiseless.floor_ratio(), None);
     assert_eq!(noiseless.rms_ratio(), None);
 }
+
+/// A held value whose Jacobian column is not finite (a simulation that fails where it
+/// moves) leaves its share of the covariance unknown: the statistics are still returned
+/// (before, the whole sequence stopped with "the Jacobian of the held values … is not
+/// finite"), every standard error with the held values is infinite and nothing is called
+/// identifiable, and the standard errors given the held values are the fit's own — the
+/// same as with the held value taken as exact.
+#[test]
+fn a_held_value_with_a_non_finite_column_makes_the_total_standard_errors_infinite() {
+    let m = 50;
+    let t: Vec<f64> = (0..m).map(|k| k as f64 / m as f64).collect();
+    let cols: Vec<Vec<f64>> = vec![
+        t.iter().map(|_| -1.0).collect(),
+        t.iter().map(|&x| -(6.0 * x).sin()).collect(),
+    ];
+    let held = |col: Vec<f64>| HeldColumns {
+        names: vec!["h".into()],
+        std_err: vec![0.05],
+        tie: vec![false],
+        cols: vec![col],
+        make_up: Vec::new(),
+        exact: Vec::new(),
+        correlation: Vec::new(),
+    };
+    let mut broken: Vec<f64> = t.iter().map(|&x| -x).collect();
+    broken[7] = f64::NAN;
+    let theta = [0.7, -1.2];
+    let s = linear_statistics(&theta, cols.clone(), held(broken), 0.01);
+    let exact = linear_statistics(&theta, cols, held(vec![0.0; m]), 0.01);
+    assert!(s.std_err.iter().all(|x| x.is_infinite()), "{:?}", s.std_err);
+    assert!(s.identifiable.iter().all(|&i| !i));
+    for (a, b) in s.std_err_given_held.iter().zip(&exact.std_err_given_held) {
+        assert!((a - b).abs() <= 1e-12 * b, "{a} against {b}");
+    }
+    // The fit's own: σ √((AᵀA)⁻¹)ᵢᵢ, finite and small.
+    assert!(s
+        .std_err_given_held
+        .iter()
+        .all(|x| x.is_finite() && *x < 0.01));
+}
