@@ -3062,7 +3062,8 @@ fn the_warm_up_start_runs_where_the_horizons_end_above_the_floor_and_keeps_the_l
 /// iterations (it ends far above the floor, as in
 /// `the_warm_up_start_runs_where_the_horizons_end_above_the_floor_and_keeps_the_lower_cost`).
 /// The report must record the second start with both costs and keep the lower, and say so
-/// in its Markdown; with `--warm-up-start off` neither. (By sensitivities, the isolated
+/// in its Markdown, then the initial-positions refit from the kept minimum; with
+/// `--warm-up-start off --initial-positions measured` neither. (By sensitivities, the isolated
 /// default, the statistics at the horizons' end failed here — "the Jacobian of the held
 /// values at the fitted values is not finite" — until non-finite sensitivities fell back
 /// to finite differences.)
@@ -3082,20 +3083,174 @@ fn the_sequence_reports_its_warm_up_start_and_off_switches_it_off() {
     assert!(!w["above_floor"].as_array().unwrap().is_empty());
     assert!(warm < horizons, "{warm} vs {horizons}");
     assert_eq!(w["kept"], true);
+    // Then the initial-positions refit (the isolated default) from the kept minimum.
+    let r = &step["initial_positions_refit"];
+    let (from, to) = (
+        r["cost"][0].as_f64().unwrap(),
+        r["cost"][1].as_f64().unwrap(),
+    );
+    assert!((from - warm).abs() <= 1e-12 * warm, "{from} vs {warm}");
     let after = step["fit"]["cost_after"].as_f64().unwrap();
-    assert!((after - warm).abs() <= 1e-12 * warm, "{after} vs {warm}");
+    let kept = if r["kept"] == true { to } else { from };
+    assert!((after - kept).abs() <= 1e-12 * kept, "{after} vs {kept}");
     let md = std::fs::read_to_string(d.path().join("out").join("report.md")).unwrap();
     assert!(
         md.contains("Warm-up start (`--warm-up-start on`") && md.contains("the warm-ups' kept"),
+        "{md}"
+    );
+    assert!(
+        md.contains("Initial-positions refit (`--initial-positions refit`"),
         "{md}"
     );
     let off = identify_isolated(
         d.path(),
         &start,
         "c1",
-        &[&args[..], &["--warm-up-start", "off"]].concat(),
+        &[
+            &args[..],
+            &["--warm-up-start", "off", "--initial-positions", "measured"],
+        ]
+        .concat(),
     );
     let step = &off["steps"][0];
     assert!(step["warm_up_start"].is_null());
+    assert!(step["initial_positions_refit"].is_null());
     assert_eq!(step["fit"]["cost_after"].as_f64().unwrap(), horizons);
+}
+
+/// The initial-positions refit of a sequence step (`--initial-positions refit`, the
+/// isolated default; `StepRefit::refit_initial_positions`): c1 on 20 s of Table 4.3's J4
+/// chirp, fitted from the true values on a start that is not the file's: the record's
+/// q4(0) moved by +5 σ (1e-3 rad). The fit absorbs such a start into its values (it stays
+/// at the noise floor, but some values move beyond 2.5 of their standard errors). The
+/// simulated truth starts q4 at 0, so the reference for the estimate is 0: the refit of
+/// the kept minimum must bring the start there (within 0.5 σ), lower the cost, return every
+/// value within 2 standard errors of the truth, and record its largest move (the
+/// estimate − start, in σ̂). Options that estimate the starts in every start already, and
+/// a fit above the noise floor (its residual is the model's error, which the starts would
+/// absorb), get no refit.
+#[test]
+fn the_initial_positions_refit_estimates_a_start_the_first_sample_missed() {
+    use lockstep::identify::sequence::StepRefit;
+    let d = tempfile::tempdir().unwrap();
+    let truth_file = truth(d.path());
+    let truth = Plant::load(&truth_file).unwrap();
+    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
+    let names: Vec<String> = [
+        "Kp_q4",
+        "sigma0_q4",
+        "sigma1_q4",
+        "Fc_q4",
+        "Fs_q4",
+        "vs_q4",
+        "Ks_q4",
+        "qeq_q4",
+    ]
+    .map(String::from)
+    .to_vec();
+    let start_file = d.path().join("start.toml");
+    perturbed_start(&truth_file, &names, &start_file);
+    let mut start = Plant::load(&start_file).unwrap();
+    let at_truth: Vec<f64> = names.iter().map(|n| truth.parameters[n]).collect();
+    start.set_values(&names, &at_truth);
+    let (conf, mut rec) = c1_record(d.path(), &truth);
+    let displaced = 1e-3;
+    rec.q_all[4] += displaced;
+    let problem = Problem::new(
+        &start,
+        conf,
+        names.clone(),
+        vec![rec.clone()],
+        &[4],
+        OutputErrorOptions {
+            h: 1.0 / 12000.0,
+            horizons: vec![1.0],
+            ..OutputErrorOptions::isolated()
+        },
+    )
+    .unwrap();
+    let fit = problem.fit(&|_| {}).unwrap();
+    let ratio = |f: &lockstep::identify::output_error::FitResult| {
+        f.statistics.joints[0].rms_fitted / f.statistics.joints[0].noise
+    };
+    let refit = StepRefit {
+        problem: &problem,
+        interest: &[4],
+        held_ties: &[],
+        progress: &|_| {},
+    };
+    let (kept, record) = refit.refit_initial_positions(&start, fit.clone()).unwrap();
+    let r = record.expect("measured starts: a refit");
+    let offset = kept.initial_positions.as_ref().expect("estimated starts")[0][0];
+    eprintln!(
+        "measured start: cost {:.5e}, RMS/σ̂ {:.3}; refit: cost {:.5e}, RMS/σ̂ {:.3}, estimate − start {offset:.3e} rad, largest move {:.2} σ̂; {}",
+        fit.cost_after,
+        ratio(&fit),
+        kept.cost_after,
+        ratio(&kept),
+        r.largest_move,
+        r.work.status
+    );
+    let z = |f: &lockstep::identify::output_error::FitResult| -> Vec<f64> {
+        (0..names.len())
+            .map(|i| (f.fitted[i] - at_truth[i]) / f.statistics.std_err[i])
+            .collect()
+    };
+    let (z_measured, z_refit) = (z(&fit), z(&kept));
+    eprintln!("z = (fitted − truth) / standard error: measured start {z_measured:.2?}, refit {z_refit:.2?}");
+    let worst = |z: &[f64]| z.iter().map(|x| x.abs()).fold(0.0, f64::max);
+    assert!(
+        worst(&z_measured) > 2.5,
+        "the displaced start biases: {z_measured:?}"
+    );
+    assert!(worst(&z_refit) < 2.0, "the estimated start: {z_refit:?}");
+    assert_eq!(r.cost.0, fit.cost_after + fit.prior_penalty);
+    assert!(r.kept && r.cost.1 < r.cost.0, "{:?}", r.cost);
+    assert_eq!(kept.cost_after, r.cost.1);
+    assert!(ratio(&kept) <= 1.1, "the estimated start: {}", ratio(&kept));
+    // The true start is 0: the estimate lands there, not at the displaced record's.
+    let estimated_start = rec.q_all[4] + offset;
+    assert!(
+        estimated_start.abs() < 1e-4,
+        "estimated q4(0) = {estimated_start:.3e} rad, record's {:.3e}",
+        rec.q_all[4]
+    );
+    let noise = kept.statistics.joints[0].noise;
+    assert!(
+        (r.largest_move - offset.abs() / noise).abs() < 1e-9,
+        "{} against {}",
+        r.largest_move,
+        offset.abs() / noise
+    );
+    assert_eq!(kept.evaluations, fit.evaluations + r.work.evaluations);
+    // The step's history is the first fit's.
+    assert_eq!(kept.initial, fit.initial);
+    assert_eq!(kept.cost_before, fit.cost_before);
+    // Options that estimate the starts already: no refit.
+    let estimating = Problem::new(
+        &start,
+        conf,
+        names,
+        vec![rec],
+        &[4],
+        OutputErrorOptions {
+            estimate_initial_positions: true,
+            ..problem.options().clone()
+        },
+    )
+    .unwrap();
+    let (same, none) = StepRefit {
+        problem: &estimating,
+        ..refit
+    }
+    .refit_initial_positions(&start, fit.clone())
+    .unwrap();
+    assert!(none.is_none());
+    assert_eq!(same.fitted, fit.fitted);
+    // A fit above the noise floor: no refit.
+    let mut above = fit.clone();
+    above.statistics.above_floor.push("q4 RMS 2.000 σ̂".into());
+    let (same, none) = refit.refit_initial_positions(&start, above).unwrap();
+    assert!(none.is_none());
+    assert_eq!(same.fitted, fit.fitted);
 }

@@ -269,7 +269,9 @@ pub struct OutputErrorArgs {
     #[arg(long, value_enum, default_value = "lm")]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub whole_files_optimiser: OptimiserArg,
-    /// Initial positions of the free joints: estimate (as MATLAB's InitialCondition = 'estimate') or the first measured sample. Default: estimate for the coupled method, measured for the isolated
+    /// Initial positions of the free joints: estimate (as MATLAB's InitialCondition = 'estimate'), refit or the first measured sample. Default: estimate for the coupled method, refit for the isolated
+    ///
+    /// estimate: in every start's whole-files stage. refit: the starts compete on the measured samples, then the kept minimum, where at the noise floor, is fitted once more with them estimated (kept when the cost falls).
     #[arg(long, value_enum)]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub initial_positions: Option<InitialPositionsArg>,
@@ -471,6 +473,9 @@ impl OutputErrorArgs {
         opts.tie_reach = self.tie_reach.on();
         opts.balance = self.balance.on();
         opts.warm_up_start = self.warm_up_start.on();
+        if let Some(i) = self.initial_positions {
+            opts.initial_positions_refit = i == InitialPositionsArg::Refit;
+        }
         Ok(opts)
     }
 }
@@ -530,8 +535,11 @@ pub enum CostArg {
 /// `--initial-positions`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum InitialPositionsArg {
-    /// Estimated with the parameters at the whole files' stage.
+    /// Estimated with the parameters at every start's whole files' stage.
     Estimate,
+    /// The first measured sample while the starts compete, then estimated in a refit of
+    /// the kept minimum.
+    Refit,
     /// The first measured sample of each file.
     Measured,
 }
@@ -1020,7 +1028,12 @@ mod method_tests {
             Some((h, _)) => format!("1/{}", (1.0 / h).round()),
             None => "none".into(),
         };
-        let initial = |e: bool| if e { "estimate" } else { "measured" };
+        let refit = SequenceOptions::preset("isolated", PathBuf::new()).initial_positions_refit;
+        let initial = |e: bool| match (e, refit) {
+            (true, _) => "estimate",
+            (false, true) => "refit",
+            (false, false) => "measured",
+        };
         for stated in [
             format!(
                 "Default: {} for the coupled method, {} for the isolated",

@@ -27,6 +27,8 @@ use std::path::{Path, PathBuf};
 
 mod balance;
 mod data;
+mod gain_families;
+mod initial_positions;
 mod refinements;
 mod release;
 mod steps;
@@ -34,6 +36,8 @@ mod tie_reach;
 mod warm_ups;
 pub use balance::*;
 pub use data::*;
+pub use gain_families::*;
+pub use initial_positions::*;
 pub use refinements::*;
 pub use release::*;
 use steps::*;
@@ -51,11 +55,12 @@ pub struct Step {
     pub interest: Vec<usize>,
     /// Parameters fitted here: rigid-body quantities, then effect parameters.
     pub fitted: Vec<String>,
-    /// Of `fitted`, the rigid-body symbols carried from earlier steps: there they entered
-    /// only in exact combinations with others (their base parameters,
-    /// [`structural_companions`]; known from the plan), or — added by [`run`] — the fit
-    /// did not call them identifiable; they stay free until a configuration determines
-    /// them.
+    /// Of `fitted`, the values carried from earlier steps: rigid-body symbols that entered
+    /// there only in exact combinations with others (their base parameters,
+    /// [`structural_companions`]; known from the plan), or — added by [`run`] — that the
+    /// fit did not call identifiable, which stay free until a configuration determines
+    /// them; and the plant-gain scale families of joints that earlier steps left apart and
+    /// this step frees together ([`gain_families_carried_into`]).
     pub carried: Vec<String>,
     /// Parameters that first appear here but are held (bounds with lower = upper).
     pub held: Vec<String>,
@@ -263,6 +268,11 @@ pub struct StepReport {
     /// when tried (absent from reports written before stop 82).
     #[serde(default)]
     pub warm_up_start: Option<WarmUpStart>,
+    /// The initial-positions refit ([`SequenceOptions::initial_positions_refit`],
+    /// [`StepRefit::refit_initial_positions`]), when tried (absent from reports written
+    /// before stop 83).
+    #[serde(default)]
+    pub initial_positions_refit: Option<InitialPositionsRefit>,
 }
 
 /// Links that `plant` leaves physically impossible ([`crate::plant::Finding::is_blocking`])
@@ -335,6 +345,11 @@ pub struct SequenceOptions {
     /// A second start through the warm-ups where a step's fit through the growing horizons
     /// ends above the noise floor ([`StepRefit::warm_up_start`]); the lower cost is kept.
     pub warm_up_start: bool,
+    /// After the warm-up start, the step's kept minimum, where at the noise floor, fitted
+    /// once more with the initial positions estimated
+    /// ([`StepRefit::refit_initial_positions`]); kept where the cost falls. No effect where [`OutputErrorOptions::estimate_initial_positions`] estimates
+    /// them in every start already.
+    pub initial_positions_refit: bool,
     /// Continue the sequence recorded in `out` ([`previous_report`]): the steps its report
     /// lists as completed are skipped; the plant given to [`run`] should be `out`'s
     /// `plant.toml` ([`resume_plant`]).
@@ -346,8 +361,8 @@ impl SequenceOptions {
     /// file's names) with [`OutputErrorOptions::isolated`] or [`OutputErrorOptions::coupled`]
     /// (any other name: the coupled fit), every step of it, written to `out`; locked joints
     /// may move 0.01 rad; spanning rigid-body symbols; no joint fit; the warm-up start where
-    /// the horizons end above the floor; held values released, ties reached across and the
-    /// balanced refit after each step.
+    /// the horizons end above the floor, then the initial-positions refit; held values
+    /// released, ties reached across and the balanced refit after each step.
     pub fn preset(sequence: &str, out: PathBuf) -> Self {
         SequenceOptions {
             sequence: sequence.to_string(),
@@ -361,6 +376,7 @@ impl SequenceOptions {
             tie_reach: true,
             balance: true,
             warm_up_start: true,
+            initial_positions_refit: true,
             resume: false,
         }
     }
@@ -592,6 +608,17 @@ pub fn run(
         let more = carried_into(&undetermined, &occ, &s.config, &s.fitted);
         s.fitted.extend(more.iter().cloned());
         s.carried.extend(more);
+        // Plant-gain scale families that earlier steps set apart and this one couples.
+        let families = undetermined_gain_families(
+            model,
+            report
+                .steps
+                .iter()
+                .filter(|d| position(&d.step.config) < position(&s.config)),
+        );
+        let more = gain_families_carried_into(&families, &s.free, &s.fitted);
+        s.fitted.extend(more.iter().cloned());
+        s.carried.extend(more);
         if opts.rigid_body == RigidBodyFit::Spanning {
             hold_tied_symbols(&current, &first, &mut s)?;
         }
@@ -621,6 +648,11 @@ pub fn run(
         } else {
             (fit, None)
         };
+        let (fit, initial_positions_refit) = if opts.initial_positions_refit {
+            refit.refit_initial_positions(&current, fit)?
+        } else {
+            (fit, None)
+        };
         let refined = refit.refine(&mut current, fit, opts)?;
         keep_step(&mut current, &mut undetermined, &refined, &s.tied_held);
         let Refined {
@@ -640,6 +672,7 @@ pub fn run(
             tie_reach,
             balance,
             warm_up_start,
+            initial_positions_refit,
         });
         report.steps.sort_by_key(|d| position(&d.step.config));
         current.description = format!(
@@ -779,6 +812,7 @@ fn joint_fit(
         release: None,
         tie_reach: None,
         warm_up_start: None,
+        initial_positions_refit: None,
         balance: None,
     })
 }

@@ -259,6 +259,20 @@ fn step_markdown(
             w.work.status
         );
     }
+    if let Some(r) = &st.initial_positions_refit {
+        let _ = writeln!(
+            s,
+            "Initial-positions refit (`--initial-positions refit`): the kept minimum fitted once more with every file's initial positions estimated; cost {} (first measured samples) against {} (estimated, largest move {:.2} σ̂): {} ({} cost evaluations, {} Jacobians, {:.1} s; {}).\n",
+            fmt_g(r.cost.0),
+            fmt_g(r.cost.1),
+            r.largest_move,
+            if r.kept { "the estimated kept" } else { "the measured kept" },
+            r.work.evaluations,
+            r.work.jacobians,
+            r.work.wall_s,
+            r.work.status
+        );
+    }
     if let Some(t) = &st.tie_reach {
         let _ = writeln!(
             s,
@@ -414,7 +428,7 @@ fn step_markdown(
             .collect();
         let _ = writeln!(
             s,
-            "Initial positions estimated with the parameters (`--initial-positions estimate`; the figures below are on these starts), estimate − first sample: {}.\n",
+            "Initial positions estimated with the parameters (`--initial-positions estimate` or `refit`; the figures below are on these starts), estimate − first sample: {}.\n",
             each.join("; ")
         );
     }

@@ -363,11 +363,13 @@ impl OutputErrorOptions {
     /// trust-region-reflective method, the least change along ties after each step, and
     /// the Jacobian by sensitivities from [`SENSITIVITIES_FROM`] fitted values
     /// ([`JacobianMethod::Auto`]: the same minima as finite differences on the Freedom 6S
-    /// steps c1..c4, for 3–8 × less CPU; the sensitivities record). The initial positions
-    /// stay the measured first samples: estimated, they took c3 of the Freedom 6S on
-    /// seed-23 data from 1.12 to 1.00 σ̂, but let c5 on seed-35 data settle at 1.07 σ̂ in
-    /// a wrong minimum (qeq_1 −5.5 %, 360 standard errors off, called identifiable) where
-    /// the measured starts end above the floor and the warm-up start finds the truth's.
+    /// steps c1..c4, for 3–8 × less CPU; the sensitivities record). The starts run from the
+    /// measured first samples: estimated in every start, the initial positions took c3 of
+    /// the Freedom 6S on seed-23 data from 1.12 to 1.00 σ̂, but let c5 on seed-35 data
+    /// settle at 1.07 σ̂ in a wrong minimum (qeq_1 −5.5 %, 360 standard errors off, called
+    /// identifiable) where the measured starts end above the floor and the warm-up start
+    /// finds the truth's. A sequence estimates them after the starts instead
+    /// ([`SequenceOptions::initial_positions_refit`](crate::identify::sequence::SequenceOptions::initial_positions_refit)).
     pub fn isolated() -> Self {
         OutputErrorOptions {
             weighting: TimeWeighting::HalfFirst,

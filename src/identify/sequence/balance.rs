@@ -63,7 +63,7 @@ impl StepRefit<'_> {
         }
         let mut from = plant.clone();
         fit.apply(&mut from);
-        let mut balanced_options = self.refit_options();
+        let mut balanced_options = self.refit_options(&fit);
         balanced_options.interest_weight = 1.0;
         let with_prior = |p: Problem| -> Result<Problem> {
             if released.is_empty() {
@@ -88,7 +88,7 @@ impl StepRefit<'_> {
             }
         };
         let weighted = self
-            .refit_problem(&to, second.names.clone(), self.refit_options())
+            .refit_problem(&to, second.names.clone(), self.refit_options(&fit))
             .context("the balanced refit")?;
         let cost_weighted = (fit.cost_after, cost_at(&weighted, &second));
         let cost_balanced = (cost_at(&balanced, &fit), second.cost_after);

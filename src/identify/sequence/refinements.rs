@@ -77,11 +77,14 @@ impl StepRefit<'_> {
         .with_held_ties(self.held_ties.to_vec()))
     }
 
-    /// The options of a refit from the step's fitted minimum: the step's, with the whole
-    /// files only (no warm-ups), one start, and no Stribeck re-seed (the first fit's minimum
-    /// already had that branch).
-    pub(super) fn refit_options(&self) -> OutputErrorOptions {
+    /// The options of a refit from the step's fitted minimum `fit`: the step's, with the
+    /// whole files only (no warm-ups), one start, and no Stribeck re-seed (the first fit's
+    /// minimum already had that branch); the initial positions estimated where `fit`'s were
+    /// ([`StepRefit::refit_initial_positions`]), so that the refit's cost compares with
+    /// `fit`'s.
+    pub(super) fn refit_options(&self, fit: &FitResult) -> OutputErrorOptions {
         let mut options = self.problem.options().clone();
+        options.estimate_initial_positions |= fit.initial_positions.is_some();
         options.horizons = vec![1.0];
         options.segments.clear();
         options.equation_error = None;

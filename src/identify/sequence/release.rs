@@ -64,7 +64,7 @@ impl StepRefit<'_> {
         }
         let mut from = plant.clone();
         fit.apply(&mut from);
-        let options = self.refit_options();
+        let options = self.refit_options(&fit);
         let released: Vec<String> = candidates.iter().map(|c| c.0.clone()).collect();
         let mut names = fit.names.clone();
         names.extend(released.iter().cloned());

@@ -103,7 +103,7 @@ impl StepRefit<'_> {
         if representatives.is_empty() {
             return Ok((fit, None));
         }
-        let mut options = self.refit_options();
+        let mut options = self.refit_options(&fit);
         // The wide fit's values are only a β to spread back: no least change on them.
         options.least_change = false;
         // The first fit's Stribeck branch was fitted with the rigid body held short of its
@@ -144,7 +144,7 @@ impl StepRefit<'_> {
         )?;
         let mut back = from.clone();
         back.set_values(&names, &spread);
-        let second = refit(&back, self.refit_options())?;
+        let second = refit(&back, self.refit_options(&fit))?;
         let objective_before = fit.cost_after + fit.prior_penalty;
         let objective_after = second.cost_after + second.prior_penalty;
         let kept = objective_after < objective_before;
