@@ -219,7 +219,7 @@ fn two_forms(
     let names: Vec<proc_macro2::Ident> = names.iter().map(|n| id(n)).collect();
     let doc_trig = format!(
         "[`{name}`] with the joints' sines and cosines read from `sc` (`[f64; 2 NJ]`: \
-         sc[2k] = sin q_k, sc[2k + 1] = cos q_k; only the joints in [`TRIG`] are read)."
+         `sc[2k] = sin q_k`, `sc[2k + 1] = cos q_k`; only the joints in [`TRIG`] are read)."
     );
     quote! {
         #[doc = #doc]

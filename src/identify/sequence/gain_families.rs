@@ -80,8 +80,9 @@ pub fn gain_families_of<'a>(
 /// together sees their coupling (the inertia matrix is symmetric, D₀₁ = D₁₀, and the links'
 /// symbols are shared by both rows), which fixes their relative scale — but only if their
 /// families may move. On the Freedom 6S, c7 (joints 0 and 1, the families of c6 and c5)
-/// ended at 1.64 and 1.29 σ̂ with them held, and at 1.07 and 0.98 σ̂ with both carried,
-/// Kp_q0 / Kp_q1 within 0.4 % of the truth's ratio (the sensitivities record, stop 83).
+/// ended at 1.64 and 1.29 σ̂ with them held, and at 1.07 and 0.98 σ̂ with both carried;
+/// Kp_q0 / Kp_q1 came within 0.06 %, 0.4 % and 5.6 % of the truth's ratio on three data
+/// sets (the sensitivities record, stop 83).
 /// Joints freed together in one step (the coupled method's k1: q4 and q5) already have
 /// their relative scale, and no family is carried for them. The families are read from the
 /// run's report: a step run alone (`--config`) into a directory without the earlier
