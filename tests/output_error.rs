@@ -2939,20 +2939,12 @@ fn the_balanced_refit_spreads_a_held_values_misfit_over_the_joints() {
     assert_eq!(same.fitted, fit.fitted);
 }
 
-/// The warm-up start of a sequence step (`--warm-up-start`, `StepRefit::warm_up_start`): c1
-/// on 20 s of Table 4.3's J4 chirp from a ±25 % start, its first fit cut short (3
-/// iterations through the whole file alone) so that it ends above the noise floor; the
-/// second start runs through the equation error and the predictor under the same limits.
-/// The record must hold the first fit's joints above the floor and both costs; the fit
-/// returned must be the one with the lower cost, with the work of both. A fit at the floor,
-/// and options with warm-ups of their own, get no second start.
-#[test]
-fn the_warm_up_start_runs_where_the_horizons_end_above_the_floor_and_keeps_the_lower_cost() {
-    use lockstep::identify::sequence::StepRefit;
-    let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
+/// c1 on 20 s of Table 4.3's J4 chirp in `d`: the truth, a ±25 % start's file
+/// ([`perturbed_start`]) and joint 4's effect values it fits.
+fn c1_j4_case(d: &Path) -> (Plant, PathBuf, Vec<String>) {
+    let truth_file = truth(d);
     let truth = Plant::load(&truth_file).unwrap();
-    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
+    make_data(d, &truth_file, "4.3", Some("J4"), "c1", "20");
     let names: Vec<String> = [
         "Kp_q4",
         "sigma0_q4",
@@ -2965,8 +2957,23 @@ fn the_warm_up_start_runs_where_the_horizons_end_above_the_floor_and_keeps_the_l
     ]
     .map(String::from)
     .to_vec();
-    let start_file = d.path().join("start.toml");
+    let start_file = d.join("start.toml");
     perturbed_start(&truth_file, &names, &start_file);
+    (truth, start_file, names)
+}
+
+/// The warm-up start of a sequence step (`--warm-up-start`, `StepRefit::warm_up_start`): c1
+/// on 20 s of Table 4.3's J4 chirp from a ±25 % start, its first fit cut short (3
+/// iterations through the whole file alone) so that it ends above the noise floor; the
+/// second start runs through the equation error and the predictor under the same limits.
+/// The record must hold the first fit's joints above the floor and both costs; the fit
+/// returned must be the one with the lower cost, with the work of both. A fit at the floor,
+/// and options with warm-ups of their own, get no second start.
+#[test]
+fn the_warm_up_start_runs_where_the_horizons_end_above_the_floor_and_keeps_the_lower_cost() {
+    use lockstep::identify::sequence::StepRefit;
+    let d = tempfile::tempdir().unwrap();
+    let (truth, start_file, names) = c1_j4_case(d.path());
     let start = Plant::load(&start_file).unwrap();
     let (conf, rec) = c1_record(d.path(), &truth);
     let options = OutputErrorOptions {
@@ -3133,23 +3140,7 @@ fn the_sequence_reports_its_warm_up_start_and_off_switches_it_off() {
 fn the_initial_positions_refit_estimates_a_start_the_first_sample_missed() {
     use lockstep::identify::sequence::StepRefit;
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    let truth = Plant::load(&truth_file).unwrap();
-    make_data(d.path(), &truth_file, "4.3", Some("J4"), "c1", "20");
-    let names: Vec<String> = [
-        "Kp_q4",
-        "sigma0_q4",
-        "sigma1_q4",
-        "Fc_q4",
-        "Fs_q4",
-        "vs_q4",
-        "Ks_q4",
-        "qeq_q4",
-    ]
-    .map(String::from)
-    .to_vec();
-    let start_file = d.path().join("start.toml");
-    perturbed_start(&truth_file, &names, &start_file);
+    let (truth, start_file, names) = c1_j4_case(d.path());
     let mut start = Plant::load(&start_file).unwrap();
     let at_truth: Vec<f64> = names.iter().map(|n| truth.parameters[n]).collect();
     start.set_values(&names, &at_truth);

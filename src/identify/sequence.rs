@@ -347,8 +347,9 @@ pub struct SequenceOptions {
     pub warm_up_start: bool,
     /// After the warm-up start, the step's kept minimum, where at the noise floor, fitted
     /// once more with the initial positions estimated
-    /// ([`StepRefit::refit_initial_positions`]); kept where the cost falls. No effect where [`OutputErrorOptions::estimate_initial_positions`] estimates
-    /// them in every start already.
+    /// ([`StepRefit::refit_initial_positions`]); kept where the cost falls. No effect
+    /// where [`OutputErrorOptions::estimate_initial_positions`] estimates them in every
+    /// start already.
     pub initial_positions_refit: bool,
     /// Continue the sequence recorded in `out` ([`previous_report`]): the steps its report
     /// lists as completed are skipped; the plant given to [`run`] should be `out`'s

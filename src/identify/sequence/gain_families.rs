@@ -130,21 +130,23 @@ mod tests {
             [inf, inf, inf, inf, inf, 1e-5, 1e-3],
             [inf, inf, inf, inf, 1e-6],
         );
-        let isolated = [
-            GainFit {
-                config: "c5",
-                free: &[1],
-                names: &c5,
-                std_err: &c5_se,
-            },
-            GainFit {
-                config: "c6",
-                free: &[0],
-                names: &c6,
-                std_err: &c6_se,
-            },
-        ];
-        let families = gain_families_of(model, isolated);
+        let isolated = || {
+            [
+                GainFit {
+                    config: "c5",
+                    free: &[1],
+                    names: &c5,
+                    std_err: &c5_se,
+                },
+                GainFit {
+                    config: "c6",
+                    free: &[0],
+                    names: &c6,
+                    std_err: &c6_se,
+                },
+            ]
+        };
+        let families = gain_families_of(model, isolated());
         assert_eq!(
             families[&1],
             ("c5".to_string(), names(&["Kp_q1", "Fc_q1", "Ks_q1"]))
@@ -164,26 +166,12 @@ mod tests {
         let k = names(&["Kp_q1"]);
         let determined = gain_families_of(
             model,
-            [
-                GainFit {
-                    config: "c5",
-                    free: &[1],
-                    names: &c5,
-                    std_err: &c5_se,
-                },
-                GainFit {
-                    config: "c6",
-                    free: &[0],
-                    names: &c6,
-                    std_err: &c6_se,
-                },
-                GainFit {
-                    config: "k4",
-                    free: &[1],
-                    names: &k,
-                    std_err: &[0.01],
-                },
-            ],
+            isolated().into_iter().chain([GainFit {
+                config: "k4",
+                free: &[1],
+                names: &k,
+                std_err: &[0.01],
+            }]),
         );
         assert!(!determined.contains_key(&1) && determined.contains_key(&0));
         assert!(gain_families_carried_into(&determined, &[0, 1], &[]).is_empty());
