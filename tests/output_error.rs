@@ -3245,3 +3245,72 @@ fn the_initial_positions_refit_estimates_a_start_the_first_sample_missed() {
     assert!(none.is_none());
     assert_eq!(same.fitted, fit.fitted);
 }
+
+/// The written plant on every step's files (`SequenceReport::final_check`): c1 on 20 s of
+/// Table 4.3's J4 chirp, fitted from the truth. With the fitted plant the check repeats the
+/// step's own figure (the starts estimated in both: within 5 %, at the floor); with the
+/// plant gain alone moved by 20 % — what a later step does to an earlier one when it moves
+/// a member of that step's gain family without the rest — the joint is far above the floor,
+/// and the check says so.
+#[test]
+fn the_final_check_repeats_a_steps_figure_and_sees_a_later_move_of_its_values() {
+    use lockstep::identify::sequence::{final_check, Step, StepReport};
+    let d = tempfile::tempdir().unwrap();
+    let (truth, start_file, names) = c1_j4_case(d.path());
+    let mut start = Plant::load(&start_file).unwrap();
+    let at_truth: Vec<f64> = names.iter().map(|n| truth.parameters[n]).collect();
+    start.set_values(&names, &at_truth);
+    let (conf, rec) = c1_record(d.path(), &truth);
+    let problem = Problem::new(
+        &start,
+        conf,
+        names.clone(),
+        vec![rec],
+        &[4],
+        OutputErrorOptions {
+            h: 1.0 / 12000.0,
+            horizons: vec![1.0],
+            estimate_initial_positions: true,
+            ..OutputErrorOptions::isolated()
+        },
+    )
+    .unwrap();
+    let fit = problem.fit(&|_| {}).unwrap();
+    let mut fitted = start.clone();
+    fit.apply(&mut fitted);
+    let report = StepReport {
+        step: Step {
+            config: "c1".into(),
+            free: vec![4],
+            interest: vec![4],
+            fitted: names.clone(),
+            carried: Vec::new(),
+            held: Vec::new(),
+            tied_held: Vec::new(),
+        },
+        fit,
+        impossible: Vec::new(),
+        carried_prior: Vec::new(),
+        release: None,
+        tie_reach: None,
+        balance: None,
+        warm_up_start: None,
+        initial_positions_refit: None,
+    };
+    let same = &final_check(&fitted, &[(&report, &problem)])[0];
+    let (end, written) = (same.joints[0].1.unwrap(), same.joints[0].2.unwrap());
+    eprintln!("c1 q4 RMS / σ̂: step {end:.3}, written plant {written:.3}");
+    assert!(
+        end < 1.1 && (written - end).abs() < 0.05 * end,
+        "{end} {written}"
+    );
+    assert!(!same.above_floor());
+    let mut moved = fitted.clone();
+    let kp = moved.parameters["Kp_q4"];
+    moved.parameters.insert("Kp_q4".into(), 1.2 * kp);
+    let broken = &final_check(&moved, &[(&report, &problem)])[0];
+    let written = broken.joints[0].2.unwrap();
+    eprintln!("with Kp_q4 × 1.2: {written:.1} σ̂");
+    assert!(written > 10.0, "{written}");
+    assert!(broken.above_floor());
+}

@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 
 mod balance;
 mod data;
-mod gain_families;
+mod final_check;
 mod initial_positions;
 mod refinements;
 mod release;
@@ -36,7 +36,7 @@ mod tie_reach;
 mod warm_ups;
 pub use balance::*;
 pub use data::*;
-pub use gain_families::*;
+pub use final_check::*;
 pub use initial_positions::*;
 pub use refinements::*;
 pub use release::*;
@@ -55,12 +55,11 @@ pub struct Step {
     pub interest: Vec<usize>,
     /// Parameters fitted here: rigid-body quantities, then effect parameters.
     pub fitted: Vec<String>,
-    /// Of `fitted`, the values carried from earlier steps: rigid-body symbols that entered
-    /// there only in exact combinations with others (their base parameters,
-    /// [`structural_companions`]; known from the plan), or — added by [`run`] — that the
-    /// fit did not call identifiable, which stay free until a configuration determines
-    /// them; and the plant-gain scale families of joints that earlier steps left apart and
-    /// this step frees together ([`gain_families_carried_into`]).
+    /// Of `fitted`, the rigid-body symbols carried from earlier steps: there they entered
+    /// only in exact combinations with others (their base parameters,
+    /// [`structural_companions`]; known from the plan), or — added by [`run`] — the fit
+    /// did not call them identifiable; they stay free until a configuration determines
+    /// them.
     pub carried: Vec<String>,
     /// Parameters that first appear here but are held (bounds with lower = upper).
     pub held: Vec<String>,
@@ -231,6 +230,11 @@ pub struct SequenceReport {
     /// resampled ([`crate::measurement::sampling`]).
     #[serde(default)]
     pub data_notes: Vec<String>,
+    /// The plant written on every file of the steps the run fitted
+    /// ([`final_check`]; empty for a run of one step, and in reports written before
+    /// stop 83).
+    #[serde(default)]
+    pub final_check: Vec<FinalCheck>,
 }
 
 impl SequenceReport {
@@ -597,6 +601,8 @@ pub fn run(
         (ignored, notes),
     );
     let mut current = plant.clone();
+    // The steps this run fits, with their problems (configuration and files).
+    let mut ran: Vec<(String, Problem)> = Vec::new();
     // Rigid-body symbols a completed step fitted but did not determine, starting with those
     // the plant file records (a step run alone with `--config` after an earlier run).
     let mut undetermined: Vec<String> = plant.undetermined.clone();
@@ -607,17 +613,6 @@ pub fn run(
         // again: held at an arbitrary point of their uncertain direction they would bias
         // every later step.
         let more = carried_into(&undetermined, &occ, &s.config, &s.fitted);
-        s.fitted.extend(more.iter().cloned());
-        s.carried.extend(more);
-        // Plant-gain scale families that earlier steps set apart and this one couples.
-        let families = undetermined_gain_families(
-            model,
-            report
-                .steps
-                .iter()
-                .filter(|d| position(&d.step.config) < position(&s.config)),
-        );
-        let more = gain_families_carried_into(&families, &s.free, &s.fitted);
         s.fitted.extend(more.iter().cloned());
         s.carried.extend(more);
         if opts.rigid_body == RigidBodyFit::Spanning {
@@ -676,6 +671,7 @@ pub fn run(
             initial_positions_refit,
         });
         report.steps.sort_by_key(|d| position(&d.step.config));
+        ran.push((cname, problem));
         current.description = format!(
             "{} — identified by lockstep ({} method, steps {})",
             plant.description,
@@ -704,6 +700,15 @@ pub fn run(
             },
             config_list(&joint_steps)
         );
+        save(&current, &report, &opts.out, model)?;
+    }
+    // The plant written, on every file of the steps this run fitted.
+    if ran.len() >= 2 || report.joint.is_some() {
+        let steps: Vec<(&StepReport, &Problem)> = ran
+            .iter()
+            .filter_map(|(c, p)| Some((report.steps.iter().find(|d| d.step.config == *c)?, p)))
+            .collect();
+        report.final_check = final_check(&current, &steps);
         save(&current, &report, &opts.out, model)?;
     }
     Ok(report)

@@ -113,6 +113,7 @@ pub(super) fn starting_report(
         joint: if joint_steps.is_empty() { joint } else { None },
         ignored,
         data_notes,
+        final_check: Vec::new(),
     }
 }
 
