@@ -2962,6 +2962,16 @@ fn c1_j4_case(d: &Path) -> (Plant, PathBuf, Vec<String>) {
     (truth, start_file, names)
 }
 
+/// [`c1_j4_case`] with the start's values at the truth (its bounds kept): the truth, that
+/// start, the fitted names and their true values.
+fn c1_j4_at_truth(d: &Path) -> (Plant, Plant, Vec<String>, Vec<f64>) {
+    let (truth, start_file, names) = c1_j4_case(d);
+    let mut start = Plant::load(&start_file).unwrap();
+    let at_truth: Vec<f64> = names.iter().map(|n| truth.parameters[n]).collect();
+    start.set_values(&names, &at_truth);
+    (truth, start, names, at_truth)
+}
+
 /// The warm-up start of a sequence step (`--warm-up-start`, `StepRefit::warm_up_start`): c1
 /// on 20 s of Table 4.3's J4 chirp from a ±25 % start, its first fit cut short (3
 /// iterations through the whole file alone) so that it ends above the noise floor; the
@@ -3140,10 +3150,7 @@ fn the_sequence_reports_its_warm_up_start_and_off_switches_it_off() {
 fn the_initial_positions_refit_estimates_a_start_the_first_sample_missed() {
     use lockstep::identify::sequence::StepRefit;
     let d = tempfile::tempdir().unwrap();
-    let (truth, start_file, names) = c1_j4_case(d.path());
-    let mut start = Plant::load(&start_file).unwrap();
-    let at_truth: Vec<f64> = names.iter().map(|n| truth.parameters[n]).collect();
-    start.set_values(&names, &at_truth);
+    let (truth, start, names, at_truth) = c1_j4_at_truth(d.path());
     let (conf, mut rec) = c1_record(d.path(), &truth);
     let displaced = 1e-3;
     rec.q_all[4] += displaced;
@@ -3256,10 +3263,7 @@ fn the_initial_positions_refit_estimates_a_start_the_first_sample_missed() {
 fn the_final_check_repeats_a_steps_figure_and_sees_a_later_move_of_its_values() {
     use lockstep::identify::sequence::{final_check, Step, StepReport};
     let d = tempfile::tempdir().unwrap();
-    let (truth, start_file, names) = c1_j4_case(d.path());
-    let mut start = Plant::load(&start_file).unwrap();
-    let at_truth: Vec<f64> = names.iter().map(|n| truth.parameters[n]).collect();
-    start.set_values(&names, &at_truth);
+    let (truth, start, names, _) = c1_j4_at_truth(d.path());
     let (conf, rec) = c1_record(d.path(), &truth);
     let problem = Problem::new(
         &start,
