@@ -159,7 +159,7 @@ fn final_check_markdown(s: &mut String, checks: &[FinalCheck]) {
     if !above.is_empty() {
         let _ = writeln!(
             s,
-            "**The written plant does not reproduce the files of {}** (a joint above {} σ̂): later steps moved values these files determine only in combination with others (symbols carried because a step did not call them identifiable, the held ties and plant-gain families a least change scales). The joint fit (`--joint-fit after`) fits every step's files at once.\n",
+            "**The written plant does not reproduce the files of {}** (a joint above {} σ̂): later steps moved values these files determine only in combination with others (symbols carried because a step did not call them identifiable, the held ties and plant-gain families a least change scales). The joint fit (`--joint-fit after`) fits every step's files at once; from a plant this far off it can stop in a local minimum.\n",
             above.join(", "),
             crate::identify::output_error::FLOOR_FACTOR
         );
