@@ -52,8 +52,13 @@ impl Problem {
             &self.lower,
             &self.upper,
         )?;
+        // Under the earlier steps' information (Problem::with_earlier_information) a move
+        // along this configuration's ties may cross what earlier files determined: its
+        // prior counts.
+        let prior_at = |x: &[f64]| self.prior_penalty(&self.to_scaled(x));
+        let prior_before = prior_at(p);
         let cost = self.cost(&moved_to);
-        let accepted = cost <= cost_at_minimum + allowed_rise;
+        let accepted = cost + prior_at(&moved_to) <= cost_at_minimum + prior_before + allowed_rise;
         let (mut fitted, mut cost) = if accepted {
             (moved_to, cost)
         } else {
@@ -63,8 +68,15 @@ impl Problem {
         let mut gain_scale_bound_by = None;
         let mut held = Vec::new();
         for m in self.gain_scale_toward(&fitted, &p0) {
+            // Held values the earlier steps' files determined are not this step's to scale.
+            if m.held
+                .iter()
+                .any(|(n, _)| self.earlier_information().is_some_and(|e| e.knows(n)))
+            {
+                continue;
+            }
             let c = self.with_plant_values(&m.held).cost(&m.fitted);
-            if c <= cost_at_minimum + allowed_rise {
+            if c + prior_at(&m.fitted) <= cost_at_minimum + prior_before + allowed_rise {
                 (fitted, cost, held) = (m.fitted, c, m.held);
                 gain_scale = Some(m.alpha);
                 gain_scale_bound_by = m.bound_by;

@@ -50,6 +50,8 @@ mod residuals;
 mod statistics;
 pub use options::*;
 mod held;
+mod information;
+pub use information::*;
 mod least_change;
 mod scaling;
 mod sensitivities;
@@ -285,6 +287,10 @@ pub struct Problem {
     /// The prior's centre (scaled, the plant's values) and weight s̄ / spread per
     /// parameter, when [`OutputErrorOptions::prior`] is set.
     prior: Option<(Vec<f64>, Vec<f64>)>,
+    /// The earlier steps' information ([`Problem::with_earlier_information`]).
+    earlier: Option<std::sync::Arc<EarlierInformation>>,
+    /// Its prior on the fitted values, rows times s̄ ([`Problem::set_prior`]).
+    information_prior: Option<InformationPrior>,
     /// Set on the equation-error stage: its residuals replace the simulated ones.
     equation_error: Option<std::sync::Arc<EquationError>>,
     /// Set on a prediction-error stage: the bandwidth ω (rad/s) of the output injection
@@ -431,6 +437,8 @@ impl Problem {
             m,
             noise,
             prior: None,
+            earlier: None,
+            information_prior: None,
             equation_error: None,
             predictor: None,
             held_ties: Vec::new(),
@@ -461,11 +469,25 @@ impl Problem {
 
     /// The prior's centre and weights from the options ([`OutputErrorOptions::prior`],
     /// [`OutputErrorOptions::carried_prior`]) and the released values
-    /// ([`Problem::with_released`]).
+    /// ([`Problem::with_released`]), and the earlier steps' information
+    /// ([`Problem::with_earlier_information`]), which replaces the per-value priors on the
+    /// values it knows.
     ///
     /// # Errors
     /// A prior spread τ that is not positive and finite.
     fn set_prior(&mut self) -> Result<()> {
+        self.information_prior = None;
+        if let Some(earlier) = &self.earlier {
+            let occ = crate::identify::identifiability::occurrence(self.plant.model);
+            let prior = earlier.prior_for(&self.names, |n| enters(&self.plant, &occ, self.conf, n));
+            let s_bar = self.noise_residual_rms();
+            self.information_prior = prior.map(|mut p| {
+                for row in &mut p.rows {
+                    row.iter_mut().for_each(|x| *x *= s_bar);
+                }
+                p
+            });
+        }
         if let Some(tau) = self.options.prior {
             if !(tau > 0.0 && tau.is_finite()) {
                 bail!("prior: expected a positive relative spread τ (such as 0.1), got {tau}");
@@ -476,7 +498,13 @@ impl Problem {
         let carried: Vec<Option<f64>> = self
             .names
             .iter()
-            .map(|n| self.prior_standard_error(n))
+            .map(|n| {
+                if self.earlier.as_ref().is_some_and(|e| e.knows(n)) {
+                    None
+                } else {
+                    self.prior_standard_error(n)
+                }
+            })
             .collect();
         if self.options.prior.is_some() || carried.iter().any(Option::is_some) {
             let s_bar = self.noise_residual_rms();
@@ -548,6 +576,26 @@ impl Problem {
         self.released = released;
         self.set_prior()?;
         Ok(self)
+    }
+
+    /// The same problem under the earlier steps' information `earlier` ([`EarlierInformation`]):
+    /// its prior ([`EarlierInformation::prior_for`], weighted by s̄ as the per-value priors)
+    /// on the fitted values, every other value the files see held, the rest at their
+    /// conditional minimum; it replaces the per-value priors
+    /// ([`OutputErrorOptions::carried_prior`], [`Problem::with_released`]) of the values it
+    /// knows.
+    ///
+    /// # Errors
+    /// As [`Problem::new`]'s prior (a spread τ that is not positive and finite).
+    pub fn with_earlier_information(mut self, earlier: EarlierInformation) -> Result<Problem> {
+        self.earlier = Some(std::sync::Arc::new(earlier));
+        self.set_prior()?;
+        Ok(self)
+    }
+
+    /// The earlier steps' information the problem was given, if any.
+    pub fn earlier_information(&self) -> Option<&EarlierInformation> {
+        self.earlier.as_deref()
     }
 
     /// s̄: the root mean square of a residual from the measurement noise alone, √(mean of
@@ -860,14 +908,16 @@ impl Residuals for Problem {
         }
     }
 
-    fn prior_weight(&self) -> Option<&[f64]> {
-        self.prior.as_ref().map(|(_, w)| w.as_slice())
+    fn prior_rows(&self) -> usize {
+        self.prior.as_ref().map_or(0, |(_, w)| w.len())
+            + self.information_prior.as_ref().map_or(0, |p| p.rows.len())
     }
 
-    /// The prior's residuals w_i (u_i − u₀_i) at scaled parameters `u`, w_i = s̄ / the
-    /// spread of parameter i in scaled units (empty without a prior).
+    /// The prior's residuals at scaled parameters `u`: w_i (u_i − u₀_i), w_i = s̄ / the
+    /// spread of parameter i in scaled units, then the earlier information's s̄ R (p(u) −
+    /// c) (empty without a prior).
     fn prior_residuals(&self, u: &[f64]) -> Vec<f64> {
-        match &self.prior {
+        let mut out: Vec<f64> = match &self.prior {
             Some((u0, weight)) => u
                 .iter()
                 .zip(u0)
@@ -875,7 +925,62 @@ impl Residuals for Problem {
                 .map(|((x, c), w)| w * (x - c))
                 .collect(),
             None => Vec::new(),
+        };
+        if let Some(info) = &self.information_prior {
+            let p = self.to_physical(u);
+            for row in &info.rows {
+                out.push(
+                    row.iter()
+                        .zip(&p)
+                        .zip(&info.centre)
+                        .filter(|((r, _), _)| **r != 0.0)
+                        .map(|((r, x), c)| r * (x - c))
+                        .sum(),
+                );
+            }
         }
+        out
+    }
+
+    fn prior_jacobian(&self, u: &[f64]) -> Vec<Vec<f64>> {
+        let n = u.len();
+        let mut rows: Vec<Vec<f64>> = match &self.prior {
+            Some((_, weight)) => (0..n)
+                .map(|i| {
+                    let mut row = vec![0.0; n];
+                    row[i] = weight[i];
+                    row
+                })
+                .collect(),
+            None => Vec::new(),
+        };
+        if let Some(info) = &self.information_prior {
+            // ∂p/∂u (exact where p is affine in u_i: everywhere except where Fs meets Fc).
+            let steps: Vec<f64> = u
+                .iter()
+                .map(|&x| if x < 0.5 { 1e-7 } else { -1e-7 })
+                .collect();
+            let p_of = |x: &[f64]| self.to_physical(x);
+            let p = self.to_physical(u);
+            let dp_du = physical_derivatives(
+                &Stencil {
+                    x: u,
+                    r0: &[],
+                    steps: &steps,
+                    p_of: &p_of,
+                    central: false,
+                },
+                &p,
+            );
+            for row in &info.rows {
+                rows.push(
+                    (0..n)
+                        .map(|i| row.iter().zip(&dp_du[i]).map(|(r, d)| r * d).sum())
+                        .collect(),
+                );
+            }
+        }
+        rows
     }
 }
 

@@ -449,7 +449,7 @@ impl MPFitter for Fitter<'_> {
 
     fn number_of_points(&self) -> usize {
         let p = self.evaluator.problem;
-        p.residual_count() + p.prior_weight().map_or(0, <[f64]>::len)
+        p.residual_count() + p.prior_rows()
     }
 
     fn config(&self) -> &MPConfig {
@@ -486,13 +486,13 @@ impl MPFitter for Fitter<'_> {
         );
         let cols = &self.jacobian.insert(last).columns;
         // rmpfit's deviates are (y − f): the derivative of the residual as defined here;
-        // the prior's rows are the weight on the diagonal.
+        // then the prior's rows.
+        let prior = p.prior_jacobian(params);
         for (i, d) in derivs.iter_mut().enumerate() {
             if let Some(col) = d {
                 col[..m].copy_from_slice(&cols[i]);
-                if let Some(weight) = p.prior_weight() {
-                    col[m..].fill(0.0);
-                    col[m + i] = weight[i];
+                for (k, row) in prior.iter().enumerate() {
+                    col[m + k] = row[i];
                 }
             }
         }
@@ -611,10 +611,10 @@ impl Solver for TrustRegionReflective {
                         j[k * n + c] = d;
                     }
                 }
-                // The prior's rows: its weight on the diagonal.
-                if let Some(weight) = p.prior_weight() {
+                // The prior's rows.
+                for (k, row) in p.prior_jacobian(&u).iter().enumerate() {
                     for (c, &i) in free.iter().enumerate() {
-                        j[(m + i) * n + c] = weight[i];
+                        j[(m + k) * n + c] = row[i];
                     }
                 }
                 Ok(DenseMatrix::from_row_slice(rows, n, &j))

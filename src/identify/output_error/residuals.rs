@@ -146,9 +146,14 @@ pub trait Residuals: Sync {
     fn jacobian_simulations(&self, n: usize) -> usize {
         n
     }
-    /// The prior's weight per parameter (its rows' diagonal), if the fit has a prior.
-    fn prior_weight(&self) -> Option<&[f64]> {
-        None
+    /// Number of the prior's rows (0 without a prior).
+    fn prior_rows(&self) -> usize {
+        0
+    }
+    /// The prior's Jacobian ∂(prior residuals)/∂u at scaled parameters `u`:
+    /// [`Residuals::prior_rows`] rows of n.
+    fn prior_jacobian(&self, _u: &[f64]) -> Vec<Vec<f64>> {
+        Vec::new()
     }
     /// The prior's residuals at scaled parameters `u` (empty without a prior).
     fn prior_residuals(&self, _u: &[f64]) -> Vec<f64> {

@@ -43,6 +43,8 @@ impl Problem {
             sqrt_w,
             noise: self.noise.clone(),
             prior: self.prior.clone(),
+            earlier: self.earlier.clone(),
+            information_prior: self.information_prior.clone(),
             equation_error: None,
             predictor: self.predictor,
             held_ties: self.held_ties.clone(),
@@ -82,6 +84,7 @@ impl Problem {
         let mut problem = self.with_records(self.records.clone(), self.sqrt_w.clone());
         problem.m = ee.len();
         problem.prior = None;
+        problem.information_prior = None;
         problem.equation_error = Some(std::sync::Arc::new(ee));
         Ok(problem)
     }

@@ -135,6 +135,12 @@ pub struct Statistics {
     pub other_minima: Vec<OtherMinimum>,
     /// Condition number of the column-scaled JᵀJ.
     pub condition: f64,
+    /// The fit's information at its solution ([`Information`]: F = JᵀΣ⁻¹J and JᵀΣ⁻¹r over
+    /// the fitted values and the held values with a column): what a later step of a
+    /// locking sequence keeps of this step's files ([`EarlierInformation`]). Absent from
+    /// reports written before stop 84.
+    #[serde(default)]
+    pub information: Option<Information>,
     /// Per free joint.
     pub joints: Vec<JointFit>,
 }
@@ -446,9 +452,27 @@ pub(crate) fn statistics_at(
         }
     }
     let mut held = at.held;
+    let information = {
+        // The held values' columns where they were simulated (one per held value).
+        let held_names: &[String] = if held.cols.len() == held.names.len() {
+            &held.names
+        } else {
+            &[]
+        };
+        let mut names = space.names.to_vec();
+        names.extend(held_names.iter().cloned());
+        let mut values = p.to_vec();
+        values.extend(held_names.iter().map(|n| space.plant.parameters[n]));
+        let all: Vec<Vec<f64>> = cols
+            .iter()
+            .chain(held.cols.iter().take(held_names.len()))
+            .cloned()
+            .collect();
+        Information::of(names, values, &all, at.r, &sigma)
+    };
     scale.make_up_held_ties(&cols, &mut held);
     scale.project_out_of(&mut cols, p, &held, tie_columns);
-    covariance_statistics(
+    let mut statistics = covariance_statistics(
         space.names,
         p,
         (space.lower, space.upper),
@@ -456,7 +480,9 @@ pub(crate) fn statistics_at(
         &sigma,
         at.only_with,
         at.joints,
-    )
+    )?;
+    statistics.information = Some(information);
+    Ok(statistics)
 }
 
 /// Standard errors, correlations and identifiability of parameters `names` at physical
@@ -664,6 +690,7 @@ pub(crate) fn covariance_statistics(
         other_minima: Vec::new(),
         condition,
         joints,
+        information: None,
     })
 }
 
