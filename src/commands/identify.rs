@@ -241,6 +241,12 @@ pub struct OutputErrorArgs {
     #[arg(long, value_enum, default_value = "on")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub warm_up_start: Switch,
+    /// Fit each step under the earlier steps' files' costs to second order; what its files do not see follows. Default: off for the coupled method, on for the isolated
+    ///
+    /// A later step that refits a value an earlier one saw only in combination (a carried symbol) then keeps the combination: the earlier values its files do not see follow its moves, an earlier step whose files it still leaves off has those values refitted on them, and the gain families of joints earlier steps left apart are carried into a step that frees them together. The report lists what followed and what was refitted.
+    #[arg(long, value_enum)]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
+    pub earlier_information: Option<Switch>,
     /// Equation-error warm start: on (filter cut-off per joint by residual analysis), off, or a cut-off fraction of Nyquist such as 0.2. Default: on for the coupled method, off for the isolated
     ///
     /// One more start fits the torque balance at every sample (positions low-passed and differentiated; no simulation, so no drift), then the whole files; the lower cost wins.
@@ -473,6 +479,9 @@ impl OutputErrorArgs {
         opts.tie_reach = self.tie_reach.on();
         opts.balance = self.balance.on();
         opts.warm_up_start = self.warm_up_start.on();
+        if let Some(e) = self.earlier_information {
+            opts.earlier_information = e.on();
+        }
         if let Some(i) = self.initial_positions {
             opts.initial_positions_refit = i == InitialPositionsArg::Refit;
         }
@@ -1071,6 +1080,11 @@ mod method_tests {
                     initial(i.estimate_initial_positions)
                 )
             },
+            format!(
+                "Default: {} for the coupled method, {} for the isolated",
+                on(SequenceOptions::preset("coupled", PathBuf::new()).earlier_information),
+                on(SequenceOptions::preset("isolated", PathBuf::new()).earlier_information)
+            ),
             format!(
                 "or auto (sensitivities from {} fitted values). Default: {} for the coupled method, {} for the isolated",
                 lockstep::identify::output_error::SENSITIVITIES_FROM,

@@ -14,7 +14,8 @@ use super::identifiability::{
 };
 use super::joint::JointProblem;
 use super::output_error::{
-    FitResult, OutputErrorOptions, Problem, Progress, Record, Residuals, Statistics,
+    EarlierInformation, FitResult, OutputErrorOptions, Problem, Progress, Record, Residuals,
+    Statistics,
 };
 use crate::files::write_all_atomic;
 use crate::measurement::{check_sampling, Table};
@@ -27,7 +28,9 @@ use std::path::{Path, PathBuf};
 
 mod balance;
 mod data;
+mod earlier_refit;
 mod final_check;
+mod gain_families;
 mod initial_positions;
 mod refinements;
 mod release;
@@ -36,7 +39,9 @@ mod tie_reach;
 mod warm_ups;
 pub use balance::*;
 pub use data::*;
+pub use earlier_refit::*;
 pub use final_check::*;
+pub use gain_families::*;
 pub use initial_positions::*;
 pub use refinements::*;
 pub use release::*;
@@ -55,11 +60,13 @@ pub struct Step {
     pub interest: Vec<usize>,
     /// Parameters fitted here: rigid-body quantities, then effect parameters.
     pub fitted: Vec<String>,
-    /// Of `fitted`, the rigid-body symbols carried from earlier steps: there they entered
-    /// only in exact combinations with others (their base parameters,
-    /// [`structural_companions`]; known from the plan), or — added by [`run`] — the fit
-    /// did not call them identifiable; they stay free until a configuration determines
-    /// them.
+    /// Of `fitted`, the values carried from earlier steps: rigid-body symbols that entered
+    /// there only in exact combinations with others (their base parameters,
+    /// [`structural_companions`]; known from the plan), or — added by [`run`] — that the
+    /// fit did not call identifiable, which stay free until a configuration determines
+    /// them; and, under [`SequenceOptions::earlier_information`], the plant-gain scale
+    /// families of joints that earlier steps left apart and this step frees together
+    /// ([`gain_families_carried_into`]).
     pub carried: Vec<String>,
     /// Parameters that first appear here but are held (bounds with lower = upper).
     pub held: Vec<String>,
@@ -235,6 +242,10 @@ pub struct SequenceReport {
     /// stop 83).
     #[serde(default)]
     pub final_check: Vec<FinalCheck>,
+    /// The values a step called identifiable that the plant written holds elsewhere
+    /// ([`moved_since`]).
+    #[serde(default)]
+    pub moved_since: Vec<MovedValue>,
 }
 
 impl SequenceReport {
@@ -277,6 +288,33 @@ pub struct StepReport {
     /// before stop 83).
     #[serde(default)]
     pub initial_positions_refit: Option<InitialPositionsRefit>,
+    /// Whether the step was fitted under the earlier steps' information
+    /// ([`SequenceOptions::earlier_information`]; false for the first step).
+    #[serde(default)]
+    pub earlier_information: bool,
+    /// The values this step's files do not see that the earlier steps' information moved
+    /// after it: (name, before, after), SI.
+    #[serde(default)]
+    pub following: Vec<(String, f64, f64)>,
+    /// The earlier steps whose files the plant no longer reproduced after this step, and
+    /// the refit of their values this step does not see ([`EarlierRefit`]).
+    #[serde(default)]
+    pub earlier_refits: Vec<EarlierRefit>,
+    /// This step's information where a later step's refit of its files left its values
+    /// ([`EarlierRefit::information`]), which replaces the fit's own in the priors of the
+    /// steps after that.
+    #[serde(default)]
+    pub information_now: Option<super::output_error::Information>,
+}
+
+impl StepReport {
+    /// This step's information for the later steps' priors: where a later refit left its
+    /// values, else at its fit.
+    pub fn information(&self) -> Option<&super::output_error::Information> {
+        self.information_now
+            .as_ref()
+            .or(self.fit.statistics.information.as_ref())
+    }
 }
 
 /// Links that `plant` leaves physically impossible ([`crate::plant::Finding::is_blocking`])
@@ -355,6 +393,13 @@ pub struct SequenceOptions {
     /// where [`OutputErrorOptions::estimate_initial_positions`] estimates them in every
     /// start already.
     pub initial_positions_refit: bool,
+    /// Each step fitted under the earlier steps' information ([`EarlierInformation`]: the
+    /// second-order expansion of their files' costs), every value its files do not see
+    /// moved after it to the earlier costs' conditional minimum
+    /// ([`EarlierInformation::following`]): so that a step that refits a carried symbol
+    /// keeps what earlier files determined (c4 of the isolated method refits I7_22, which
+    /// c2 sees only over Kp_q5).
+    pub earlier_information: bool,
     /// Continue the sequence recorded in `out` ([`previous_report`]): the steps its report
     /// lists as completed are skipped; the plant given to [`run`] should be `out`'s
     /// `plant.toml` ([`resume_plant`]).
@@ -367,7 +412,8 @@ impl SequenceOptions {
     /// (any other name: the coupled fit), every step of it, written to `out`; locked joints
     /// may move 0.01 rad; spanning rigid-body symbols; no joint fit; the warm-up start where
     /// the horizons end above the floor, then the initial-positions refit; held values
-    /// released, ties reached across and the balanced refit after each step.
+    /// released, ties reached across and the balanced refit after each step; the earlier
+    /// steps' information for the isolated method.
     pub fn preset(sequence: &str, out: PathBuf) -> Self {
         SequenceOptions {
             sequence: sequence.to_string(),
@@ -382,6 +428,7 @@ impl SequenceOptions {
             balance: true,
             warm_up_start: true,
             initial_positions_refit: true,
+            earlier_information: sequence == "isolated",
             resume: false,
         }
     }
@@ -454,6 +501,10 @@ struct CheckedInputs {
     ignored: Vec<String>,
     /// What reading did to the files' rows ([`read_record_with_notes`]).
     notes: Vec<String>,
+    /// The steps an earlier run completed (kept in the report) whose files are in the data:
+    /// their problems, for the refit of their files after a later step
+    /// ([`refit_earlier_steps`]).
+    earlier: Vec<(String, Problem)>,
 }
 
 /// Everything a run needs, checked before its first fit: every step (and every step of the
@@ -471,6 +522,7 @@ fn check_inputs(
     occ: &Occurrence,
     steps: &[Step],
     joint_steps: &[Step],
+    completed: &[StepReport],
 ) -> Result<CheckedInputs> {
     let model = plant.model;
     let (files, mut ignored) = discover(data, model)?;
@@ -532,11 +584,33 @@ fn check_inputs(
         }
         joint.push((conf, recs));
     }
+    // The completed steps' files, where given: their problems on the plant's values.
+    let mut earlier = Vec::new();
+    for d in completed {
+        if steps.iter().any(|s| s.config == d.step.config) {
+            continue;
+        }
+        let (conf, recs) = records_for(&d.step.config)?;
+        if recs.is_empty() {
+            continue;
+        }
+        let problem = Problem::new(
+            plant,
+            conf,
+            d.fit.names.clone(),
+            recs,
+            &d.step.interest,
+            opts.fit.clone(),
+        )
+        .with_context(|| format!("the files of completed step '{}'", d.step.config))?;
+        earlier.push((d.step.config.clone(), problem));
+    }
     for f in &files {
         if !steps
             .iter()
             .chain(joint_steps)
             .any(|s| s.config == f.config)
+            && !earlier.iter().any(|(c, _)| *c == f.config)
         {
             ignored.push(format!(
                 "{}: configuration '{}' is not a step of this run",
@@ -550,6 +624,7 @@ fn check_inputs(
         joint,
         ignored,
         notes,
+        earlier,
     })
 }
 
@@ -587,12 +662,14 @@ pub fn run(
         &opts.out.join("report.json"),
         &opts.out.join("report.md"),
     ])?;
+    let completed: &[StepReport] = previous.as_ref().map_or(&[], |p| &p.steps);
     let CheckedInputs {
         steps: checked,
         joint: joint_files,
         ignored,
         notes,
-    } = check_inputs(plant, data, opts, &occ, &steps, &joint_steps)?;
+        earlier: completed_files,
+    } = check_inputs(plant, data, opts, &occ, &steps, &joint_steps, completed)?;
     let mut report = starting_report(
         plant,
         opts,
@@ -601,8 +678,9 @@ pub fn run(
         (ignored, notes),
     );
     let mut current = plant.clone();
-    // The steps this run fits, with their problems (configuration and files).
-    let mut ran: Vec<(String, Problem)> = Vec::new();
+    // The steps this run fits, with their problems (configuration and files), after the
+    // completed steps whose files are given.
+    let mut ran: Vec<(String, Problem)> = completed_files;
     // Rigid-body symbols a completed step fitted but did not determine, starting with those
     // the plant file records (a step run alone with `--config` after an earlier run).
     let mut undetermined: Vec<String> = plant.undetermined.clone();
@@ -615,6 +693,22 @@ pub fn run(
         let more = carried_into(&undetermined, &occ, &s.config, &s.fitted);
         s.fitted.extend(more.iter().cloned());
         s.carried.extend(more);
+        // Plant-gain scale families that earlier steps set apart and this one couples —
+        // only under the earlier information, which keeps those steps' files as the
+        // families move (without it, c7 of the isolated method reached the floor while the
+        // written plant lost c2, c4 and c6: the sensitivities record, stop 83).
+        if opts.earlier_information {
+            let families = undetermined_gain_families(
+                model,
+                report
+                    .steps
+                    .iter()
+                    .filter(|d| position(&d.step.config) < position(&s.config)),
+            );
+            let more = gain_families_carried_into(&families, &s.free, &s.fitted);
+            s.fitted.extend(more.iter().cloned());
+            s.carried.extend(more);
+        }
         if opts.rigid_body == RigidBodyFit::Spanning {
             hold_tied_symbols(&current, &first, &mut s)?;
         }
@@ -629,6 +723,24 @@ pub fn run(
         )
         .with_context(|| format!("step '{}'", s.config))?
         .with_held_ties(s.tied_held.clone());
+        // What the earlier steps' files determined (the steps before this one in the plan).
+        let earlier = if opts.earlier_information {
+            EarlierInformation::gather(
+                report
+                    .steps
+                    .iter()
+                    .filter(|d| position(&d.step.config) < position(&s.config))
+                    .filter_map(StepReport::information),
+                &current,
+            )
+        } else {
+            None
+        };
+        let problem = match &earlier {
+            Some(e) => problem.with_earlier_information(e.clone())?,
+            None => problem,
+        };
+        let before = current.clone();
         let carried_prior = problem.carried_prior();
         let cname = s.config.clone();
         let fit = problem.fit(&|p| progress(&cname, p))?;
@@ -651,6 +763,10 @@ pub fn run(
         };
         let refined = refit.refine(&mut current, fit, opts)?;
         keep_step(&mut current, &mut undetermined, &refined, &s.tied_held);
+        let following = match &earlier {
+            Some(e) => follow(e, &before, &mut current, &occ, problem.configuration()),
+            None => Vec::new(),
+        };
         let Refined {
             fit,
             tie_reach,
@@ -669,8 +785,40 @@ pub fn run(
             balance,
             warm_up_start,
             initial_positions_refit,
+            earlier_information: earlier.is_some(),
+            following,
+            earlier_refits: Vec::new(),
+            information_now: None,
         });
         report.steps.sort_by_key(|d| position(&d.step.config));
+        if earlier.is_some() {
+            // The earlier steps' files the linear following left off, refitted.
+            let conf = problem.configuration();
+            let enters = |n: &str| super::output_error::enters(plant, &occ, conf, n);
+            let before_this: Vec<&(String, Problem)> = ran
+                .iter()
+                .filter(|(c, _)| position(c) < position(&cname))
+                .collect();
+            let refits = refit_earlier_steps(
+                &mut current,
+                &cname,
+                &enters,
+                &before_this,
+                &report.steps,
+                progress,
+            )?;
+            for r in &refits {
+                if let (Some(info), Some(d)) = (
+                    &r.information,
+                    report.steps.iter_mut().find(|d| d.step.config == r.config),
+                ) {
+                    d.information_now = Some(info.clone());
+                }
+            }
+            if let Some(d) = report.steps.iter_mut().find(|d| d.step.config == cname) {
+                d.earlier_refits = refits;
+            }
+        }
         ran.push((cname, problem));
         current.description = format!(
             "{} — identified by lockstep ({} method, steps {})",
@@ -702,16 +850,56 @@ pub fn run(
         );
         save(&current, &report, &opts.out, model)?;
     }
-    // The plant written, on every file of the steps this run fitted.
+    // The plant written, on every file of the steps this run fitted and of the completed
+    // steps whose files are given, in the plan's order.
     if ran.len() >= 2 || report.joint.is_some() {
+        ran.sort_by_key(|(c, _)| position(c));
         let steps: Vec<(&StepReport, &Problem)> = ran
             .iter()
             .filter_map(|(c, p)| Some((report.steps.iter().find(|d| d.step.config == *c)?, p)))
             .collect();
         report.final_check = final_check(&current, &steps);
+        report.moved_since = moved_since(&current, &report.steps);
         save(&current, &report, &opts.out, model)?;
     }
     Ok(report)
+}
+
+/// The values configuration `conf`'s files do not see, moved in `current` to the earlier
+/// steps' conditional minimum ([`EarlierInformation::following`]) given what the step moved
+/// from `before`; (name, before, after) of each value moved.
+fn follow(
+    earlier: &EarlierInformation,
+    before: &Plant,
+    current: &mut Plant,
+    occ: &Occurrence,
+    conf: &Configuration,
+) -> Vec<(String, f64, f64)> {
+    let moved: Vec<(String, f64)> = current
+        .parameters
+        .iter()
+        .filter(|(n, _)| earlier.knows(n))
+        .filter_map(|(n, &v)| {
+            let d = v - before.parameters.get(n)?;
+            (d != 0.0).then(|| (n.clone(), d))
+        })
+        .collect();
+    let enters = |n: &str| super::output_error::enters(before, occ, conf, n);
+    let mut out = Vec::new();
+    for (n, d) in earlier.following(&moved, enters) {
+        let Some(v) = current.parameters.get_mut(&n) else {
+            continue;
+        };
+        let old = *v;
+        let mut new = old + d;
+        // Within the value's bounds.
+        if let Some(&(lo, hi)) = current.bounds.get(&n) {
+            new = new.clamp(lo, hi);
+        }
+        *v = new;
+        out.push((n, old, new));
+    }
+    out
 }
 
 /// Write the plant and the report (Markdown and JSON) into `out`, atomically and together
@@ -819,6 +1007,10 @@ fn joint_fit(
         tie_reach: None,
         warm_up_start: None,
         initial_positions_refit: None,
+        earlier_information: false,
+        following: Vec::new(),
+        earlier_refits: Vec::new(),
+        information_now: None,
         balance: None,
     })
 }

@@ -107,6 +107,7 @@ pub fn markdown(report: &SequenceReport, model: &Model) -> String {
     }
     if !report.final_check.is_empty() {
         final_check_markdown(&mut s, &report.final_check);
+        moved_since_markdown(&mut s, &report.moved_since);
     }
     if !report.ignored.is_empty() {
         let _ = writeln!(s, "## Files not used\n");
@@ -159,11 +160,35 @@ fn final_check_markdown(s: &mut String, checks: &[FinalCheck]) {
     if !above.is_empty() {
         let _ = writeln!(
             s,
-            "**The written plant does not reproduce the files of {}** (a joint above {} σ̂): later steps moved values these files determine only in combination with others (symbols carried because a step did not call them identifiable, the held ties and plant-gain families a least change scales). The joint fit (`--joint-fit after`) fits every step's files at once; from a plant this far off it can stop in a local minimum.\n",
+            "**The written plant does not reproduce the files of {}** (a joint above {} σ̂): later steps moved values these files determine only in combination with others (symbols carried because a step did not call them identifiable, the held ties and plant-gain families a least change scales). Under `--earlier-information on` the values only these files see follow such moves and are refitted on them, so what remains lies in values a later step's files see too. The joint fit (`--joint-fit after`) fits every step's files at once; from a plant this far off it can stop in a local minimum.\n",
             above.join(", "),
             crate::identify::output_error::FLOOR_FACTOR
         );
     }
+}
+
+/// The values a step called identifiable that the plant written holds elsewhere
+/// ([`SequenceReport::moved_since`]).
+fn moved_since_markdown(s: &mut String, moved: &[crate::identify::sequence::MovedValue]) {
+    if moved.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "**Values a step called identifiable that the written plant holds elsewhere** (more than two of the step's standard errors; no later step fitted them): {}. The step determined them given its held values; later steps moved some of those, and these values followed to keep the step's files (`--earlier-information`). Their standard errors in the plant are the step's, conditional on the held values it had.\n",
+        moved
+            .iter()
+            .map(|m| format!(
+                "{} ({}: {} ± {} → {})",
+                m.name,
+                m.config,
+                fmt_g(m.at_step),
+                fmt_g(m.std_err),
+                fmt_g(m.written)
+            ))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
 }
 
 /// One step's section of [`markdown`] (the joint fit's when `joint`), with the run's
@@ -289,6 +314,61 @@ fn step_markdown(
             "Carried prior (`--carried-prior on`): Gaussian about the values the earlier steps left, standard deviation their standard errors there: {}; the prior's term at the result {} (the fit minimised cost + prior term).\n",
             plus_minus(&st.carried_prior),
             fmt_g(f.prior_penalty)
+        );
+    }
+    if st.earlier_information {
+        let _ = writeln!(
+            s,
+            "Earlier information (`--earlier-information on`): fitted under the earlier steps' files' costs to second order (their information and gradient at their solutions), every other value these files see held; the term at the result {} (the fit minimised cost + that term).{}\n",
+            fmt_g(f.prior_penalty),
+            {
+                // Moves below 1e-4 of the value are listed by count only.
+                let (large, small): (Vec<_>, Vec<_>) = st
+                    .following
+                    .iter()
+                    .partition(|(_, a, b)| (b - a).abs() > 1e-4 * a.abs().max(b.abs()));
+                match (large.is_empty(), small.len()) {
+                    (true, 0) => String::new(),
+                    (true, k) => format!(
+                        " {k} value(s) these files do not see moved by less than 1e-4 of themselves after the step, to the earlier costs' conditional minimum."
+                    ),
+                    (false, k) => format!(
+                        " Moved after the step to the earlier costs' conditional minimum (values these files do not see): {}{}.",
+                        large
+                            .iter()
+                            .map(|(n, a, b)| format!("{n} {} → {}", fmt_g(*a), fmt_g(*b)))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        if k > 0 {
+                            format!("; {k} more by less than 1e-4 of themselves")
+                        } else {
+                            String::new()
+                        }
+                    ),
+                }
+            }
+        );
+    }
+    for r in &st.earlier_refits {
+        let _ = writeln!(
+            s,
+            "Step {}'s files after this step: worst joint {:.2} σ̂ (its own end {:.2} σ̂){}.\n",
+            r.config,
+            r.rms.1,
+            r.rms.0,
+            match (r.names.is_empty(), r.rms.2) {
+                (true, _) => " — every value it fitted enters this step's files too, so none is refitted on them".to_string(),
+                (false, Some(after)) => format!(
+                    "; {} refitted on them (the values of that step these files do not see, under the other steps' information): {after:.2} σ̂ ({:.1} s)",
+                    r.names.join(", "),
+                    r.wall_s
+                ),
+                (false, None) => format!(
+                    "; the refit of {} on them did not lower it ({:.1} s), not kept",
+                    r.names.join(", "),
+                    r.wall_s
+                ),
+            }
         );
     }
     if let Some(w) = &st.warm_up_start {

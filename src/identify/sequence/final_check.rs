@@ -83,3 +83,55 @@ pub fn final_check(plant: &Plant, steps: &[(&StepReport, &Problem)]) -> Vec<Fina
         })
         .collect()
 }
+
+/// A value a step called identifiable that the plant written holds more than two of that
+/// step's standard errors away, and that no later step fitted ([`moved_since`]).
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+pub struct MovedValue {
+    /// Parameter name.
+    pub name: String,
+    /// The step that called it identifiable.
+    pub config: String,
+    /// Its value there (SI).
+    pub at_step: f64,
+    /// Its standard error there (SI).
+    pub std_err: f64,
+    /// Its value in the plant written (SI).
+    pub written: f64,
+}
+
+/// The values the steps `steps` (in the plan's order) called identifiable that `plant`
+/// (the plant written) holds more than two standard errors from the step's value, where no
+/// later step fitted them: moved by the earlier information's following or a refit of the
+/// step's files ([`SequenceOptions::earlier_information`]), because a later step moved a
+/// held value the step's estimate was conditional on (c2 of the isolated method holds z7
+/// and I7_11, which c3 refits; Kp_q5 follows). The step's identifiability verdict takes
+/// its held values as known; these show where that was not so.
+pub fn moved_since(plant: &Plant, steps: &[StepReport]) -> Vec<MovedValue> {
+    let mut out = Vec::new();
+    for (k, st) in steps.iter().enumerate() {
+        let f = &st.fit;
+        for (i, n) in f.names.iter().enumerate() {
+            if !f.statistics.identifiable.get(i).copied().unwrap_or(false)
+                || steps[k + 1..].iter().any(|l| l.fit.names.contains(n))
+            {
+                continue;
+            }
+            let (Some(&written), Some(&std_err)) =
+                (plant.parameters.get(n), f.statistics.std_err.get(i))
+            else {
+                continue;
+            };
+            if (written - f.fitted[i]).abs() > 2.0 * std_err {
+                out.push(MovedValue {
+                    name: n.clone(),
+                    config: st.step.config.clone(),
+                    at_step: f.fitted[i],
+                    std_err,
+                    written,
+                });
+            }
+        }
+    }
+    out
+}

@@ -66,7 +66,7 @@ impl StepRefit<'_> {
         names: Vec<String>,
         options: OutputErrorOptions,
     ) -> Result<Problem> {
-        Ok(Problem::new(
+        let problem = Problem::new(
             at,
             self.problem.configuration(),
             names,
@@ -74,7 +74,11 @@ impl StepRefit<'_> {
             self.interest,
             options,
         )?
-        .with_held_ties(self.held_ties.to_vec()))
+        .with_held_ties(self.held_ties.to_vec());
+        match self.problem.earlier_information() {
+            Some(earlier) => problem.with_earlier_information(earlier.clone()),
+            None => Ok(problem),
+        }
     }
 
     /// The options of a refit from the step's fitted minimum `fit`: the step's, with the

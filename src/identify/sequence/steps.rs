@@ -114,6 +114,7 @@ pub(super) fn starting_report(
         ignored,
         data_notes,
         final_check: Vec::new(),
+        moved_since: Vec::new(),
     }
 }
 

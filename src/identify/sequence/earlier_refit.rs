@@ -1,0 +1,167 @@
+//! The earlier steps refitted on their own files after a later step
+//! ([`SequenceOptions::earlier_information`]): the linear following
+//! ([`EarlierInformation::following`]) is exact only to first order, and a later step that
+//! moves a value an earlier step saw in a product or a square (c3 of the isolated method
+//! moves z7, which c2 sees through m7·z7²) leaves that step's files off by the second-order
+//! term. Where an earlier step's files then end above their own figure, the values only
+//! they see are fitted once more on them.
+
+use super::*;
+use crate::identify::output_error::Information;
+use std::time::Instant;
+
+/// An earlier step's files after a later step, and the refit of the values only they see
+/// ([`refit_earlier_steps`]).
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+pub struct EarlierRefit {
+    /// The earlier step's configuration.
+    pub config: String,
+    /// The values refitted (those of the earlier step's fitted values that the later
+    /// step's files do not see).
+    pub names: Vec<String>,
+    /// The worst free joint's RMS / σ̂ on the earlier step's files (initial positions
+    /// estimated): at that step's end, after the later step (with the linear following),
+    /// and after this refit (None when it was not run or not kept).
+    pub rms: (f64, f64, Option<f64>),
+    /// Wall time (s).
+    pub wall_s: f64,
+    /// The earlier step's information at the refitted values (over the values its own
+    /// information covers), which replaces its own in the later steps' priors; None where
+    /// the refit was not kept or the information could not be formed.
+    pub information: Option<Information>,
+}
+
+/// Step `st`'s information ([`Information`]) at `plant`'s values over the names of its own,
+/// on its files (`problem`, the initial positions estimated; one central-difference
+/// Jacobian); None where a value has no bounds or the statistics fail.
+fn information_at(plant: &Plant, st: &StepReport, problem: &Problem) -> Option<Information> {
+    let own = st.fit.statistics.information.as_ref()?;
+    // Every value of its information as a fitted one: its columns are all simulated.
+    let fitted = own.names.clone();
+    let mut options = problem.options().clone();
+    options.estimate_initial_positions = true;
+    let at = Problem::new(
+        plant,
+        problem.configuration(),
+        fitted,
+        problem.records.clone(),
+        &st.step.interest,
+        options,
+    )
+    .ok()?
+    .with_initial_positions_of(plant)
+    .ok()?;
+    let values: Vec<f64> = at.names.iter().map(|n| plant.parameters[n]).collect();
+    let info = at.statistics(&values).ok()?.information?;
+    // Only when it covers every value the step's own did.
+    own.names
+        .iter()
+        .all(|n| info.names.contains(n))
+        .then_some(info)
+}
+
+/// A rise of an earlier step's worst RMS / σ̂ over its own end figure that is refitted:
+/// 2 % (the noise floor's scatter between refits of the same files is below 1 %).
+const RISE: f64 = 1.02;
+
+/// After step `cname` (whose files see the values `enters` names), every step of `ran`
+/// (the steps before it whose files are given; their reports in `reports`) whose files the plant `current` no longer
+/// reproduces — the worst free joint's RMS / σ̂ above [`RISE`] × its own end figure — has
+/// its fitted values that step `cname` does not see fitted once more on its files, under
+/// the other steps' information (every other value held); kept where the RMS falls. The
+/// refits' values are set in `current`.
+///
+/// # Errors
+/// A refit's problem cannot be set up, or its fit fails.
+pub(super) fn refit_earlier_steps(
+    current: &mut Plant,
+    cname: &str,
+    enters: &dyn Fn(&str) -> bool,
+    ran: &[&(String, Problem)],
+    reports: &[StepReport],
+    progress: &(dyn Fn(&str, Progress) + Sync),
+) -> Result<Vec<EarlierRefit>> {
+    let mut out = Vec::new();
+    for (config, problem) in ran {
+        let Some(st) = reports.iter().find(|d| d.step.config == *config) else {
+            continue;
+        };
+        let worst = |c: &FinalCheck| c.joints.iter().filter_map(|j| j.2).fold(0.0, f64::max);
+        let check = &final_check(current, &[(st, problem)])[0];
+        let own = check.joints.iter().filter_map(|j| j.1).fold(0.0, f64::max);
+        let now = if check.failure.is_some() {
+            f64::INFINITY
+        } else {
+            worst(check)
+        };
+        if now <= RISE * own {
+            continue;
+        }
+        let names: Vec<String> = st
+            .fit
+            .names
+            .iter()
+            .filter(|n| !enters(n))
+            .cloned()
+            .collect();
+        if names.is_empty() {
+            out.push(EarlierRefit {
+                config: config.clone(),
+                names,
+                rms: (own, now, None),
+                wall_s: 0.0,
+                information: None,
+            });
+            continue;
+        }
+        let started = Instant::now();
+        // The step's own stages (its growing horizons: from thousands of σ̂ the whole files
+        // alone stall, as c2 after c3 of the isolated method did at 6.9e3), one start, the
+        // initial positions estimated as the check above estimated them.
+        let mut options = problem.options().clone();
+        options.estimate_initial_positions = true;
+        options.starts = 1;
+        options.stribeck_reseed = false;
+        options.least_change = false;
+        let others = EarlierInformation::gather(
+            reports
+                .iter()
+                .filter(|d| d.step.config != *config)
+                .filter_map(StepReport::information),
+            current,
+        );
+        let refit = Problem::new(
+            current,
+            problem.configuration(),
+            names.clone(),
+            problem.records.clone(),
+            &st.step.interest,
+            options,
+        )
+        .with_context(|| format!("step '{cname}': the refit of step '{config}'"))?;
+        let refit = match others {
+            Some(e) => refit.with_earlier_information(e)?,
+            None => refit,
+        };
+        let fit = refit.fit(&|p| progress(config, p))?;
+        let mut trial = current.clone();
+        fit.apply(&mut trial);
+        let after = worst(&final_check(&trial, &[(st, problem)])[0]);
+        let kept = after < now;
+        // The step's information where its values now are, over the values it had it for.
+        let information = if kept {
+            *current = trial;
+            information_at(current, st, problem)
+        } else {
+            None
+        };
+        out.push(EarlierRefit {
+            config: config.clone(),
+            names,
+            rms: (own, now, kept.then_some(after)),
+            wall_s: started.elapsed().as_secs_f64(),
+            information,
+        });
+    }
+    Ok(out)
+}
