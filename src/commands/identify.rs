@@ -88,7 +88,7 @@ pub struct SequenceArgs {
     pub preset: Preset,
     #[command(flatten)]
     pub files: PlantAndData,
-    /// Run this step of the sequence only (the plant must hold the earlier steps' values).
+    /// Run this step only (the plant must hold the earlier steps' values).
     #[arg(long)]
     pub config: Option<String>,
     /// Output directory.
@@ -96,7 +96,7 @@ pub struct SequenceArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub oe: OutputErrorArgs,
-    /// Print help: every option and its default (--help-long: with each option's details).
+    /// Print help: every option and its default (--help-long: with details).
     #[arg(short = 'h', long, action = clap::ArgAction::HelpShort)]
     help: Option<bool>,
     /// Print help with each option's details.
@@ -241,10 +241,10 @@ pub struct OutputErrorArgs {
     #[arg(long, value_enum, default_value = "on")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub warm_up_start: Switch,
-    /// Fit each step under the earlier steps' files' costs to second order; what its files do not see follows. Default: off for the coupled method, on for the isolated
+    /// Fit under the earlier steps' costs to second order. Default: off for the coupled method, on for the isolated
     ///
     /// A later step that refits a value an earlier one saw only in combination (a carried symbol) then keeps the combination: the earlier values its files do not see follow its moves, an earlier step whose files it still leaves off has those values refitted on them, and the gain families of joints earlier steps left apart are carried into a step that frees them together. The report lists what followed and what was refitted.
-    #[arg(long, value_enum)]
+    #[arg(long, value_enum, value_name = "ON|OFF")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub earlier_information: Option<Switch>,
     /// Equation-error warm start: on (filter cut-off per joint by residual analysis), off, or a cut-off fraction of Nyquist such as 0.2. Default: on for the coupled method, off for the isolated
