@@ -3302,6 +3302,7 @@ fn the_final_check_repeats_a_steps_figure_and_sees_a_later_move_of_its_values() 
         initial_positions_refit: None,
         earlier_information: false,
         following: Vec::new(),
+        following_reverted: false,
         earlier_refits: Vec::new(),
         information_now: None,
     };

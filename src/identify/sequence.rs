@@ -296,6 +296,10 @@ pub struct StepReport {
     /// after it: (name, before, after), SI.
     #[serde(default)]
     pub following: Vec<(String, f64, f64)>,
+    /// Whether `following` was reverted: the earlier steps' files were further off with it
+    /// ([`following_helps`]).
+    #[serde(default)]
+    pub following_reverted: bool,
     /// The earlier steps whose files the plant no longer reproduced after this step, and
     /// the refit of their values this step does not see ([`EarlierRefit`]).
     #[serde(default)]
@@ -767,6 +771,19 @@ pub fn run(
             Some(e) => follow(e, &before, &mut current, &occ, problem.configuration()),
             None => Vec::new(),
         };
+        // Kept where it leaves the earlier steps' files no further off than without it.
+        let following_reverted = !following.is_empty() && {
+            let before_this: Vec<&(String, Problem)> = ran
+                .iter()
+                .filter(|(c, _)| position(c) < position(&cname))
+                .collect();
+            !following_helps(&current, &following, &before_this, &report.steps)
+        };
+        if following_reverted {
+            for (n, old, _) in &following {
+                current.parameters.insert(n.clone(), *old);
+            }
+        }
         let Refined {
             fit,
             tie_reach,
@@ -787,6 +804,7 @@ pub fn run(
             initial_positions_refit,
             earlier_information: earlier.is_some(),
             following,
+            following_reverted,
             earlier_refits: Vec::new(),
             information_now: None,
         });
@@ -1009,6 +1027,7 @@ fn joint_fit(
         initial_positions_refit: None,
         earlier_information: false,
         following: Vec::new(),
+        following_reverted: false,
         earlier_refits: Vec::new(),
         information_now: None,
         balance: None,

@@ -328,6 +328,10 @@ fn step_markdown(
                     .iter()
                     .partition(|(_, a, b)| (b - a).abs() > 1e-4 * a.abs().max(b.abs()));
                 match (large.is_empty(), small.len()) {
+                    _ if st.following_reverted => format!(
+                        " The values these files do not see were moved to the earlier costs' conditional minimum and moved back: the earlier steps' files were further off with the moves ({} values).",
+                        st.following.len()
+                    ),
                     (true, 0) => String::new(),
                     (true, k) => format!(
                         " {k} value(s) these files do not see moved by less than 1e-4 of themselves after the step, to the earlier costs' conditional minimum."
@@ -357,6 +361,11 @@ fn step_markdown(
             r.rms.1,
             r.rms.0,
             match (r.names.is_empty(), r.rms.2) {
+                (false, None) if r.failure.is_some() => format!(
+                    "; the refit of {} on them could not be fitted: {}",
+                    r.names.join(", "),
+                    r.failure.as_deref().unwrap_or_default()
+                ),
                 (true, _) => " — every value it fitted enters this step's files too, so none is refitted on them".to_string(),
                 (false, Some(after)) => format!(
                     "; {} refitted on them (the values of that step these files do not see, under the other steps' information): {after:.2} σ̂ ({:.1} s)",

@@ -29,6 +29,9 @@ pub struct EarlierRefit {
     /// information covers), which replaces its own in the later steps' priors; None where
     /// the refit was not kept or the information could not be formed.
     pub information: Option<Information>,
+    /// Why the refit could not be fitted, when it could not.
+    #[serde(default)]
+    pub failure: Option<String>,
 }
 
 /// Step `st`'s information ([`Information`]) at `plant`'s values over the names of its own,
@@ -58,6 +61,56 @@ fn information_at(plant: &Plant, st: &StepReport, problem: &Problem) -> Option<I
         .iter()
         .all(|n| info.names.contains(n))
         .then_some(info)
+}
+
+/// Whether the linear following `following` ((name, before, after) as [`run`] moved them
+/// in `current`) leaves the earlier steps' files (`ran`, their reports in `reports`) no
+/// further off than without it: the sum over the steps whose values it moved by more than
+/// 1e-4 of themselves of the worst joint's RMS / σ̂ (a failed simulation counting as
+/// infinite), with and without. The following is exact to first order only, and over
+/// directions an earlier step's files determine weakly (a short file, a weak excitation)
+/// the pseudo-inverse can move values far: on 1 s of c1's J4 chirp, c2's moves took c1's
+/// values where its file could not be simulated at all.
+pub(super) fn following_helps(
+    current: &Plant,
+    following: &[(String, f64, f64)],
+    ran: &[&(String, Problem)],
+    reports: &[StepReport],
+) -> bool {
+    let large: Vec<&str> = following
+        .iter()
+        .filter(|(_, a, b)| (b - a).abs() > 1e-4 * a.abs().max(b.abs()))
+        .map(|(n, ..)| n.as_str())
+        .collect();
+    if large.is_empty() {
+        return true;
+    }
+    let mut without = current.clone();
+    for (n, old, _) in following {
+        without.parameters.insert(n.clone(), *old);
+    }
+    let worst = |plant: &Plant, st: &StepReport, problem: &Problem| {
+        let c = &final_check(plant, &[(st, problem)])[0];
+        if c.failure.is_some() {
+            f64::INFINITY
+        } else {
+            c.joints.iter().filter_map(|j| j.2).fold(0.0, f64::max)
+        }
+    };
+    let (mut with_sum, mut without_sum) = (0.0, 0.0);
+    for (config, problem) in ran {
+        let Some(st) = reports.iter().find(|d| d.step.config == *config) else {
+            continue;
+        };
+        let sees = st
+            .information()
+            .is_some_and(|i| i.names.iter().any(|n| large.contains(&n.as_str())));
+        if sees {
+            with_sum += worst(current, st, problem);
+            without_sum += worst(&without, st, problem);
+        }
+    }
+    with_sum <= without_sum
 }
 
 /// A rise of an earlier step's worst RMS / σ̂ over its own end figure that is refitted:
@@ -111,6 +164,7 @@ pub(super) fn refit_earlier_steps(
                 rms: (own, now, None),
                 wall_s: 0.0,
                 information: None,
+                failure: None,
             });
             continue;
         }
@@ -143,7 +197,22 @@ pub(super) fn refit_earlier_steps(
             Some(e) => refit.with_earlier_information(e)?,
             None => refit,
         };
-        let fit = refit.fit(&|p| progress(config, p))?;
+        // A refit that cannot be fitted (its files cannot be simulated from this plant)
+        // leaves the plant as it is: the final check reports the step.
+        let fit = match refit.fit(&|p| progress(config, p)) {
+            Ok(fit) => fit,
+            Err(why) => {
+                out.push(EarlierRefit {
+                    config: config.clone(),
+                    names,
+                    rms: (own, now, None),
+                    wall_s: started.elapsed().as_secs_f64(),
+                    information: None,
+                    failure: Some(format!("{why:#}")),
+                });
+                continue;
+            }
+        };
         let mut trial = current.clone();
         fit.apply(&mut trial);
         let after = worst(&final_check(&trial, &[(st, problem)])[0]);
@@ -161,6 +230,7 @@ pub(super) fn refit_earlier_steps(
             rms: (own, now, kept.then_some(after)),
             wall_s: started.elapsed().as_secs_f64(),
             information,
+            failure: None,
         });
     }
     Ok(out)
