@@ -3300,6 +3300,7 @@ fn the_final_check_repeats_a_steps_figure_and_sees_a_later_move_of_its_values() 
         balance: None,
         warm_up_start: None,
         initial_positions_refit: None,
+        whiteness_start: None,
         earlier_information: false,
         following: Vec::new(),
         following_reverted: false,
@@ -3357,14 +3358,16 @@ fn a_later_step_keeps_the_earlier_steps_files_under_their_information() {
     eprintln!("followed c3: {moved:?}");
     assert!(moved.contains(&"Kp_q5"), "{moved:?}");
     let refits = c3["earlier_refits"].as_array().unwrap();
-    eprintln!("refits after c3: {refits:?}");
+    for r in refits {
+        eprintln!("after c3: {}'s files {} σ̂", r["config"], r["rms"]);
+    }
     let off = refits
         .iter()
         .find(|r| r["config"] == "c2")
         .expect("c2's files rose after c3");
     assert!(off["rms"][1].as_f64().unwrap() > 1.5, "{off}");
     let checks = report["final_check"].as_array().unwrap();
-    eprintln!("final check: {checks:?}");
+    eprintln!("final check: {}", report["final_check"]);
     let configs: Vec<&str> = checks
         .iter()
         .map(|c| c["config"].as_str().unwrap())
@@ -3374,4 +3377,54 @@ fn a_later_step_keeps_the_earlier_steps_files_under_their_information() {
         let written = c["joints"][0][2].as_f64().unwrap();
         assert!(written <= 1.1, "{c}");
     }
+}
+
+/// The residual's whiteness (`Problem::whiteness`, the Ljung–Box test of MATLAB `resid`),
+/// what the sequence's whiteness start reads at the floor: c1 on 20 s of Table 4.3's J4
+/// chirp made from the truth (RK4 at the simulator's step, the fit's), with the initial
+/// position estimated. At the truth the residual is the sensor's noise, white; with Kp_q4
+/// 1e-5 off — an RMS still within 1.5 σ̂, as a wrong minimum near the floor is — it is not.
+#[test]
+fn the_residual_at_the_truth_is_white_and_a_small_error_is_not() {
+    let d = tempfile::tempdir().unwrap();
+    let (truth, start, names, at_truth) = c1_j4_at_truth(d.path());
+    let (conf, rec) = c1_record(d.path(), &truth);
+    let problem = Problem::new(
+        &start,
+        conf,
+        names.clone(),
+        vec![rec],
+        &[4],
+        OutputErrorOptions {
+            h: 1.0 / 12000.0,
+            ..OutputErrorOptions::isolated()
+        },
+    )
+    .unwrap();
+    let at = problem.with_initial_positions_of(&start).unwrap();
+    let white = at.whiteness(&at_truth).unwrap();
+    eprintln!("at the truth: {}", white[0].1.text());
+    assert_eq!(white[0].0, "q4");
+    assert!(white[0].1.white(), "{}", white[0].1.text());
+    let k = names.iter().position(|n| n == "Kp_q4").unwrap();
+    let mut off = at_truth.clone();
+    off[k] *= 1.0 + 1e-5;
+    let mut moved = start.clone();
+    moved.set_values(&names, &off);
+    let at = problem.with_initial_positions_of(&moved).unwrap();
+    let coloured = at.whiteness(&off).unwrap();
+    let rms = at.joint_fits(
+        &at.records
+            .iter()
+            .map(|r| at.simulate(&moved, r).unwrap())
+            .collect::<Vec<_>>(),
+    )[0]
+    .floor_ratio()
+    .unwrap();
+    eprintln!(
+        "Kp_q4 × (1 + 1e-5): {}, RMS {rms:.2} σ̂",
+        coloured[0].1.text()
+    );
+    assert!(rms < 1.5, "{rms}");
+    assert!(!coloured[0].1.white(), "{}", coloured[0].1.text());
 }

@@ -288,6 +288,11 @@ pub struct StepReport {
     /// before stop 83).
     #[serde(default)]
     pub initial_positions_refit: Option<InitialPositionsRefit>,
+    /// The warm-up start run because the residual at the floor was not white
+    /// ([`StepRefit::whiteness_start`], with [`SequenceOptions::warm_up_start`]), when run
+    /// (absent from reports written before stop 84).
+    #[serde(default)]
+    pub whiteness_start: Option<WhitenessStart>,
     /// Whether the step was fitted under the earlier steps' information
     /// ([`SequenceOptions::earlier_information`]; false for the first step).
     #[serde(default)]
@@ -389,7 +394,8 @@ pub struct SequenceOptions {
     /// weighted 1, kept when the worst free joint's RMS / σ̂ falls.
     pub balance: bool,
     /// A second start through the warm-ups where a step's fit through the growing horizons
-    /// ends above the noise floor ([`StepRefit::warm_up_start`]); the lower cost is kept.
+    /// ends above the noise floor ([`StepRefit::warm_up_start`]), or at the floor with a
+    /// residual that is not white ([`StepRefit::whiteness_start`]); the lower cost is kept.
     pub warm_up_start: bool,
     /// After the warm-up start, the step's kept minimum, where at the noise floor, fitted
     /// once more with the initial positions estimated
@@ -765,6 +771,12 @@ pub fn run(
         } else {
             (fit, None)
         };
+        // At the floor with a residual that is not white: a wrong minimum near the floor.
+        let (fit, whiteness_start) = if opts.warm_up_start {
+            refit.whiteness_start(&current, fit)?
+        } else {
+            (fit, None)
+        };
         let refined = refit.refine(&mut current, fit, opts)?;
         keep_step(&mut current, &mut undetermined, &refined, &s.tied_held);
         let following = match &earlier {
@@ -802,6 +814,7 @@ pub fn run(
             balance,
             warm_up_start,
             initial_positions_refit,
+            whiteness_start,
             earlier_information: earlier.is_some(),
             following,
             following_reverted,
@@ -1025,6 +1038,7 @@ fn joint_fit(
         tie_reach: None,
         warm_up_start: None,
         initial_positions_refit: None,
+        whiteness_start: None,
         earlier_information: false,
         following: Vec::new(),
         following_reverted: false,

@@ -394,6 +394,20 @@ fn step_markdown(
             w.work.status
         );
     }
+    if let Some(w) = &st.whiteness_start {
+        let _ = writeln!(
+            s,
+            "Warm-up start for a residual that is not white (`--warm-up-start on`; at the noise floor, but {}): a second start from the same plant through the equation-error start and the prediction-error homotopy, then its initial positions refitted; cost {} (kept minimum) against {} (warm-ups): {} ({} cost evaluations, {} Jacobians, {:.1} s; {}).\n",
+            w.not_white.join("; "),
+            fmt_g(w.cost.0),
+            fmt_g(w.cost.1),
+            if w.kept { "the warm-ups' kept" } else { "the first kept" },
+            w.work.evaluations,
+            w.work.jacobians,
+            w.work.wall_s,
+            w.work.status
+        );
+    }
     if let Some(r) = &st.initial_positions_refit {
         let _ = writeln!(
             s,

@@ -810,6 +810,43 @@ impl Problem {
         Ok(self.with_records(self.estimate_initial_positions(plant)?, self.sqrt_w.clone()))
     }
 
+    /// The whiteness of the residual at physical parameters `p` per free joint (its name),
+    /// pooled over the files ([`crate::compare::whiteness`], 25 lags: the Ljung–Box test
+    /// MATLAB `resid` runs): at the noise floor of a model that holds, the residual is the
+    /// sensor's noise, white; a fit in a wrong minimum leaves the model's error, smooth at
+    /// the sampling scale, even where its RMS is near the noise.
+    ///
+    /// # Errors
+    /// The simulation at `p` fails.
+    pub fn whiteness(&self, p: &[f64]) -> Result<Vec<(String, crate::compare::Whiteness)>> {
+        let r = self
+            .residuals(p)
+            .map_err(|e| anyhow::anyhow!("the residual's whiteness: {e}"))?;
+        let nf = self.lambda.len();
+        // The residuals' order: per file, per free joint, its weighted samples.
+        let mut segments: Vec<Vec<&[f64]>> = vec![Vec::new(); nf];
+        let mut at = 0;
+        for w in &self.sqrt_w {
+            let k = w.iter().filter(|&&x| x > 0.0).count();
+            for seg in segments.iter_mut() {
+                seg.push(&r[at..at + k]);
+                at += k;
+            }
+        }
+        Ok(self
+            .conf
+            .free
+            .iter()
+            .zip(&segments)
+            .map(|(&j, seg)| {
+                (
+                    self.plant.model.joints[j].to_string(),
+                    crate::compare::whiteness(seg, 25),
+                )
+            })
+            .collect())
+    }
+
     /// The same problem with every file's free-joint initial positions moved by `offsets`
     /// (per file, per free joint, rad; [`FitResult::initial_positions`]: the starts a fit
     /// settled on, so that [`Problem::cost`] there repeats that fit's cost). Files without
