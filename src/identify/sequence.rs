@@ -301,8 +301,8 @@ pub struct StepReport {
     /// after it: (name, before, after), SI.
     #[serde(default)]
     pub following: Vec<(String, f64, f64)>,
-    /// Whether `following` was reverted: the earlier steps' files were further off with it
-    /// ([`following_helps`]).
+    /// Whether `following` was reverted: the sum over the earlier steps' files of their
+    /// worst RMS / σ̂ was higher with it than without.
     #[serde(default)]
     pub following_reverted: bool,
     /// The earlier steps whose files the plant no longer reproduced after this step, and

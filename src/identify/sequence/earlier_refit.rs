@@ -11,7 +11,7 @@ use crate::identify::output_error::Information;
 use std::time::Instant;
 
 /// An earlier step's files after a later step, and the refit of the values only they see
-/// ([`refit_earlier_steps`]).
+/// (after each step under [`SequenceOptions::earlier_information`]).
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct EarlierRefit {
     /// The earlier step's configuration.

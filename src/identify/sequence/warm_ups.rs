@@ -44,25 +44,10 @@ impl StepRefit<'_> {
         plant: &Plant,
         fit: FitResult,
     ) -> Result<(FitResult, Option<WarmUpStart>)> {
-        let options = self.problem.options();
-        let own_warm_ups = options.equation_error.is_some()
-            || !options.predictor.is_empty()
-            || !options.segments.is_empty();
-        if own_warm_ups || fit.statistics.above_floor.is_empty() {
+        if self.own_warm_ups() || fit.statistics.above_floor.is_empty() {
             return Ok((fit, None));
         }
-        let warm_options = OutputErrorOptions {
-            // The warm-ups alone: the plant's values through the whole files would repeat
-            // the first start's path (`--horizons none`).
-            horizons: Vec::new(),
-            segments: Vec::new(),
-            ..options.clone()
-        }
-        .with_coupled_warm_ups();
-        let second = self
-            .refit_problem(plant, fit.names.clone(), warm_options)
-            .context("the warm-up start")?
-            .fit(self.progress)?;
+        let second = self.through_the_warm_ups(plant, &fit)?;
         let kept = second.cost_after < fit.cost_after;
         let record = WarmUpStart {
             above_floor: fit.statistics.above_floor.clone(),
@@ -70,12 +55,41 @@ impl StepRefit<'_> {
             kept,
             work: RefitWork::of(&second),
         };
-        let (mut best, other) = if kept { (second, fit) } else { (fit, second) };
-        best.evaluations += other.evaluations;
-        best.jacobians += other.jacobians;
-        best.wall_s += other.wall_s;
-        Ok((best, Some(record)))
+        Ok((lower_with_work_of_both(fit, second, kept), Some(record)))
     }
+
+    /// Whether the step's options have warm-ups of their own (an equation-error start, a
+    /// predictor stage or segments).
+    fn own_warm_ups(&self) -> bool {
+        let options = self.problem.options();
+        options.equation_error.is_some()
+            || !options.predictor.is_empty()
+            || !options.segments.is_empty()
+    }
+
+    /// The second fit of `fit`'s parameters from `plant` through the coupled preset's
+    /// warm-ups alone (the plant's values through the whole files would repeat the first
+    /// start's path: `--horizons none`).
+    fn through_the_warm_ups(&self, plant: &Plant, fit: &FitResult) -> Result<FitResult> {
+        let warm_options = OutputErrorOptions {
+            horizons: Vec::new(),
+            segments: Vec::new(),
+            ..self.problem.options().clone()
+        }
+        .with_coupled_warm_ups();
+        self.refit_problem(plant, fit.names.clone(), warm_options)
+            .context("the warm-up start")?
+            .fit(self.progress)
+    }
+}
+
+/// The kept one of `fit` and `second` (`second` where `kept`), with the work of both.
+fn lower_with_work_of_both(fit: FitResult, second: FitResult, kept: bool) -> FitResult {
+    let (mut best, other) = if kept { (second, fit) } else { (fit, second) };
+    best.evaluations += other.evaluations;
+    best.jacobians += other.jacobians;
+    best.wall_s += other.wall_s;
+    best
 }
 
 /// The warm-up start run because the step's residual at the floor is not white
@@ -115,11 +129,7 @@ impl StepRefit<'_> {
         plant: &Plant,
         fit: FitResult,
     ) -> Result<(FitResult, Option<WhitenessStart>)> {
-        let options = self.problem.options();
-        let own_warm_ups = options.equation_error.is_some()
-            || !options.predictor.is_empty()
-            || !options.segments.is_empty();
-        if own_warm_ups || !fit.statistics.above_floor.is_empty() {
+        if self.own_warm_ups() || !fit.statistics.above_floor.is_empty() {
             return Ok((fit, None));
         }
         let at = match &fit.initial_positions {
@@ -135,16 +145,7 @@ impl StepRefit<'_> {
         if not_white.is_empty() {
             return Ok((fit, None));
         }
-        let warm_options = OutputErrorOptions {
-            horizons: Vec::new(),
-            segments: Vec::new(),
-            ..options.clone()
-        }
-        .with_coupled_warm_ups();
-        let second = self
-            .refit_problem(plant, fit.names.clone(), warm_options)
-            .context("the warm-up start")?
-            .fit(self.progress)?;
+        let second = self.through_the_warm_ups(plant, &fit)?;
         // On estimated starts too, so that the costs compare.
         let (second, _) = self.refit_initial_positions(plant, second)?;
         let kept = second.cost_after < fit.cost_after;
@@ -154,10 +155,6 @@ impl StepRefit<'_> {
             kept,
             work: RefitWork::of(&second),
         };
-        let (mut best, other) = if kept { (second, fit) } else { (fit, second) };
-        best.evaluations += other.evaluations;
-        best.jacobians += other.jacobians;
-        best.wall_s += other.wall_s;
-        Ok((best, Some(record)))
+        Ok((lower_with_work_of_both(fit, second, kept), Some(record)))
     }
 }
