@@ -44,6 +44,22 @@ pub struct Information {
 }
 
 impl Information {
+    /// Whether its parts agree in size (n names, n values, n × n matrix, n gradient) and
+    /// every number is finite.
+    pub fn is_well_formed(&self) -> bool {
+        let n = self.names.len();
+        self.values.len() == n
+            && self.gradient.len() == n
+            && self.matrix.len() == n
+            && self.matrix.iter().all(|row| row.len() == n)
+            && self
+                .values
+                .iter()
+                .chain(&self.gradient)
+                .chain(self.matrix.iter().flatten())
+                .all(|x| x.is_finite())
+    }
+
     /// The information of columns `cols` (∂r/∂θ, one of length m per name) at residuals
     /// `r` (m) with variances `sigma` (m); names with a column that is not finite are left
     /// out.
@@ -116,7 +132,9 @@ impl EarlierInformation {
         steps: impl IntoIterator<Item = &'a Information>,
         plant: &Plant,
     ) -> Option<EarlierInformation> {
-        let steps: Vec<&Information> = steps.into_iter().collect();
+        // A report edited by hand (`--resume` reads it back) may hold an information of
+        // the wrong shape or with values that are not finite: it is left out.
+        let steps: Vec<&Information> = steps.into_iter().filter(|s| s.is_well_formed()).collect();
         let mut index: BTreeMap<&str, usize> = BTreeMap::new();
         let mut names: Vec<String> = Vec::new();
         for s in &steps {
@@ -363,6 +381,32 @@ mod tests {
             residual.as_slice(),
             &vec![1.0; y.len()],
         )
+    }
+
+    /// An information of the wrong shape or with a value that is not finite (a report
+    /// edited by hand) is left out of the sum, not indexed out of bounds.
+    #[test]
+    fn a_malformed_information_is_left_out() {
+        let mut plant = Plant::new("planar2r", vec![]).unwrap();
+        plant.parameters.insert("a".into(), 1.0);
+        let good = Information {
+            names: vec!["a".into()],
+            values: vec![1.0],
+            matrix: vec![vec![4.0]],
+            gradient: vec![0.0],
+        };
+        let short = Information {
+            matrix: vec![],
+            ..good.clone()
+        };
+        let nan = Information {
+            gradient: vec![f64::NAN],
+            ..good.clone()
+        };
+        assert!(good.is_well_formed() && !short.is_well_formed() && !nan.is_well_formed());
+        assert!(EarlierInformation::gather([&short, &nan], &plant).is_none());
+        let e = EarlierInformation::gather([&good, &short], &plant).unwrap();
+        assert!(e.knows("a"));
     }
 
     /// For a linear model the sequence under the earlier information ends where the joint
