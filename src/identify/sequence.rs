@@ -783,13 +783,18 @@ pub fn run(
             Some(e) => follow(e, &before, &mut current, &occ, problem.configuration()),
             None => Vec::new(),
         };
+        // The earlier steps of the plan whose files are given.
+        let before_this: Vec<&(String, Problem)> = ran
+            .iter()
+            .filter(|(c, _)| position(c) < position(&cname))
+            .collect();
         // Kept where it leaves the earlier steps' files no further off than without it.
-        let following_reverted = !following.is_empty() && {
-            let before_this: Vec<&(String, Problem)> = ran
-                .iter()
-                .filter(|(c, _)| position(c) < position(&cname))
-                .collect();
-            !following_helps(&current, &following, &before_this, &report.steps)
+        let (following_reverted, checked) = if following.is_empty() {
+            (false, Vec::new())
+        } else {
+            let (helps, checked) =
+                following_helps(&current, &following, &before_this, &report.steps);
+            (!helps, checked)
         };
         if following_reverted {
             for (n, old, _) in &following {
@@ -826,16 +831,13 @@ pub fn run(
             // The earlier steps' files the linear following left off, refitted.
             let conf = problem.configuration();
             let enters = |n: &str| super::output_error::enters(plant, &occ, conf, n);
-            let before_this: Vec<&(String, Problem)> = ran
-                .iter()
-                .filter(|(c, _)| position(c) < position(&cname))
-                .collect();
             let refits = refit_earlier_steps(
                 &mut current,
                 &cname,
                 &enters,
                 &before_this,
                 &report.steps,
+                &checked,
                 progress,
             )?;
             for r in &refits {

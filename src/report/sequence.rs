@@ -383,43 +383,34 @@ fn step_markdown(
     if let Some(w) = &st.warm_up_start {
         let _ = writeln!(
             s,
-            "Warm-up start (`--warm-up-start on`; the fit through the growing horizons ended above the noise floor: {}): a second start from the same plant through the equation-error start and the prediction-error homotopy, then the whole files; cost {} (horizons) against {} (warm-ups): {} ({} cost evaluations, {} Jacobians, {:.1} s; {}).\n",
+            "Warm-up start (`--warm-up-start on`; the fit through the growing horizons ended above the noise floor: {}): a second start from the same plant through the equation-error start and the prediction-error homotopy, then the whole files; cost {} (horizons) against {} (warm-ups): {} ({}).\n",
             w.above_floor.join(", "),
             fmt_g(w.cost.0),
             fmt_g(w.cost.1),
             if w.kept { "the warm-ups' kept" } else { "the horizons' kept" },
-            w.work.evaluations,
-            w.work.jacobians,
-            w.work.wall_s,
-            w.work.status
+            w.work.text()
         );
     }
     if let Some(w) = &st.whiteness_start {
         let _ = writeln!(
             s,
-            "Warm-up start for a residual that is not white (`--warm-up-start on`; at the noise floor, but {}): a second start from the same plant through the equation-error start and the prediction-error homotopy, then its initial positions refitted; cost {} (kept minimum) against {} (warm-ups): {} ({} cost evaluations, {} Jacobians, {:.1} s; {}).\n",
+            "Warm-up start for a residual that is not white (`--warm-up-start on`; at the noise floor, but {}): a second start from the same plant through the equation-error start and the prediction-error homotopy, then its initial positions refitted; cost {} (kept minimum) against {} (warm-ups): {} ({}).\n",
             w.not_white.join("; "),
             fmt_g(w.cost.0),
             fmt_g(w.cost.1),
             if w.kept { "the warm-ups' kept" } else { "the first kept" },
-            w.work.evaluations,
-            w.work.jacobians,
-            w.work.wall_s,
-            w.work.status
+            w.work.text()
         );
     }
     if let Some(r) = &st.initial_positions_refit {
         let _ = writeln!(
             s,
-            "Initial-positions refit (`--initial-positions refit`): the kept minimum fitted once more with every file's initial positions estimated; cost {} (first measured samples) against {} (estimated, largest move {:.2} σ̂): {} ({} cost evaluations, {} Jacobians, {:.1} s; {}).\n",
+            "Initial-positions refit (`--initial-positions refit`): the kept minimum fitted once more with every file's initial positions estimated; cost {} (first measured samples) against {} (estimated, largest move {:.2} σ̂): {} ({}).\n",
             fmt_g(r.cost.0),
             fmt_g(r.cost.1),
             r.largest_move,
             if r.kept { "the estimated kept" } else { "the measured kept" },
-            r.work.evaluations,
-            r.work.jacobians,
-            r.work.wall_s,
-            r.work.status
+            r.work.text()
         );
     }
     if let Some(t) = &st.tie_reach {
@@ -460,7 +451,7 @@ fn step_markdown(
     if let Some(r) = &st.release {
         let _ = writeln!(
             s,
-            "Release of held values (`--release-held on`; the step's first fit ended above the noise floor): {} fitted again with this step's parameters from its first fit, under a Gaussian prior about their held values with their recorded standard errors (ρ: the recorded variance over the variance this step's data alone give the value): {}. Cost + prior term {} → {} ({}; {} cost evaluations, {} Jacobians, {:.1} s; {}).\n",
+            "Release of held values (`--release-held on`; the step's first fit ended above the noise floor): {} fitted again with this step's parameters from its first fit, under a Gaussian prior about their held values with their recorded standard errors (ρ: the recorded variance over the variance this step's data alone give the value): {}. Cost + prior term {} → {} ({}; {}).\n",
             r.values.len(),
             r.values
                 .iter()
@@ -475,17 +466,14 @@ fn step_markdown(
             fmt_g(r.objective_before),
             fmt_g(r.objective_after),
             if r.kept { "kept: the values and statistics below are the release's" } else { "not lower: not kept" },
-            r.work.evaluations,
-            r.work.jacobians,
-            r.work.wall_s,
-            r.work.status
+            r.work.text()
         );
     }
     if let Some(b) = &st.balance {
         let (worst_before, worst_after) = b.worst();
         let _ = writeln!(
             s,
-            "Balanced refit (`--balance on`): the whole files once more with every free joint weighted 1, from the step's fit: RMS / σ̂ {}; worst {worst_before:.2} → {worst_after:.2} ({}). Cost with every joint weighted 1 {} → {}; the cost with the step's weights {} → {} ({} cost evaluations, {} Jacobians, {:.1} s; {}).\n",
+            "Balanced refit (`--balance on`): the whole files once more with every free joint weighted 1, from the step's fit: RMS / σ̂ {}; worst {worst_before:.2} → {worst_after:.2} ({}). Cost with every joint weighted 1 {} → {}; the cost with the step's weights {} → {} ({}).\n",
             b.joints
                 .iter()
                 .map(|(j, a, c)| format!("{j} {} → {}", fmt_ratio(*a), fmt_ratio(*c)))
@@ -500,10 +488,7 @@ fn step_markdown(
             fmt_g(b.cost_balanced.1),
             fmt_g(b.cost_weighted.0),
             fmt_g(b.cost_weighted.1),
-            b.work.evaluations,
-            b.work.jacobians,
-            b.work.wall_s,
-            b.work.status
+            b.work.text()
         );
     }
     if let Some(lc) = f.least_change.as_ref().filter(|lc| !lc.moved.is_empty()) {

@@ -67,7 +67,8 @@ fn information_at(plant: &Plant, st: &StepReport, problem: &Problem) -> Option<I
 /// in `current`) leaves the earlier steps' files (`ran`, their reports in `reports`) no
 /// further off than without it: the sum over the steps whose values it moved by more than
 /// 1e-4 of themselves of the worst joint's RMS / σ̂ (a failed simulation counting as
-/// infinite), with and without. The following is exact to first order only, and over
+/// infinite), with and without; and the checks of those steps with the plant kept (with
+/// it where it helps), for [`refit_earlier_steps`] not to simulate them again. The following is exact to first order only, and over
 /// directions an earlier step's files determine weakly (a short file, a weak excitation)
 /// the pseudo-inverse can move values far: on 1 s of c1's J4 chirp, c2's moves took c1's
 /// values where its file could not be simulated at all.
@@ -76,28 +77,20 @@ pub(super) fn following_helps(
     following: &[(String, f64, f64)],
     ran: &[&(String, Problem)],
     reports: &[StepReport],
-) -> bool {
+) -> (bool, Vec<FinalCheck>) {
     let large: Vec<&str> = following
         .iter()
         .filter(|(_, a, b)| (b - a).abs() > 1e-4 * a.abs().max(b.abs()))
         .map(|(n, ..)| n.as_str())
         .collect();
     if large.is_empty() {
-        return true;
+        return (true, Vec::new());
     }
     let mut without = current.clone();
     for (n, old, _) in following {
         without.parameters.insert(n.clone(), *old);
     }
-    let worst = |plant: &Plant, st: &StepReport, problem: &Problem| {
-        let c = &final_check(plant, &[(st, problem)])[0];
-        if c.failure.is_some() {
-            f64::INFINITY
-        } else {
-            c.joints.iter().filter_map(|j| j.2).fold(0.0, f64::max)
-        }
-    };
-    let (mut with_sum, mut without_sum) = (0.0, 0.0);
+    let (mut with, mut with_out) = (Vec::new(), Vec::new());
     for (config, problem) in ran {
         let Some(st) = reports.iter().find(|d| d.step.config == *config) else {
             continue;
@@ -106,11 +99,16 @@ pub(super) fn following_helps(
             .information()
             .is_some_and(|i| i.names.iter().any(|n| large.contains(&n.as_str())));
         if sees {
-            with_sum += worst(current, st, problem);
-            without_sum += worst(&without, st, problem);
+            with.extend(final_check(current, &[(st, problem)]));
+            with_out.extend(final_check(&without, &[(st, problem)]));
         }
     }
-    with_sum <= without_sum
+    let sum = |checks: &[FinalCheck]| checks.iter().map(FinalCheck::worst).sum::<f64>();
+    if sum(&with) <= sum(&with_out) {
+        (true, with)
+    } else {
+        (false, with_out)
+    }
 }
 
 /// A rise of an earlier step's worst RMS / σ̂ over its own end figure that is refitted:
@@ -118,11 +116,13 @@ pub(super) fn following_helps(
 const RISE: f64 = 1.02;
 
 /// After step `cname` (whose files see the values `enters` names), every step of `ran`
-/// (the steps before it whose files are given; their reports in `reports`) whose files the plant `current` no longer
-/// reproduces — the worst free joint's RMS / σ̂ above [`RISE`] × its own end figure — has
-/// its fitted values that step `cname` does not see fitted once more on its files, under
-/// the other steps' information (every other value held); kept where the RMS falls. The
-/// refits' values are set in `current`.
+/// (the steps before it whose files are given; their reports in `reports`) whose files
+/// the plant `current` no longer reproduces — the worst free joint's RMS / σ̂ above
+/// [`RISE`] × its own end figure — has its fitted values that step `cname` does not see
+/// fitted once more on its files, under the other steps' information (every other value
+/// held); kept where the RMS falls (a refit whose files cannot be simulated is not). The
+/// refits' values are set in `current`. `checked`: checks of some of those steps with
+/// `current` already made ([`following_helps`]), not simulated again.
 ///
 /// # Errors
 /// A refit's problem cannot be set up, or its fit fails.
@@ -132,6 +132,7 @@ pub(super) fn refit_earlier_steps(
     enters: &dyn Fn(&str) -> bool,
     ran: &[&(String, Problem)],
     reports: &[StepReport],
+    checked: &[FinalCheck],
     progress: &(dyn Fn(&str, Progress) + Sync),
 ) -> Result<Vec<EarlierRefit>> {
     let mut out = Vec::new();
@@ -139,14 +140,11 @@ pub(super) fn refit_earlier_steps(
         let Some(st) = reports.iter().find(|d| d.step.config == *config) else {
             continue;
         };
-        let worst = |c: &FinalCheck| c.joints.iter().filter_map(|j| j.2).fold(0.0, f64::max);
-        let check = &final_check(current, &[(st, problem)])[0];
-        let own = check.joints.iter().filter_map(|j| j.1).fold(0.0, f64::max);
-        let now = if check.failure.is_some() {
-            f64::INFINITY
-        } else {
-            worst(check)
+        let check = match checked.iter().find(|c| c.config == *config) {
+            Some(c) => c.clone(),
+            None => final_check(current, &[(st, problem)]).swap_remove(0),
         };
+        let (own, now) = (check.worst_at_end(), check.worst());
         if now <= RISE * own {
             continue;
         }
@@ -215,7 +213,7 @@ pub(super) fn refit_earlier_steps(
         };
         let mut trial = current.clone();
         fit.apply(&mut trial);
-        let after = worst(&final_check(&trial, &[(st, problem)])[0]);
+        let after = final_check(&trial, &[(st, problem)])[0].worst();
         let kept = after < now;
         // The step's information where its values now are, over the values it had it for.
         let information = if kept {

@@ -21,6 +21,20 @@ pub struct FinalCheck {
 }
 
 impl FinalCheck {
+    /// The worst free joint's RMS / σ̂ with the final plant; infinite where the files could
+    /// not be simulated.
+    pub fn worst(&self) -> f64 {
+        if self.failure.is_some() {
+            return f64::INFINITY;
+        }
+        self.joints.iter().filter_map(|j| j.2).fold(0.0, f64::max)
+    }
+
+    /// The worst free joint's RMS / σ̂ at the step's own end.
+    pub fn worst_at_end(&self) -> f64 {
+        self.joints.iter().filter_map(|j| j.1).fold(0.0, f64::max)
+    }
+
     /// Whether a free joint ends above the noise floor ([`FLOOR_FACTOR`] × σ̂) with the
     /// final plant, or could not be simulated.
     pub fn above_floor(&self) -> bool {

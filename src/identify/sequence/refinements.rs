@@ -26,6 +26,14 @@ pub struct RefitWork {
 }
 
 impl RefitWork {
+    /// "61 cost evaluations, 23 Jacobians, 13.1 s; " then the status, as the report gives it.
+    pub fn text(&self) -> String {
+        format!(
+            "{} cost evaluations, {} Jacobians, {:.1} s; {}",
+            self.evaluations, self.jacobians, self.wall_s, self.status
+        )
+    }
+
     /// The work of `fit`.
     pub(super) fn of(fit: &FitResult) -> RefitWork {
         RefitWork {

@@ -97,7 +97,7 @@ fn lower_with_work_of_both(fit: FitResult, second: FitResult, kept: bool) -> Fit
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct WhitenessStart {
     /// The free joints whose residual is not white at the kept minimum, with the test
-    /// ("q1: Ljung–Box Q = 8864.5 > 44.3 over 25 lags").
+    /// ("q1: Ljung–Box Q = 1556.0 > 44.3 over 25 lags").
     pub not_white: Vec<String>,
     /// The cost (4.2)/(4.3), initial positions estimated where the step's were, at the kept
     /// minimum and where the warm-up start ended (after its own initial-positions refit).
@@ -119,7 +119,7 @@ impl StepRefit<'_> {
     ///
     /// Why: the floor test reads the RMS, and a wrong minimum can sit near it. c5 of the
     /// isolated Freedom 6S on seed 31–37 data ended at 1.07 σ̂ with qeq_q1 5.5 % and vs_q1
-    /// 32 % off, called identifiable; its residual's Ljung–Box Q was 8864 against 44.3,
+    /// 32 % off, called identifiable; its residual's Ljung–Box Q was 1556 against 44.3,
     /// while at the truth it is 35.4 (the sensitivities record, stops 83 and 84).
     ///
     /// # Errors
