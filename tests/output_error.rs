@@ -3282,8 +3282,8 @@ fn the_final_check_repeats_a_steps_figure_and_sees_a_later_move_of_its_values() 
     let fit = problem.fit(&|_| {}).unwrap();
     let mut fitted = start.clone();
     fit.apply(&mut fitted);
-    let report = StepReport {
-        step: Step {
+    let report = StepReport::of(
+        Step {
             config: "c1".into(),
             free: vec![4],
             interest: vec![4],
@@ -3293,20 +3293,7 @@ fn the_final_check_repeats_a_steps_figure_and_sees_a_later_move_of_its_values() 
             tied_held: Vec::new(),
         },
         fit,
-        impossible: Vec::new(),
-        carried_prior: Vec::new(),
-        release: None,
-        tie_reach: None,
-        balance: None,
-        warm_up_start: None,
-        initial_positions_refit: None,
-        whiteness_start: None,
-        earlier_information: false,
-        following: Vec::new(),
-        following_reverted: false,
-        earlier_refits: Vec::new(),
-        information_now: None,
-    };
+    );
     let same = &final_check(&fitted, &[(&report, &problem)])[0];
     let (end, written) = (same.joints[0].1.unwrap(), same.joints[0].2.unwrap());
     eprintln!("c1 q4 RMS / σ̂: step {end:.3}, written plant {written:.3}");

@@ -317,6 +317,28 @@ pub struct StepReport {
 }
 
 impl StepReport {
+    /// The report of `step` fitted as `fit`, with nothing else recorded (no impossible
+    /// link, refinement, following or refit).
+    pub fn of(step: Step, fit: FitResult) -> StepReport {
+        StepReport {
+            step,
+            fit,
+            impossible: Vec::new(),
+            carried_prior: Vec::new(),
+            release: None,
+            tie_reach: None,
+            balance: None,
+            warm_up_start: None,
+            initial_positions_refit: None,
+            whiteness_start: None,
+            earlier_information: false,
+            following: Vec::new(),
+            following_reverted: false,
+            earlier_refits: Vec::new(),
+            information_now: None,
+        }
+    }
+
     /// This step's information for the later steps' priors: where a later refit left its
     /// values, else at its fit.
     pub fn information(&self) -> Option<&super::output_error::Information> {
@@ -1024,29 +1046,19 @@ fn joint_fit(
     record_standard_errors(plant, &fit.names, &fit.statistics);
     let impossible = impossible_links(plant, &fit.names)?;
     Ok(StepReport {
-        step: Step {
-            config: "joint".into(),
-            free,
-            interest: Vec::new(),
-            fitted: fit.names.clone(),
-            carried: Vec::new(),
-            held,
-            tied_held,
-        },
-        fit,
         impossible,
-        carried_prior: Vec::new(),
-        release: None,
-        tie_reach: None,
-        warm_up_start: None,
-        initial_positions_refit: None,
-        whiteness_start: None,
-        earlier_information: false,
-        following: Vec::new(),
-        following_reverted: false,
-        earlier_refits: Vec::new(),
-        information_now: None,
-        balance: None,
+        ..StepReport::of(
+            Step {
+                config: "joint".into(),
+                free,
+                interest: Vec::new(),
+                fitted: fit.names.clone(),
+                carried: Vec::new(),
+                held,
+                tied_held,
+            },
+            fit,
+        )
     })
 }
 
