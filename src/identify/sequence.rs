@@ -309,6 +309,10 @@ pub struct StepReport {
     /// the refit of their values this step does not see ([`EarlierRefit`]).
     #[serde(default)]
     pub earlier_refits: Vec<EarlierRefit>,
+    /// This step fitted once more with the earlier steps whose files it left off although
+    /// it saw every value they fitted ([`JointRefit`]), when run.
+    #[serde(default)]
+    pub joint_refit: Option<JointRefit>,
     /// This step's information where a later step's refit of its files left its values
     /// ([`EarlierRefit::information`]), which replaces the fit's own in the priors of the
     /// steps after that.
@@ -335,6 +339,7 @@ impl StepReport {
             following: Vec::new(),
             following_reverted: false,
             earlier_refits: Vec::new(),
+            joint_refit: None,
             information_now: None,
         }
     }
@@ -846,6 +851,7 @@ pub fn run(
             following,
             following_reverted,
             earlier_refits: Vec::new(),
+            joint_refit: None,
             information_now: None,
         });
         report.steps.sort_by_key(|d| position(&d.step.config));
@@ -870,8 +876,33 @@ pub fn run(
                     d.information_now = Some(info.clone());
                 }
             }
+            // The earlier steps left off with nothing of theirs to refit alone: fitted
+            // again together with this step.
+            let left_off: Vec<String> = refits
+                .iter()
+                .filter(|r| r.names.is_empty())
+                .map(|r| r.config.clone())
+                .collect();
+            let joint = match report.steps.iter().find(|d| d.step.config == cname) {
+                Some(st) if !left_off.is_empty() => joint_refit(
+                    &mut current,
+                    (st, &problem),
+                    &left_off,
+                    &before_this,
+                    &report.steps,
+                    &occ,
+                    progress,
+                )?,
+                _ => None,
+            };
+            for (config, info) in joint.iter().flat_map(|j| &j.information) {
+                if let Some(d) = report.steps.iter_mut().find(|d| d.step.config == *config) {
+                    d.information_now = Some(info.clone());
+                }
+            }
             if let Some(d) = report.steps.iter_mut().find(|d| d.step.config == cname) {
                 d.earlier_refits = refits;
+                d.joint_refit = joint;
             }
         }
         ran.push((cname, problem));

@@ -366,7 +366,7 @@ fn step_markdown(
                     r.names.join(", "),
                     r.failure.as_deref().unwrap_or_default()
                 ),
-                (true, _) => " — every value it fitted enters this step's files too, so none is refitted on them".to_string(),
+                (true, _) => " — every value it fitted enters this step's files too, so none is refitted on them alone (the joint refit below)".to_string(),
                 (false, Some(after)) => format!(
                     "; {} refitted on them (the values of that step these files do not see, under the other steps' information): {after:.2} σ̂ ({:.1} s)",
                     r.names.join(", "),
@@ -378,6 +378,35 @@ fn step_markdown(
                     r.wall_s
                 ),
             }
+        );
+    }
+    if let Some(j) = &st.joint_refit {
+        let figures: Vec<String> = j
+            .rms
+            .iter()
+            .map(|(c, _, before, after)| match after {
+                Some(a) => format!("{c} {before:.2} → {a:.2} σ̂"),
+                None => format!("{c} {before:.2} σ̂"),
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "Joint refit of {} (every value the earlier ones fitted enters this step's files; {} values, those the other steps' files do not see, on all their files at once): {}; {} ({} cost evaluations, {} Jacobians, {:.1} s).\n",
+            j.configs.join(", "),
+            j.names.len(),
+            figures.join(", "),
+            match (&j.failure, j.kept()) {
+                (Some(why), _) => format!("could not be fitted: {why}"),
+                (None, true) => format!("cost {} → {}, kept", fmt_g(j.cost.0), fmt_g(j.cost.1)),
+                (None, false) => format!(
+                    "cost {} → {}, not kept: the worst step's files did not fall",
+                    fmt_g(j.cost.0),
+                    fmt_g(j.cost.1)
+                ),
+            },
+            j.evaluations,
+            j.jacobians,
+            j.wall_s
         );
     }
     if let Some(w) = &st.warm_up_start {
