@@ -248,7 +248,7 @@ pub struct JointRefit {
     pub rms: Vec<(String, f64, f64, Option<f64>)>,
     /// Cost (sum over the configurations, every free joint weighted 1) before → after.
     pub cost: (f64, f64),
-    /// Cost evaluations and Jacobians.
+    /// Cost evaluations.
     pub evaluations: usize,
     /// Jacobians.
     pub jacobians: usize,
@@ -278,12 +278,13 @@ impl JointRefit {
 /// ([`JointProblem`], every free joint weighted 1), on the values any of them fitted that
 /// the files of the other steps of `ran` do not see. Kept where the worst of those steps'
 /// worst free joints falls; then each step's information is formed again where its values
-/// now are ([`StepReport::information_now`]).
+/// now are ([`StepReport::information_now`]). None where there is nothing to refit (no
+/// step of `left_off` in `ran`, or every value is seen by another step's files).
 ///
 /// Why: the earlier information carries an earlier step's cost to second order only. c7 of
 /// the isolated method refits every value c5 and c6 fitted (joints 1 and 0 and the base's
-/// links), and the written plant left their files at 1.13–1.36 σ̂ on three data sets where
-/// each step had ended at 0.97–1.07 σ̂ (the sensitivities record, stop 84).
+/// links), and without this the written plant left their files above their own figures
+/// (the sensitivities record, stops 84 and 85).
 ///
 /// # Errors
 /// The joint problem cannot be set up (a value without bounds).
