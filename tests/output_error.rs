@@ -2307,7 +2307,6 @@ fn the_joint_refit_brings_an_earlier_steps_files_back_with_the_later_steps() {
         &occurrence(truth.model),
         &|_, _| {},
     )
-    .unwrap()
     .expect("a joint refit");
     eprintln!("{refit:?}");
     assert_eq!(refit.configs, ["c1", "k1"]);

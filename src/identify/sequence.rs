@@ -892,7 +892,7 @@ pub fn run(
                     &report.steps,
                     &occ,
                     progress,
-                )?,
+                ),
                 _ => None,
             };
             for (config, info) in joint.iter().flat_map(|j| &j.information) {

@@ -397,12 +397,18 @@ fn step_markdown(
             figures.join(", "),
             match (&j.failure, j.kept()) {
                 (Some(why), _) => format!("could not be fitted: {why}"),
-                (None, true) => format!("cost {} → {}, kept", fmt_g(j.cost.0), fmt_g(j.cost.1)),
-                (None, false) => format!(
-                    "cost {} → {}, not kept: the worst step's files did not fall",
-                    fmt_g(j.cost.0),
-                    fmt_g(j.cost.1)
-                ),
+                (None, kept) => {
+                    let (a, b) = j.cost.unwrap_or((f64::NAN, f64::NAN));
+                    if kept {
+                        format!("cost {} → {}, kept", fmt_g(a), fmt_g(b))
+                    } else {
+                        format!(
+                            "cost {} → {}, not kept: the worst step's files did not fall",
+                            fmt_g(a),
+                            fmt_g(b)
+                        )
+                    }
+                }
             },
             j.evaluations,
             j.jacobians,

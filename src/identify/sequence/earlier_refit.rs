@@ -246,8 +246,9 @@ pub struct JointRefit {
     /// Per configuration: the worst free joint's RMS / σ̂ at the step's own end, before
     /// this refit, and after it (None when it was not run to the end or not kept).
     pub rms: Vec<(String, f64, f64, Option<f64>)>,
-    /// Cost (sum over the configurations, every free joint weighted 1) before → after.
-    pub cost: (f64, f64),
+    /// Cost (sum over the configurations, every free joint weighted 1) before → after;
+    /// None where the refit could not be fitted.
+    pub cost: Option<(f64, f64)>,
     /// Cost evaluations.
     pub evaluations: usize,
     /// Jacobians.
@@ -285,9 +286,8 @@ impl JointRefit {
 /// the isolated method refits every value c5 and c6 fitted (joints 1 and 0 and the base's
 /// links), and without this the written plant left their files above their own figures
 /// (the sensitivities record, stops 84 and 85).
-///
-/// # Errors
-/// The joint problem cannot be set up (a value without bounds).
+/// A refit that cannot be set up or fitted is reported ([`JointRefit::failure`]) and the
+/// plant left as it was.
 pub fn joint_refit(
     current: &mut Plant,
     later: (&StepReport, &Problem),
@@ -296,7 +296,7 @@ pub fn joint_refit(
     reports: &[StepReport],
     occ: &Occurrence,
     progress: &(dyn Fn(&str, Progress) + Sync),
-) -> Result<Option<JointRefit>> {
+) -> Option<JointRefit> {
     let started = Instant::now();
     let mut group: Vec<(&StepReport, &Problem)> = ran
         .iter()
@@ -304,7 +304,7 @@ pub fn joint_refit(
         .filter_map(|(c, p)| Some((reports.iter().find(|d| d.step.config == *c)?, p)))
         .collect();
     if group.is_empty() {
-        return Ok(None);
+        return None;
     }
     group.push(later);
     let outside: Vec<&'static Configuration> = ran
@@ -328,7 +328,7 @@ pub fn joint_refit(
     }
     names.retain(|n| !tied_held.contains(n));
     if names.is_empty() {
-        return Ok(None);
+        return None;
     }
     let before = final_check(current, &group);
     let rms_before: Vec<(String, f64, f64)> = before
@@ -343,14 +343,7 @@ pub fn joint_refit(
         .map(|(_, p)| (p.configuration(), p.records.clone()))
         .collect();
     let configs: Vec<String> = group.iter().map(|(st, _)| st.step.config.clone()).collect();
-    let problem = JointProblem::new(current, names.clone(), tied_held, files, &options, occ)
-        .with_context(|| {
-            format!(
-                "step '{}': the joint refit of {}",
-                later.0.step.config,
-                configs.join(", ")
-            )
-        })?;
+    let problem = JointProblem::new(current, names.clone(), tied_held, files, &options, occ);
     let label = format!("joint refit {}", configs.join("+"));
     let mut out = JointRefit {
         configs,
@@ -359,22 +352,24 @@ pub fn joint_refit(
             .iter()
             .map(|(c, e, n)| (c.clone(), *e, *n, None))
             .collect(),
-        cost: (f64::NAN, f64::NAN),
+        cost: None,
         evaluations: 0,
         jacobians: 0,
         wall_s: 0.0,
         information: Vec::new(),
         failure: None,
     };
-    let fit = match problem.fit(&|p| progress(&label, p)) {
+    // A refit that cannot be set up or fitted leaves the plant as it is: the final check
+    // reports the steps.
+    let fit = match problem.and_then(|p| p.fit(&|p| progress(&label, p))) {
         Ok(fit) => fit,
         Err(why) => {
             out.failure = Some(format!("{why:#}"));
             out.wall_s = started.elapsed().as_secs_f64();
-            return Ok(Some(out));
+            return Some(out);
         }
     };
-    out.cost = (fit.cost_before, fit.cost_after);
+    out.cost = Some((fit.cost_before, fit.cost_after));
     out.evaluations = fit.evaluations;
     out.jacobians = fit.jacobians;
     let mut trial = current.clone();
@@ -391,5 +386,5 @@ pub fn joint_refit(
             .collect();
     }
     out.wall_s = started.elapsed().as_secs_f64();
-    Ok(Some(out))
+    Some(out)
 }
