@@ -274,8 +274,8 @@ impl JointRefit {
 
 /// After step `later` (its report and problem), the earlier steps `left_off` (their
 /// configurations) whose files the plant `current` no longer reproduces although every
-/// value they fitted enters `later`'s files, so that [`refit_earlier_steps`] has nothing of
-/// theirs to refit alone: `later`'s files and theirs fitted at once
+/// value they fitted enters `later`'s files, so that the refit of an earlier step's own
+/// values has nothing of theirs to refit alone: `later`'s files and theirs fitted at once
 /// ([`JointProblem`], every free joint weighted 1), on the values any of them fitted that
 /// the files of the other steps of `ran` do not see. Kept where the worst of those steps'
 /// worst free joints falls; then each step's information is formed again where its values
