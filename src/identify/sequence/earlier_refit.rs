@@ -4,7 +4,9 @@
 //! moves a value an earlier step saw in a product or a square (c3 of the isolated method
 //! moves z7, which c2 sees through m7·z7²) leaves that step's files off by the second-order
 //! term. Where an earlier step's files then end above their own figure, the values only
-//! they see are fitted once more on them.
+//! they see are fitted once more on them ([`EarlierRefit`]); where the later step's files
+//! see every value it fitted (c5 and c6 under c7), the steps are fitted again together
+//! ([`joint_refit`]).
 
 use super::*;
 use crate::identify::output_error::{enters, Information};
