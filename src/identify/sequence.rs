@@ -868,14 +868,6 @@ pub fn run(
                 &checked,
                 progress,
             )?;
-            for r in &refits {
-                if let (Some(info), Some(d)) = (
-                    &r.information,
-                    report.steps.iter_mut().find(|d| d.step.config == r.config),
-                ) {
-                    d.information_now = Some(info.clone());
-                }
-            }
             // The earlier steps left off with nothing of theirs to refit alone: fitted
             // again together with this step.
             let left_off: Vec<String> = refits
@@ -895,7 +887,17 @@ pub fn run(
                 ),
                 _ => None,
             };
-            for (config, info) in joint.iter().flat_map(|j| &j.information) {
+            // Each refitted step's information where its values now are (the joint refit's
+            // last: it may refit a step's values again).
+            let informed = refits
+                .iter()
+                .filter_map(|r| Some((&r.config, r.information.as_ref()?)))
+                .chain(
+                    joint
+                        .iter()
+                        .flat_map(|j| j.information.iter().map(|(c, i)| (c, i))),
+                );
+            for (config, info) in informed {
                 if let Some(d) = report.steps.iter_mut().find(|d| d.step.config == *config) {
                     d.information_now = Some(info.clone());
                 }

@@ -395,20 +395,21 @@ fn step_markdown(
             j.configs.join(", "),
             j.names.len(),
             figures.join(", "),
-            match (&j.failure, j.kept()) {
-                (Some(why), _) => format!("could not be fitted: {why}"),
-                (None, kept) => {
-                    let (a, b) = j.cost.unwrap_or((f64::NAN, f64::NAN));
-                    if kept {
-                        format!("cost {} → {}, kept", fmt_g(a), fmt_g(b))
+            match j.cost {
+                None => format!(
+                    "could not be fitted: {}",
+                    j.failure.as_deref().unwrap_or_default()
+                ),
+                Some((a, b)) => format!(
+                    "cost {} → {}, {}",
+                    fmt_g(a),
+                    fmt_g(b),
+                    if j.kept() {
+                        "kept"
                     } else {
-                        format!(
-                            "cost {} → {}, not kept: the worst step's files did not fall",
-                            fmt_g(a),
-                            fmt_g(b)
-                        )
+                        "not kept: the worst step's files did not fall"
                     }
-                }
+                ),
             },
             j.evaluations,
             j.jacobians,

@@ -288,6 +288,7 @@ impl JointRefit {
 /// the isolated method refits every value c5 and c6 fitted (joints 1 and 0 and the base's
 /// links), and without this the written plant left their files above their own figures
 /// (the sensitivities record, stops 84 and 85).
+///
 /// A refit that cannot be set up or fitted is reported ([`JointRefit::failure`]) and the
 /// plant left as it was.
 pub fn joint_refit(
@@ -332,6 +333,8 @@ pub fn joint_refit(
     if names.is_empty() {
         return None;
     }
+    // Checked again rather than taken from the earlier-step refits' checks: a refit of
+    // another earlier step after those checks may have moved values these files see.
     let before = final_check(current, &group);
     let rms_before: Vec<(String, f64, f64)> = before
         .iter()
