@@ -69,6 +69,10 @@ pub struct Plant {
     /// Correlations of recorded values one step fitted together, each pair once with the
     /// lexically smaller name first ([`PlantFile::correlations`], [`Plant::correlation`]).
     pub correlations: BTreeMap<String, BTreeMap<String, f64>>,
+    /// Plant-gain scale families no step has determined, by the step that last formed
+    /// each: values a sequence step fitted whose common scale its data could not fix
+    /// ([`PlantFile::scale_families`]).
+    pub scale_families: BTreeMap<String, Vec<String>>,
 }
 
 /// A user-defined effect: a named torque term, written as an expression of the joints'
@@ -163,6 +167,7 @@ impl Plant {
             undetermined: Vec::new(),
             standard_errors: BTreeMap::new(),
             correlations: BTreeMap::new(),
+            scale_families: BTreeMap::new(),
         };
         plant.fill_model_defaults();
         Ok(plant)
@@ -254,6 +259,20 @@ impl Plant {
             }
         }
         spec.correlations = correlations;
+        for (family, members) in &mut spec.scale_families {
+            for m in members.iter_mut() {
+                let current = self.current_name(m);
+                if current != *m {
+                    *m = current;
+                }
+            }
+            let mut seen = std::collections::BTreeSet::new();
+            if let Some(m) = members.iter().find(|m| !seen.insert(m.as_str())) {
+                bail!(
+                    "[scale_families] {family}: '{m}' is given twice (under its numbered name too)"
+                );
+            }
+        }
         for h in &mut spec.history {
             h.fitted = std::mem::take(&mut h.fitted)
                 .into_iter()
@@ -342,6 +361,7 @@ impl Plant {
         plant.history = spec.history.clone();
         plant.standard_errors = spec.standard_errors.clone();
         plant.correlations = spec.correlations.clone();
+        plant.scale_families = spec.scale_families.clone();
         let known = plant.known_names();
         let check_name = |k: &str, what: &str| -> Result<()> {
             if !known.iter().any(|n| n == k) {
@@ -408,6 +428,24 @@ impl Plant {
                 }
                 if !(r.is_finite() && r.abs() <= 1.0) {
                     bail!("{item}: expected a correlation in [-1, 1], found {r}");
+                }
+            }
+        }
+        let mut family_of: BTreeMap<&str, &str> = BTreeMap::new();
+        for (family, members) in &spec.scale_families {
+            if members.is_empty() {
+                bail!("[scale_families] {family}: expected the names of the family's values, found none");
+            }
+            for m in members {
+                let item = format!("[scale_families] {family}: '{m}'");
+                if !spec.parameters.contains_key(m) {
+                    bail!("{item}: not a parameter of this plant (a family lists values in [parameters] that a step fitted)");
+                }
+                if spec.standard_errors.contains_key(m) {
+                    bail!("{item}: it has an entry in [standard_errors] (a family's values are those whose scale no step determined)");
+                }
+                if let Some(other) = family_of.insert(m, family) {
+                    bail!("{item}: already in family {other} (a value belongs to one family)");
                 }
             }
         }
@@ -853,6 +891,23 @@ impl Plant {
             .insert(b.to_string(), r.clamp(-1.0, 1.0));
     }
 
+    /// Remove `name` from its plant-gain scale family ([`Plant::scale_families`]); a family
+    /// left empty is dropped.
+    pub fn forget_scale_family_member(&mut self, name: &str) {
+        for members in self.scale_families.values_mut() {
+            members.retain(|m| m != name);
+        }
+        self.scale_families.retain(|_, m| !m.is_empty());
+    }
+
+    /// The plant-gain scale family ([`Plant::scale_families`]) `name` belongs to.
+    pub fn scale_family_of(&self, name: &str) -> Option<&str> {
+        self.scale_families
+            .iter()
+            .find(|(_, m)| m.iter().any(|x| x == name))
+            .map(|(f, _)| f.as_str())
+    }
+
     /// Drop every recorded correlation of a value for which `drop` is true.
     pub fn forget_correlations(&mut self, drop: impl Fn(&str) -> bool) {
         self.correlations.retain(|a, _| !drop(a));
@@ -910,6 +965,7 @@ impl Plant {
                     self.bounds.remove(s);
                     self.standard_errors.remove(s);
                     self.undetermined.retain(|u| u != s);
+                    self.forget_scale_family_member(s);
                     self.forget_correlations(|x| x == s);
                 }
                 for j in (0..m.params.len()).filter(|&j| m.param_link[j] == l) {
@@ -1365,6 +1421,7 @@ impl Plant {
             undetermined: self.undetermined.clone(),
             standard_errors: self.standard_errors.clone(),
             correlations: self.correlations.clone(),
+            scale_families: self.scale_families.clone(),
         }
     }
 

@@ -436,7 +436,7 @@ impl JointProblem {
             .map(|part| part.problem.configuration())
             .collect();
         let mut held = held_in(&self.plant, &self.names, &self.held_ties, &self.occ, &confs);
-        held.cols = self.stacked_columns(p, &held.names, r);
+        held.set_columns(self.stacked_columns(p, &held.column_names(), r));
         held
     }
 

@@ -87,6 +87,17 @@ pub struct PlantFile {
     /// pairs.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub correlations: BTreeMap<String, BTreeMap<String, f64>>,
+    /// Plant-gain scale families whose scale no step determined (`[scale_families] k1 =
+    /// ["Kp_q4", "Fc_q4", "m7", ...]`, named by the step that last formed the family): a
+    /// step that fits every joint's gain with every force it sees leaves them on an exact
+    /// symmetry (Kp τ = D q̈ + … all × α; position data cannot fix α), and its least change
+    /// sets their scale arbitrarily, near the plant's values. A later step that holds some
+    /// of them counts their common scale as unknown: what it fits that moves with that
+    /// scale gets an infinite standard error, not one conditional on the arbitrary scale
+    /// ([`crate::identify::output_error::Statistics::held_scales`]), and joins the family.
+    /// No member has an entry in `[standard_errors]`; a value is in at most one family.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub scale_families: BTreeMap<String, Vec<String>>,
 }
 
 /// One step of a plant's history: a change (an effect added, parameters refitted), the

@@ -646,6 +646,14 @@ fn step_markdown(
             plus_minus(&stats.held_ties)
         );
     }
+    for (family, members) in &stats.held_scales {
+        let _ = writeln!(
+            s,
+            "Held without a known scale: {} value(s) of plant-gain scale family {family} ({}), whose scale no step determined (its step set it by its least change, near the plant's values). That scale counts as unknown here: a value that moves with it is known only relative to it (an infinite standard error; the figure relative to the family's scale is given beside it).\n",
+            members.len(),
+            members.join(", ")
+        );
+    }
     if !stats.held_exact.is_empty() {
         let _ = writeln!(
             s,
@@ -692,7 +700,20 @@ fn step_markdown(
         if stats.at_bound[i] {
             why.push("at a bound".to_string());
         }
-        if stats.std_err[i].is_infinite() {
+        let given_scale = stats.std_err_given_scale(i);
+        if stats.std_err[i].is_infinite() && given_scale.is_finite() {
+            why.push(format!(
+                "known only relative to the held scale families' scale ({}; ± {} ({:.2} %) relative to it)",
+                stats
+                    .held_scales
+                    .iter()
+                    .map(|(f, _)| f.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                fmt_g(given_scale),
+                100.0 * given_scale / f.fitted[i].abs().max(1e-300)
+            ));
+        } else if stats.std_err[i].is_infinite() {
             why.push(
                 "not determined by the data (moves along an exact symmetry, such as the plant-gain scale)"
                     .to_string(),

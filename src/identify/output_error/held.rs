@@ -21,26 +21,42 @@ pub(crate) fn held_scale(plant: &Plant, name: &str) -> f64 {
 /// every joint of `free` has its plant gain `Kp_j` fitted, and every value that `plant`
 /// holds although it enters the fit (`held`, from [`held_in`]) and scales with the gain is
 /// one of `held_ties` ([`Problem::with_held_ties`], scaled along with the family by
-/// [`Problem::least_change`]). `None` otherwise: a held gain or force (an earlier step's)
-/// then fixes the scale, and the standard errors are conditional on it.
+/// [`Problem::least_change`]). With `scales_unknown`, the held members of scale families
+/// no step determined (`held.scales`, their scale a nuisance of the fit,
+/// [`project_out_held_scales`]) move with the family too, a held gain among them counting
+/// as fitted; without, they fix the scale as any held value does. `None` otherwise: a held
+/// gain or force (an earlier step's) then fixes the scale, and the standard errors are
+/// conditional on it.
 pub(crate) fn gain_scale_family(
     plant: &Plant,
     names: &[String],
     p: &[f64],
     free: &[usize],
-    held: &HeldColumns,
+    (held, scales_unknown): (&HeldColumns, bool),
     held_ties: &[String],
 ) -> Option<Vec<usize>> {
     let model = plant.model;
+    let in_scale = |n: &String| held.scales.iter().any(|s| s.names.contains(n));
     let gains_fitted = free.iter().all(|&j| {
         let gain = crate::names::parameter("Kp", model.joints[j]);
         names.iter().zip(p).any(|(n, v)| *n == gain && *v != 0.0)
+            || (scales_unknown && in_scale(&gain))
     });
-    let scale_held_elsewhere = held.names.iter().chain(&held.exact).any(|n| {
-        scales_with_the_gain(model, n)
-            && !held_ties.contains(n)
-            && plant.parameters.get(n).is_some_and(|v| *v != 0.0)
-    });
+    let scale_members = held
+        .scales
+        .iter()
+        .filter(|_| !scales_unknown)
+        .flat_map(|s| &s.names);
+    let scale_held_elsewhere = held
+        .names
+        .iter()
+        .chain(&held.exact)
+        .chain(scale_members)
+        .any(|n| {
+            scales_with_the_gain(model, n)
+                && !held_ties.contains(n)
+                && plant.parameters.get(n).is_some_and(|v| *v != 0.0)
+        });
     if free.is_empty() || !gains_fitted || scale_held_elsewhere {
         return None;
     }
@@ -69,18 +85,28 @@ pub(crate) struct GainScaleContext<'a> {
 
 impl GainScaleContext<'_> {
     /// Where the plant-gain scale is an exact symmetry of the fit ([`gain_scale_family`];
-    /// `held` the values held although they enter, their columns computed), removes its
-    /// direction ([`gain_scale_direction`], [`project_out`]) from the Jacobian columns
-    /// `cols` at physical parameters `p`; the held ties' ∂r/∂h are `held`'s, or, where
-    /// `held` lacks one (a tie held as exact), `tie_columns` gives those of the named ties.
+    /// `held` the values held although they enter, their columns computed; `scales_unknown`
+    /// whether the held scale families' scale is free, their columns already projected out
+    /// of `cols`), removes its direction ([`gain_scale_direction`], [`project_out`]) from
+    /// the Jacobian columns `cols` at physical parameters `p`; the held ties' ∂r/∂h are
+    /// `held`'s, or, where `held` lacks one (a tie held as exact), `tie_columns` gives those
+    /// of the named ties.
     pub(crate) fn project_out_of(
         &self,
         cols: &mut [Vec<f64>],
         p: &[f64],
         held: &HeldColumns,
-        tie_columns: impl FnOnce(&[String]) -> Vec<Vec<f64>>,
+        scales_unknown: bool,
+        tie_columns: &dyn Fn(&[String]) -> Vec<Vec<f64>>,
     ) {
-        let family = gain_scale_family(self.plant, self.names, p, self.free, held, self.held_ties);
+        let family = gain_scale_family(
+            self.plant,
+            self.names,
+            p,
+            self.free,
+            (held, scales_unknown),
+            self.held_ties,
+        );
         let Some(members) = family else {
             return;
         };
@@ -297,8 +323,10 @@ pub(crate) fn held_step(plant: &Plant, name: &str, fd_step: f64) -> f64 {
 /// configurations `confs` ([`enters`]): those with a recorded standard error with it; the
 /// `held_ties` ([`Problem::with_held_ties`]) without one with the spread of a value
 /// uniform within their bounds, (upper − lower)/√12 — a tie is held at an arbitrary
-/// point of its bounds, not at an estimate; the others as exact. The columns are left for
-/// the fit to simulate (empty).
+/// point of its bounds, not at an estimate; the nonzero members of a plant-gain scale
+/// family no step determined ([`Plant::scale_families`]) per family, their scale unknown
+/// ([`HeldScale`]); the others as exact. The columns are left for the fit to simulate
+/// (empty; [`HeldColumns::column_names`]).
 pub(crate) fn held_in(
     plant: &Plant,
     names: &[String],
@@ -320,7 +348,24 @@ pub(crate) fn held_in(
             None => match tie_spread() {
                 Some(se) => (se, true),
                 None => {
-                    held.exact.push(n.clone());
+                    let value = plant.parameters[n];
+                    match plant.scale_family_of(n).filter(|_| value != 0.0) {
+                        Some(family) => {
+                            let at = match held.scales.iter().position(|s| s.family == family) {
+                                Some(at) => at,
+                                None => {
+                                    held.scales.push(HeldScale {
+                                        family: family.to_string(),
+                                        ..HeldScale::default()
+                                    });
+                                    held.scales.len() - 1
+                                }
+                            };
+                            held.scales[at].names.push(n.clone());
+                            held.scales[at].values.push(value);
+                        }
+                        None => held.exact.push(n.clone()),
+                    }
                     continue;
                 }
             },

@@ -101,6 +101,24 @@ pub struct Statistics {
     /// Held values that enter the fit without a recorded standard error (and held ties
     /// without bounds): taken as exact.
     pub held_exact: Vec<String>,
+    /// Plant-gain scale families ([`crate::plant::Plant::scale_families`]) with members
+    /// this fit holds: (family, those members). No step determined the family's scale, so
+    /// it counts as unknown in `std_err` ([`HeldScale`]): a fitted value that moves with it
+    /// (the coupled k2 of the Freedom 6S: Kp_q3 and joint 3's friction, coupled to the
+    /// held gains of joints 4 and 5 that k1 left on their symmetry) is known only relative
+    /// to it, and its standard error is infinite.
+    #[serde(default)]
+    pub held_scales: Vec<(String, Vec<String>)>,
+    /// Standard error per parameter with the held scale families' scale taken as exact
+    /// (as `std_err` otherwise): what the fit determines relative to that scale. Equal to
+    /// `std_err` without `held_scales`; empty in reports written before stop 86.
+    #[serde(default)]
+    pub std_err_given_scale: Vec<f64>,
+    /// Per parameter, identifiable relative to the held scale families' scale (as
+    /// `identifiable`, from `std_err_given_scale`): what a locking sequence reads to decide
+    /// which rigid-body symbols a later step fits again. Empty as `std_err_given_scale`.
+    #[serde(default)]
+    pub identifiable_given_scale: Vec<bool>,
     /// σ/|p|.
     pub relative_std_err: Vec<f64>,
     /// Correlation matrix (n × n) of this fit's data (the held values exact: whether the
@@ -168,7 +186,7 @@ impl Problem {
             &occ,
             &[self.conf],
         );
-        held.cols = self.held_columns(p, &held.names, &r);
+        held.set_columns(self.held_columns(p, &held.column_names(), &r));
         let at = AtTheFit {
             variances: self.residual_variances(&r),
             r: &r,
@@ -328,6 +346,113 @@ pub(crate) struct HeldColumns {
     /// Held parameters that enter the fit without a recorded standard error (never fitted,
     /// or not determined where they were): taken as exact.
     pub exact: Vec<String>,
+    /// Held members of plant-gain scale families no step determined
+    /// ([`crate::plant::Plant::scale_families`]), per family: their common scale is
+    /// unknown.
+    pub scales: Vec<HeldScale>,
+}
+
+/// A plant-gain scale family ([`crate::plant::Plant::scale_families`]) with members a fit
+/// holds although they enter it: the step that left the family fixed their scale α only
+/// by its least change, so α is a nuisance the fit cannot know (Frisch–Waugh–Lovell: the
+/// fitted values' covariance with α free is that of the Jacobian with ∂r/∂α projected
+/// out, [`project_out_held_scales`]).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct HeldScale {
+    /// The family's name (the step that last formed it).
+    pub family: String,
+    /// Its members held here (nonzero, entering the fit).
+    pub names: Vec<String>,
+    /// Their values h (SI).
+    pub values: Vec<f64>,
+    /// ∂r/∂α = Σ_h h ∂r/∂h: the residuals' change per unit relative change of the scale
+    /// (m; empty until [`HeldColumns::set_columns`]).
+    pub col: Vec<f64>,
+}
+
+impl HeldColumns {
+    /// The held values whose columns a fit computes: those with a standard error or a
+    /// tie's spread (`names`), then every held scale family's members.
+    pub(crate) fn column_names(&self) -> Vec<String> {
+        let mut names = self.names.clone();
+        for s in &self.scales {
+            names.extend(s.names.iter().cloned());
+        }
+        names
+    }
+
+    /// Takes the columns ∂r/∂h of [`HeldColumns::column_names`], in that order: the held
+    /// values' into `cols`, each scale family's members' summed into its ∂r/∂α.
+    pub(crate) fn set_columns(&mut self, cols: Vec<Vec<f64>>) {
+        let mut cols = cols.into_iter();
+        self.cols = cols.by_ref().take(self.names.len()).collect();
+        for s in &mut self.scales {
+            let mut col: Vec<f64> = Vec::new();
+            for (h, c) in s.values.iter().zip(cols.by_ref().take(s.names.len())) {
+                if col.is_empty() {
+                    col = vec![0.0; c.len()];
+                }
+                for (a, b) in col.iter_mut().zip(&c) {
+                    *a += h * b;
+                }
+            }
+            s.col = col;
+        }
+    }
+}
+
+/// Removes the held scale families' directions ∂r/∂α ([`HeldScale`]) from the fitted
+/// columns `cols` and the held values' columns (orthogonally in the residuals, as the
+/// least squares sees them): the covariance of the fitted values with every family's scale
+/// free (Frisch–Waugh–Lovell). Where the fit's own plant-gain scale is an exact symmetry
+/// together with them, that direction is then one the data do not see, and its members'
+/// standard errors are infinite: they are known only relative to the family's scale.
+/// A column the families' scale spans alone is zeroed (undetermined). `false` (nothing
+/// changed) when a family's column is not finite (a simulation fails where the scale
+/// moves): the share is then unknown.
+pub(crate) fn project_out_held_scales(cols: &mut [Vec<f64>], held: &mut HeldColumns) -> bool {
+    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+    if held
+        .scales
+        .iter()
+        .any(|s| !s.col.iter().all(|x| x.is_finite()))
+    {
+        return false;
+    }
+    // An orthonormal basis of the families' columns (modified Gram–Schmidt, twice).
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    for s in &held.scales {
+        let full = dot(&s.col, &s.col).sqrt();
+        let mut u = s.col.clone();
+        for _ in 0..2 {
+            for b in &basis {
+                let d = dot(&u, b);
+                u.iter_mut().zip(b).for_each(|(x, y)| *x -= d * y);
+            }
+        }
+        let norm = dot(&u, &u).sqrt();
+        if norm > 1e-12 * full && norm > 0.0 {
+            u.iter_mut().for_each(|x| *x /= norm);
+            basis.push(u);
+        }
+    }
+    for c in cols.iter_mut().chain(held.cols.iter_mut()) {
+        let before = dot(c, c).sqrt();
+        for b in &basis {
+            if c.len() == b.len() {
+                let d = dot(c, b);
+                c.iter_mut().zip(b).for_each(|(x, y)| *x -= d * y);
+            }
+        }
+        // A column the families' scale spans (to the Jacobian's accuracy: below the
+        // singular-value cut-off of the covariance, on the columns' scale) is one the data
+        // do not see with the scale free; normalised, its residue would pass for a
+        // direction of its own.
+        if dot(c, c).sqrt() < EXACT_SYMMETRY.sqrt() * before {
+            c.fill(0.0);
+        }
+    }
+    true
 }
 
 /// Singular value of the scaled JᵀJ, relative to the largest, below which a direction is
@@ -408,7 +533,7 @@ pub(crate) fn statistics_at(
     problem: &dyn Residuals,
     p: &[f64],
     at: AtTheFit,
-    tie_columns: impl FnOnce(&[String]) -> Vec<Vec<f64>>,
+    tie_columns: impl Fn(&[String]) -> Vec<Vec<f64>>,
 ) -> Result<Statistics> {
     let space = problem.space();
     let dof = at.r.len() as f64 / (at.r.len() - p.len()) as f64;
@@ -471,7 +596,30 @@ pub(crate) fn statistics_at(
         Information::of(names, values, &all, at.r, &sigma)
     };
     scale.make_up_held_ties(&cols, &mut held);
-    scale.project_out_of(&mut cols, p, &held, tie_columns);
+    // With held scale families, first the figures given their scale (what the fit
+    // determines relative to it), then with it unknown.
+    let given_scale = if held.scales.is_empty() {
+        None
+    } else {
+        let mut given = cols.clone();
+        scale.project_out_of(&mut given, p, &held, false, &tie_columns);
+        Some(covariance_statistics(
+            space.names,
+            p,
+            (space.lower, space.upper),
+            (given, held.clone()),
+            &sigma,
+            at.only_with.clone(),
+            at.joints.clone(),
+        )?)
+    };
+    let held_scales: Vec<(String, Vec<String>)> = held
+        .scales
+        .iter()
+        .map(|s| (s.family.clone(), s.names.clone()))
+        .collect();
+    let scales_known = project_out_held_scales(&mut cols, &mut held);
+    scale.project_out_of(&mut cols, p, &held, true, &tie_columns);
     let mut statistics = covariance_statistics(
         space.names,
         p,
@@ -481,6 +629,19 @@ pub(crate) fn statistics_at(
         at.only_with,
         at.joints,
     )?;
+    if !scales_known {
+        statistics.std_err.fill(f64::INFINITY);
+        statistics.relative_std_err.fill(f64::INFINITY);
+        statistics.identifiable.fill(false);
+    }
+    (
+        statistics.std_err_given_scale,
+        statistics.identifiable_given_scale,
+    ) = match given_scale {
+        Some(given) => (given.std_err, given.identifiable),
+        None => (statistics.std_err.clone(), statistics.identifiable.clone()),
+    };
+    statistics.held_scales = held_scales;
     statistics.information = Some(information);
     Ok(statistics)
 }
@@ -679,6 +840,9 @@ pub(crate) fn covariance_statistics(
         held_ties: held_share(&held, true),
         held_information,
         held_exact: held.exact,
+        held_scales: Vec::new(),
+        std_err_given_scale: Vec::new(),
+        identifiable_given_scale: Vec::new(),
         relative_std_err: relative,
         correlation,
         correlation_with_held,
@@ -740,6 +904,12 @@ impl Statistics {
                     self.identifiable[i] = false;
                     moved.push((names[i].clone(), q[i], distance));
                 }
+                let given = self.std_err_given_scale.get(i).copied();
+                if given.is_some_and(|se| (q[i] - p[i]).abs() / se > EQUAL_MINIMUM_STD_ERRORS) {
+                    if let Some(x) = self.identifiable_given_scale.get_mut(i) {
+                        *x = false;
+                    }
+                }
             }
             self.other_minima.push(OtherMinimum {
                 start: *start,
@@ -748,6 +918,26 @@ impl Statistics {
                 moved,
             });
         }
+    }
+
+    /// Whether parameter `i` is identifiable relative to the held scale families' scale
+    /// (`identifiable_given_scale`; `identifiable` in a report without it).
+    pub fn identifiable_given_scale(&self, i: usize) -> bool {
+        self.identifiable_given_scale
+            .get(i)
+            .or(self.identifiable.get(i))
+            .copied()
+            .unwrap_or(false)
+    }
+
+    /// The standard error of parameter `i` relative to the held scale families' scale
+    /// (`std_err_given_scale`; `std_err` in a report without it).
+    pub fn std_err_given_scale(&self, i: usize) -> f64 {
+        self.std_err_given_scale
+            .get(i)
+            .or(self.std_err.get(i))
+            .copied()
+            .unwrap_or(f64::INFINITY)
     }
 
     /// The largest distance (SI) of parameter `i`, named `name`, between the kept minimum

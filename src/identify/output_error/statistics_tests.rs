@@ -139,6 +139,7 @@ fn held_values_uncertainty_matches_a_monte_carlo_of_the_two_stage_estimate() {
         make_up: Vec::new(),
         exact: vec!["c".into()],
         correlation: Vec::new(),
+        scales: Vec::new(),
     };
     let stats = linear_statistics(&theta, cols, held, s);
     for i in 0..2 {
@@ -325,6 +326,7 @@ fn held_information_is_the_variance_ratio_beside_an_exact_symmetry() {
         make_up: vec![None, None],
         exact: Vec::new(),
         correlation: Vec::new(),
+        scales: Vec::new(),
     };
     let stats = covariance_statistics(
         &names,
@@ -453,6 +455,7 @@ fn a_held_value_with_a_non_finite_column_makes_the_total_standard_errors_infinit
         make_up: Vec::new(),
         exact: Vec::new(),
         correlation: Vec::new(),
+        scales: Vec::new(),
     };
     let mut broken: Vec<f64> = t.iter().map(|&x| -x).collect();
     broken[7] = f64::NAN;
@@ -469,4 +472,103 @@ fn a_held_value_with_a_non_finite_column_makes_the_total_standard_errors_infinit
         .std_err_given_held
         .iter()
         .all(|x| x.is_finite() && *x < 0.01));
+}
+
+/// A held plant-gain scale family whose scale no step determined ([`HeldScale`]) is a
+/// nuisance of the fit: the standard errors with it free are those of the least squares
+/// that fits its scale α beside the parameters (X = [A, ∂r/∂α], the held value with a
+/// recorded standard error propagated through the same X; an independent 3 × 3 inverse),
+/// and a fitted value that moves exactly as the scale does is undetermined. Given the
+/// scale (the figures before the nuisance is projected out), the fit's own.
+#[test]
+fn a_held_scale_family_counts_as_an_unknown_scale() {
+    let m = 300;
+    let s = 1e-3;
+    let t: Vec<f64> = (0..m).map(|k| k as f64 / m as f64).collect();
+    let a: Vec<f64> = t.iter().map(|&x| (5.0 * x).sin()).collect();
+    let b: Vec<f64> = t.iter().map(|&x| (3.0 * x).cos() + 0.3 * x).collect();
+    let c: Vec<f64> = t
+        .iter()
+        .map(|&x| x * x - 0.3 + 0.2 * (9.0 * x).sin())
+        .collect();
+    let d: Vec<f64> = t.iter().map(|&x| (x - 0.5).abs()).collect();
+    let (h, sigma_g) = (2.0, 0.05);
+    let neg = |v: &[f64]| -> Vec<f64> { v.iter().map(|x| -x).collect() };
+    // Residual r = y − (θ₀ a + θ₁ b + h c + g d): ∂r/∂θ = −a, −b; the family member h's
+    // column −c (∂r/∂α = h·(−c)); the held value g (σ_g recorded) −d.
+    let held = || {
+        let mut held = HeldColumns {
+            names: vec!["g".into()],
+            std_err: vec![sigma_g],
+            tie: vec![false],
+            scales: vec![HeldScale {
+                family: "k1".into(),
+                names: vec!["h".into()],
+                values: vec![h],
+                col: Vec::new(),
+            }],
+            ..Default::default()
+        };
+        assert_eq!(held.column_names(), ["g", "h"]);
+        held.set_columns(vec![neg(&d), neg(&c)]);
+        held
+    };
+    assert_eq!(
+        held().scales[0].col,
+        neg(&c).iter().map(|x| h * x).collect::<Vec<_>>()
+    );
+    let theta = [0.7, -1.2];
+    let mut cols = vec![neg(&a), neg(&b)];
+    let given = linear_statistics(&theta, cols.clone(), held(), s);
+    let mut free_scale = held();
+    assert!(project_out_held_scales(&mut cols, &mut free_scale));
+    let stats = linear_statistics(&theta, cols, free_scale, s);
+    // The reference: θ̂ = (XᵀX)⁻¹ Xᵀ (y − d ĝ), X = [a, b, c].
+    let x = DMatrix::from_fn(m, 3, |k, j| [&a, &b, &c][j][k]);
+    let xtx_inv = (x.transpose() * &x).try_inverse().unwrap();
+    let share = -(&xtx_inv * x.transpose() * nalgebra::DVector::from_column_slice(&d)) * sigma_g;
+    // Given the scale: the same with X = [a, b].
+    let x_given = DMatrix::from_fn(m, 2, |k, j| [&a, &b][j][k]);
+    let given_inv = (x_given.transpose() * &x_given).try_inverse().unwrap();
+    let given_share =
+        -(&given_inv * x_given.transpose() * nalgebra::DVector::from_column_slice(&d)) * sigma_g;
+    for i in 0..2 {
+        let expected = (s * s * xtx_inv[(i, i)] + share[i] * share[i]).sqrt();
+        assert!(
+            (stats.std_err[i] / expected - 1.0).abs() < 1e-6,
+            "θ{i}: {} vs {expected}",
+            stats.std_err[i]
+        );
+        let expected = (s * s * given_inv[(i, i)] + given_share[i] * given_share[i]).sqrt();
+        assert!(
+            (given.std_err[i] / expected - 1.0).abs() < 1e-6,
+            "θ{i} given the scale: {} vs {expected}",
+            given.std_err[i]
+        );
+        assert!(given.std_err[i] != stats.std_err[i]);
+    }
+    // θ₀ moving as the scale does (its column ∂r/∂α's): undetermined with the scale free,
+    // θ₁ then the least squares of [b, c].
+    let mut cols = vec![neg(&c), neg(&b)];
+    let mut free_scale = held();
+    let given = linear_statistics(&theta, cols.clone(), held(), s);
+    assert!(given.std_err[0].is_finite(), "{}", given.std_err[0]);
+    assert!(project_out_held_scales(&mut cols, &mut free_scale));
+    let stats = linear_statistics(&theta, cols, free_scale, s);
+    assert!(stats.std_err[0].is_infinite() && !stats.identifiable[0]);
+    let x = DMatrix::from_fn(m, 2, |k, j| [&b, &c][j][k]);
+    let xtx_inv = (x.transpose() * &x).try_inverse().unwrap();
+    let share = -(&xtx_inv * x.transpose() * nalgebra::DVector::from_column_slice(&d)) * sigma_g;
+    let expected = (s * s * xtx_inv[(0, 0)] + share[0] * share[0]).sqrt();
+    assert!(
+        (stats.std_err[1] / expected - 1.0).abs() < 1e-6,
+        "θ₁: {} vs {expected}",
+        stats.std_err[1]
+    );
+    // A family column that is not finite: nothing is projected, the share is unknown.
+    let mut broken = held();
+    broken.scales[0].col[3] = f64::NAN;
+    let mut cols = vec![neg(&a), neg(&b)];
+    assert!(!project_out_held_scales(&mut cols, &mut broken));
+    assert_eq!(cols[0], neg(&a));
 }

@@ -21,7 +21,12 @@ pub fn undetermined_gain_families<'a>(
             config: &st.step.config,
             free: &st.step.free,
             names: &st.fit.names,
-            std_err: &st.fit.statistics.std_err,
+            // Whether the step's own data fixed the gain, relative to any held scale.
+            std_err: if st.fit.statistics.std_err_given_scale.is_empty() {
+                &st.fit.statistics.std_err
+            } else {
+                &st.fit.statistics.std_err_given_scale
+            },
         }),
     )
 }

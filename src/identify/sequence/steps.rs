@@ -148,12 +148,14 @@ pub(super) fn hold_tied_symbols(current: &Plant, first: &Problem, s: &mut Step) 
     Ok(())
 }
 
-/// Write a refined step into `current`: its fitted values, the standard errors of what it
-/// fitted (a released value it could not determine keeps the one it had), and the
+/// Write a refined step (configuration `config`) into `current`: its fitted values, the
+/// standard errors of what it fitted (a released value it could not determine keeps the one
+/// it had), the plant-gain scale families ([`record_scale_families`]), and the
 /// rigid-body symbols left undetermined for later steps (`tied_held`, and those it fitted
 /// but did not call identifiable, but for released values).
 pub(super) fn keep_step(
     current: &mut Plant,
+    config: &str,
     undetermined: &mut Vec<String>,
     refined: &Refined,
     tied_held: &[String],
@@ -173,7 +175,7 @@ pub(super) fn keep_step(
     let inertial = current.model.inertial_symbols;
     for (i, n) in fit.names.iter().enumerate() {
         if inertial.contains(&n.as_str())
-            && !fit.statistics.identifiable[i]
+            && !fit.statistics.identifiable_given_scale(i)
             && !released.contains(n)
         {
             undetermined.push(n.clone());
@@ -181,6 +183,7 @@ pub(super) fn keep_step(
     }
     current.undetermined = undetermined.clone();
     record_standard_errors(current, &fit.names, &fit.statistics);
+    record_scale_families(current, config, &fit.names, &fit.statistics);
     // A released value the step could not determine keeps the standard error it had: it
     // moved under that prior.
     for (n, se) in prior_se {
