@@ -441,9 +441,6 @@ impl Plant {
                 if !spec.parameters.contains_key(m) {
                     bail!("{item}: not a parameter of this plant (a family lists values in [parameters] that a step fitted)");
                 }
-                if spec.standard_errors.contains_key(m) {
-                    bail!("{item}: it has an entry in [standard_errors] (a family's values are those whose scale no step determined)");
-                }
                 if let Some(other) = family_of.insert(m, family) {
                     bail!("{item}: already in family {other} (a value belongs to one family)");
                 }

@@ -75,7 +75,8 @@ pub struct PlantFile {
     /// identifiable). A later step that holds them adds their uncertainty to its own
     /// standard errors ([`crate::identify::output_error::Statistics::held`]); one that fits
     /// an undetermined symbol again takes it as a prior with `--carried-prior on`
-    /// ([`crate::identify::output_error::OutputErrorOptions::carried_prior`]).
+    /// ([`crate::identify::output_error::OutputErrorOptions::carried_prior`]). Relative
+    /// to the scale of the value's family in `scale_families`, if it has one.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub standard_errors: BTreeMap<String, f64>,
     /// Correlations of values with recorded standard errors that one step fitted together
@@ -95,7 +96,8 @@ pub struct PlantFile {
     /// of them counts their common scale as unknown: what it fits that moves with that
     /// scale gets an infinite standard error, not one conditional on the arbitrary scale
     /// ([`crate::identify::output_error::Statistics::held_scales`]), and joins the family.
-    /// No member has an entry in `[standard_errors]`; a value is in at most one family.
+    /// A member's entry in `[standard_errors]` is relative to the family's scale; a value
+    /// is in at most one family.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub scale_families: BTreeMap<String, Vec<String>>,
 }

@@ -323,10 +323,11 @@ pub(crate) fn held_step(plant: &Plant, name: &str, fd_step: f64) -> f64 {
 /// configurations `confs` ([`enters`]): those with a recorded standard error with it; the
 /// `held_ties` ([`Problem::with_held_ties`]) without one with the spread of a value
 /// uniform within their bounds, (upper − lower)/√12 — a tie is held at an arbitrary
-/// point of its bounds, not at an estimate; the nonzero members of a plant-gain scale
-/// family no step determined ([`Plant::scale_families`]) per family, their scale unknown
-/// ([`HeldScale`]); the others as exact. The columns are left for the fit to simulate
-/// (empty; [`HeldColumns::column_names`]).
+/// point of its bounds, not at an estimate; the others as exact. Besides, the nonzero
+/// members of a plant-gain scale family no step determined ([`Plant::scale_families`];
+/// not held ties) per family, their common scale unknown ([`HeldScale`]): with a recorded
+/// standard error (relative to that scale) also among the former, without one not exact.
+/// The columns are left for the fit to simulate (empty; [`HeldColumns::column_names`]).
 pub(crate) fn held_in(
     plant: &Plant,
     names: &[String],
@@ -343,33 +344,39 @@ pub(crate) fn held_in(
             Some(&(lo, hi)) if held_ties.contains(n) && hi > lo => Some((hi - lo) / 12f64.sqrt()),
             _ => None,
         };
+        let value = plant.parameters[n];
+        let family = plant.scale_family_of(n).filter(|_| value != 0.0);
         let (se, tie) = match plant.standard_errors.get(n) {
             Some(&se) => (se, false),
             None => match tie_spread() {
+                // A held tie's make-up scales with the fit's own family
+                // ([`gain_scale_direction`]), never with a held one.
                 Some(se) => (se, true),
                 None => {
-                    let value = plant.parameters[n];
-                    match plant.scale_family_of(n).filter(|_| value != 0.0) {
-                        Some(family) => {
-                            let at = match held.scales.iter().position(|s| s.family == family) {
-                                Some(at) => at,
-                                None => {
-                                    held.scales.push(HeldScale {
-                                        family: family.to_string(),
-                                        ..HeldScale::default()
-                                    });
-                                    held.scales.len() - 1
-                                }
-                            };
-                            held.scales[at].names.push(n.clone());
-                            held.scales[at].values.push(value);
-                        }
-                        None => held.exact.push(n.clone()),
+                    if family.is_none() {
+                        held.exact.push(n.clone());
                     }
-                    continue;
+                    (f64::NAN, false)
                 }
             },
         };
+        if let Some(family) = family.filter(|_| !tie) {
+            let at = match held.scales.iter().position(|s| s.family == family) {
+                Some(at) => at,
+                None => {
+                    held.scales.push(HeldScale {
+                        family: family.to_string(),
+                        ..HeldScale::default()
+                    });
+                    held.scales.len() - 1
+                }
+            };
+            held.scales[at].names.push(n.clone());
+            held.scales[at].values.push(value);
+        }
+        if se.is_nan() {
+            continue;
+        }
         held.names.push(n.clone());
         held.std_err.push(se);
         held.tie.push(tie);

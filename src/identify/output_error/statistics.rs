@@ -96,7 +96,8 @@ pub struct Statistics {
     /// var_h, var_h the variance this fit's data alone would give the value fitted with
     /// the fitted parameters (the same sandwich covariance as `std_err_given_held`, the
     /// held value's column appended), 0 where the data cannot determine it. ρ_h > 1: this
-    /// step sees the value better than the step that fitted it (`--release-held`).
+    /// step sees the value better than the step that fitted it (`--release-held`). With
+    /// `held_scales`, relative to their scale.
     pub held_information: Vec<(String, f64)>,
     /// Held values that enter the fit without a recorded standard error (and held ties
     /// without bounds): taken as exact.
@@ -127,8 +128,9 @@ pub struct Statistics {
     /// standard error: its covariance is amplified rounding).
     pub correlation: Vec<Vec<f64>>,
     /// Correlation matrix (n × n) of the estimates with the held values' share: that of
-    /// `std_err`'s covariance, what a later step that holds these values propagates
-    /// ([`crate::plant::Plant::correlations`]); 0 off the diagonal as in `correlation`.
+    /// `std_err`'s covariance (`std_err_given_scale`'s with `held_scales`), what a later
+    /// step that holds these values propagates ([`crate::plant::Plant::correlations`]); 0
+    /// off the diagonal as in `correlation`.
     #[serde(skip)]
     pub correlation_with_held: Vec<Vec<f64>>,
     /// Pairs with |correlation| > [`CORRELATION_LIMIT`].
@@ -371,12 +373,16 @@ pub(crate) struct HeldScale {
 }
 
 impl HeldColumns {
-    /// The held values whose columns a fit computes: those with a standard error or a
-    /// tie's spread (`names`), then every held scale family's members.
+    /// The held values whose columns a fit computes, each once: those with a standard
+    /// error or a tie's spread (`names`), then the held scale families' other members.
     pub(crate) fn column_names(&self) -> Vec<String> {
         let mut names = self.names.clone();
         for s in &self.scales {
-            names.extend(s.names.iter().cloned());
+            for n in &s.names {
+                if !names.contains(n) {
+                    names.push(n.clone());
+                }
+            }
         }
         names
     }
@@ -384,20 +390,23 @@ impl HeldColumns {
     /// Takes the columns ∂r/∂h of [`HeldColumns::column_names`], in that order: the held
     /// values' into `cols`, each scale family's members' summed into its ∂r/∂α.
     pub(crate) fn set_columns(&mut self, cols: Vec<Vec<f64>>) {
-        let mut cols = cols.into_iter();
-        self.cols = cols.by_ref().take(self.names.len()).collect();
+        let names = self.column_names();
         for s in &mut self.scales {
             let mut col: Vec<f64> = Vec::new();
-            for (h, c) in s.values.iter().zip(cols.by_ref().take(s.names.len())) {
+            for (h, n) in s.values.iter().zip(&s.names) {
+                let Some(c) = names.iter().position(|m| m == n).and_then(|k| cols.get(k)) else {
+                    continue;
+                };
                 if col.is_empty() {
                     col = vec![0.0; c.len()];
                 }
-                for (a, b) in col.iter_mut().zip(&c) {
+                for (a, b) in col.iter_mut().zip(c) {
                     *a += h * b;
                 }
             }
             s.col = col;
         }
+        self.cols = cols.into_iter().take(self.names.len()).collect();
     }
 }
 
@@ -634,13 +643,21 @@ pub(crate) fn statistics_at(
         statistics.relative_std_err.fill(f64::INFINITY);
         statistics.identifiable.fill(false);
     }
-    (
-        statistics.std_err_given_scale,
-        statistics.identifiable_given_scale,
-    ) = match given_scale {
-        Some(given) => (given.std_err, given.identifiable),
-        None => (statistics.std_err.clone(), statistics.identifiable.clone()),
-    };
+    // What the sequence records and decides on is relative to the held families' scale
+    // (the scale itself is their family's): the standard errors and their correlations,
+    // and how well this fit sees each held value.
+    match given_scale {
+        Some(given) => {
+            statistics.std_err_given_scale = given.std_err;
+            statistics.identifiable_given_scale = given.identifiable;
+            statistics.correlation_with_held = given.correlation_with_held;
+            statistics.held_information = given.held_information;
+        }
+        None => {
+            statistics.std_err_given_scale = statistics.std_err.clone();
+            statistics.identifiable_given_scale = statistics.identifiable.clone();
+        }
+    }
     statistics.held_scales = held_scales;
     statistics.information = Some(information);
     Ok(statistics)
@@ -880,8 +897,9 @@ impl Statistics {
     /// `others`: (start, objective difference ≥ 0 to the kept one, physical values). Those
     /// within Δχ² = [`EQUAL_MINIMUM_CHI2`] (difference / `s_bar2`, s̄² from
     /// [`Problem::noise_residual_rms`]) are kept in `other_minima` with the parameters that
-    /// lie more than [`EQUAL_MINIMUM_STD_ERRORS`] standard errors (`std_err`) away there,
-    /// and those parameters are no longer called identifiable.
+    /// lie more than [`EQUAL_MINIMUM_STD_ERRORS`] standard errors (`std_err`, relative to
+    /// any held scale family's scale: [`Statistics::std_err_given_scale`]) away there, and
+    /// those parameters are no longer called identifiable.
     pub fn mark_other_minima(
         &mut self,
         names: &[String],
@@ -899,16 +917,15 @@ impl Statistics {
             }
             let mut moved = Vec::new();
             for i in 0..names.len() {
-                let distance = (q[i] - p[i]).abs() / self.std_err[i];
+                // In standard errors relative to any held scale family's scale (a value
+                // known only relative to it has an infinite one, and moves along it too).
+                let distance = (q[i] - p[i]).abs() / self.std_err_given_scale(i);
                 if distance > EQUAL_MINIMUM_STD_ERRORS {
                     self.identifiable[i] = false;
-                    moved.push((names[i].clone(), q[i], distance));
-                }
-                let given = self.std_err_given_scale.get(i).copied();
-                if given.is_some_and(|se| (q[i] - p[i]).abs() / se > EQUAL_MINIMUM_STD_ERRORS) {
                     if let Some(x) = self.identifiable_given_scale.get_mut(i) {
                         *x = false;
                     }
+                    moved.push((names[i].clone(), q[i], distance));
                 }
             }
             self.other_minima.push(OtherMinimum {
@@ -942,13 +959,14 @@ impl Statistics {
 
     /// The largest distance (SI) of parameter `i`, named `name`, between the kept minimum
     /// and the equally good minima of [`Statistics::other_minima`] (the distance in
-    /// standard errors those record, times `std_err[i]`); 0 without them.
+    /// standard errors those record, times [`Statistics::std_err_given_scale`]); 0 without
+    /// them.
     pub fn other_minima_spread(&self, i: usize, name: &str) -> f64 {
         self.other_minima
             .iter()
             .flat_map(|o| &o.moved)
             .filter(|(n, _, _)| n == name)
-            .map(|(_, _, d)| d * self.std_err[i])
+            .map(|(_, _, d)| d * self.std_err_given_scale(i))
             .fold(0.0, f64::max)
     }
 }
