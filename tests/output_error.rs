@@ -3036,6 +3036,28 @@ fn a_held_gain_family_without_a_determined_scale_leaves_the_coupled_values_relat
             model, n
         ));
     }
+    // k3 holds k2's family with the standard errors k2 recorded relative to its scale:
+    // each member's share enters beside the scale, which stays unknown.
+    let mut relative = start.clone();
+    for n in &family {
+        let v = relative.parameters[n];
+        relative.standard_errors.insert(n.clone(), 1e-3 * v.abs());
+    }
+    let with_shares = statistics(&relative);
+    for n in ["Kp_q3", "Fc_q3", "Fs_q3", "sigma2_q3"] {
+        let i = at(n);
+        let (se, given) = (with_shares.std_err[i], with_shares.std_err_given_scale[i]);
+        println!("{n} with the members' shares: ± {se:.3e}, relative to the scale ± {given:.3e}");
+        assert!(
+            se.is_infinite() && !with_shares.identifiable[i],
+            "{n} ± {se}"
+        );
+        assert!(
+            given > stats.std_err_given_scale[i],
+            "{n}: ± {given} relative"
+        );
+    }
+    assert_eq!(with_shares.held.len(), family.len());
     let i = at("vs_q3");
     let (se, given) = (stats.std_err[i], stats.std_err_given_scale[i]);
     println!("vs_q3 ± {se:.3e}, relative to k1's scale ± {given:.3e}");

@@ -42,16 +42,14 @@ pub(crate) fn gain_scale_family(
         names.iter().zip(p).any(|(n, v)| *n == gain && *v != 0.0)
             || (scales_unknown && in_scale(&gain))
     });
-    let scale_members = held
-        .scales
-        .iter()
-        .filter(|_| !scales_unknown)
-        .flat_map(|s| &s.names);
+    // A member with a recorded standard error (relative to its family's scale) is among
+    // `held.names` as well: with the scale free it moves with the family all the same.
     let scale_held_elsewhere = held
         .names
         .iter()
         .chain(&held.exact)
-        .chain(scale_members)
+        .chain(held.scales.iter().flat_map(|s| &s.names))
+        .filter(|n| !(scales_unknown && in_scale(n)))
         .any(|n| {
             scales_with_the_gain(model, n)
                 && !held_ties.contains(n)
