@@ -104,10 +104,10 @@ pub struct Statistics {
     pub held_exact: Vec<String>,
     /// Plant-gain scale families ([`crate::plant::Plant::scale_families`]) with members
     /// this fit holds: (family, those members). No step determined the family's scale, so
-    /// it counts as unknown in `std_err` ([`HeldScale`]): a fitted value that moves with it
-    /// (the coupled k2 of the Freedom 6S: Kp_q3 and joint 3's friction, coupled to the
-    /// held gains of joints 4 and 5 that k1 left on their symmetry) is known only relative
-    /// to it, and its standard error is infinite.
+    /// it counts as unknown in `std_err` (its column projected out): a fitted value that
+    /// moves with it (the coupled k2 of the Freedom 6S: Kp_q3 and joint 3's friction,
+    /// coupled to the held gains of joints 4 and 5 that k1 left on their symmetry) is
+    /// known only relative to it, and its standard error is infinite.
     #[serde(default)]
     pub held_scales: Vec<(String, Vec<String>)>,
     /// Standard error per parameter with the held scale families' scale taken as exact
