@@ -261,10 +261,7 @@ impl Plant {
         spec.correlations = correlations;
         for (family, members) in &mut spec.scale_families {
             for m in members.iter_mut() {
-                let current = self.current_name(m);
-                if current != *m {
-                    *m = current;
-                }
+                *m = self.current_name(m);
             }
             let mut seen = std::collections::BTreeSet::new();
             if let Some(m) = members.iter().find(|m| !seen.insert(m.as_str())) {

@@ -344,20 +344,17 @@ pub(crate) fn held_in(
         };
         let value = plant.parameters[n];
         let family = plant.scale_family_of(n).filter(|_| value != 0.0);
-        let (se, tie) = match plant.standard_errors.get(n) {
-            Some(&se) => (se, false),
-            None => match tie_spread() {
-                // A held tie's make-up scales with the fit's own family
-                // ([`gain_scale_direction`]), never with a held one.
-                Some(se) => (se, true),
-                None => {
-                    if family.is_none() {
-                        held.exact.push(n.clone());
-                    }
-                    (f64::NAN, false)
-                }
-            },
+        // (σ, whether a tie's spread), where the value has a share.
+        let share = match plant.standard_errors.get(n) {
+            Some(&se) => Some((se, false)),
+            None => tie_spread().map(|se| (se, true)),
         };
+        if share.is_none() && family.is_none() {
+            held.exact.push(n.clone());
+        }
+        // A held tie's make-up scales with the fit's own family ([`gain_scale_direction`]),
+        // never with a held one.
+        let tie = share.is_some_and(|(_, tie)| tie);
         if let Some(family) = family.filter(|_| !tie) {
             let at = match held.scales.iter().position(|s| s.family == family) {
                 Some(at) => at,
@@ -372,9 +369,9 @@ pub(crate) fn held_in(
             held.scales[at].names.push(n.clone());
             held.scales[at].values.push(value);
         }
-        if se.is_nan() {
+        let Some((se, tie)) = share else {
             continue;
-        }
+        };
         held.names.push(n.clone());
         held.std_err.push(se);
         held.tie.push(tie);

@@ -948,13 +948,22 @@ impl Statistics {
     }
 
     /// The standard error of parameter `i` relative to the held scale families' scale
-    /// (`std_err_given_scale`; `std_err` in a report without it).
+    /// ([`Statistics::std_errs_given_scale`]).
     pub fn std_err_given_scale(&self, i: usize) -> f64 {
-        self.std_err_given_scale
+        self.std_errs_given_scale()
             .get(i)
-            .or(self.std_err.get(i))
             .copied()
             .unwrap_or(f64::INFINITY)
+    }
+
+    /// Every parameter's standard error relative to the held scale families' scale
+    /// (`std_err_given_scale`; `std_err` in a report without it).
+    pub fn std_errs_given_scale(&self) -> &[f64] {
+        if self.std_err_given_scale.is_empty() {
+            &self.std_err
+        } else {
+            &self.std_err_given_scale
+        }
     }
 
     /// The largest distance (SI) of parameter `i`, named `name`, between the kept minimum

@@ -22,11 +22,7 @@ pub fn undetermined_gain_families<'a>(
             free: &st.step.free,
             names: &st.fit.names,
             // Whether the step's own data fixed the gain, relative to any held scale.
-            std_err: if st.fit.statistics.std_err_given_scale.is_empty() {
-                &st.fit.statistics.std_err
-            } else {
-                &st.fit.statistics.std_err_given_scale
-            },
+            std_err: st.fit.statistics.std_errs_given_scale(),
         }),
     )
 }
