@@ -2652,6 +2652,14 @@ fn a_start_the_whole_files_diverge_from_is_warmed_up_to_the_noise_floor() {
             .all(|o| o == StageOptimiser::LevenbergMarquardt),
         "{stages:?}"
     );
+    // Each stage that ran records what it spent: at least one evaluation per iteration and
+    // one Jacobian per iteration that moved (the Levenberg–Marquardt's), and its time.
+    for r in stages.iter().filter(|r| r.optimiser.is_some()) {
+        assert!(
+            r.evaluations >= r.iterations.max(1) && r.jacobians >= 1 && r.wall_s > 0.0,
+            "{r:?}"
+        );
+    }
 }
 
 /// The same through the trust-region-reflective method for the predictor's stages and

@@ -22,8 +22,8 @@ use super::output_error::{
     chain, difference_column, enters, feasible_bounds, fitted_companions, held_in,
     parameter_space_of, physical_derivatives, statistics_at, AtTheFit, FitResult, HeldColumns,
     JacobianPolicy, LevenbergMarquardt, OutputErrorOptions, ParameterSpace, Problem, Progress,
-    Record, Residuals, Solver, Stage, StageContext, StageOptimiser, StageRecord, StageRun,
-    StartSummary, Statistics, Stencil, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS,
+    Record, Residuals, Solver, Stage, StageClock, StageContext, StageOptimiser, StageRecord,
+    StageRun, StartSummary, Statistics, Stencil, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS,
     INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
@@ -272,6 +272,7 @@ impl JointProblem {
             ..MPConfig::new()
         };
         let mut run = |problem: &JointProblem, u: &mut Vec<f64>, round: usize| {
+            let clock = StageClock::start(&context);
             let start_cost = problem.cost(&self.to_physical(u));
             let run = StageRun {
                 problem,
@@ -289,7 +290,8 @@ impl JointProblem {
                 StageOptimiser::LevenbergMarquardt,
                 &outcome,
                 None,
-            );
+            )
+            .spent(&clock, &context);
             (
                 format!("fit {round}: {}", outcome.status),
                 outcome.stop,

@@ -2,7 +2,9 @@
 //! `report.json`): per step its files, weights, costs, time and evaluations, the parameters
 //! with standard errors and identifiability, the fit per joint, and the refinements.
 
-use crate::identify::output_error::{JacobianMethod, OutputErrorOptions, SENSITIVITIES_FROM};
+use crate::identify::output_error::{
+    FitResult, JacobianMethod, OutputErrorOptions, SENSITIVITIES_FROM,
+};
 use crate::identify::sequence::*;
 use generated::Model;
 use std::fmt::Write as _;
@@ -266,6 +268,9 @@ fn step_markdown(
             fmt_g(other.cost),
             other.status
         );
+    }
+    if let Some(line) = stage_costs(f) {
+        let _ = writeln!(s, "{line}\n");
     }
     let rejected: usize = f.starts.iter().map(|x| x.diverged).sum();
     if rejected > 0 {
@@ -792,4 +797,38 @@ fn step_markdown(
         );
     }
     let _ = writeln!(s);
+}
+
+/// Where a fit's wall time went, one line: each start's stages with their wall time and
+/// cost evaluations (as recorded, [`StageRecord`](crate::identify::output_error::StageRecord)),
+/// then what the stages leave of the fit's wall time (the least change, the statistics);
+/// `None` for a report written before the stages' costs were recorded.
+fn stage_costs(f: &FitResult) -> Option<String> {
+    let stages: Vec<_> = f.starts.iter().flat_map(|x| &x.stages).collect();
+    if stages.iter().all(|g| g.wall_s == 0.0) {
+        return None;
+    }
+    let per_start: Vec<String> = f
+        .starts
+        .iter()
+        .filter(|x| x.stages.iter().any(|g| g.wall_s > 0.0))
+        .map(|x| {
+            let parts: Vec<String> = x
+                .stages
+                .iter()
+                .filter(|g| g.wall_s > 0.0)
+                .map(|g| {
+                    let name = g.stage.split(" (").next().unwrap_or(&g.stage);
+                    format!("{name} {:.1} s ({} evaluations)", g.wall_s, g.evaluations)
+                })
+                .collect();
+            format!("start {}: {}", x.start, parts.join(", "))
+        })
+        .collect();
+    let in_stages: f64 = stages.iter().map(|g| g.wall_s).sum();
+    Some(format!(
+        "Where the fit's wall time went: {}; after the stages (least change, statistics) {:.1} s.",
+        per_start.join("; "),
+        (f.wall_s - in_stages).max(0.0)
+    ))
 }

@@ -352,6 +352,7 @@ impl Problem {
         // refinement of the next ([`Problem::run_predictor_refined`]).
         let mut previous_predictor: Option<(f64, f64)> = None;
         for &stage in stages {
+            let clock = StageClock::start(context);
             if stage.is_final() {
                 let at_u = cost_u.take().unwrap_or_else(|| self.cost_at(&u));
                 if let Some(note) = start_final_stage(&mut u, &simulable, at_u) {
@@ -364,12 +365,15 @@ impl Problem {
                 diverged += outcome.failures;
                 iterations += outcome.iterations;
                 ended.push(format!("{stage}: {}", outcome.status));
-                records.push(StageRecord::ran(
-                    stage.to_string(),
-                    self.stage_optimiser(stage),
-                    &outcome,
-                    None,
-                ));
+                records.push(
+                    StageRecord::ran(
+                        stage.to_string(),
+                        self.stage_optimiser(stage),
+                        &outcome,
+                        None,
+                    )
+                    .spent(&clock, context),
+                );
                 estimated = Some(problem);
                 if outcome.stop {
                     break;
@@ -442,12 +446,15 @@ impl Problem {
                     ", the whole files cannot be simulated from its result".to_string()
                 }
             };
-            records.push(StageRecord::ran(
-                format!("{stage}{step_note}"),
-                self.stage_optimiser(stage),
-                &outcome,
-                whole_files_cost,
-            ));
+            records.push(
+                StageRecord::ran(
+                    format!("{stage}{step_note}"),
+                    self.stage_optimiser(stage),
+                    &outcome,
+                    whole_files_cost,
+                )
+                .spent(&clock, context),
+            );
             ended.push(format!(
                 "{stage}{step_note}: {}{}{whole}",
                 outcome.status,

@@ -125,6 +125,18 @@ pub struct StageRecord {
     /// The whole files' cost (4.2)/(4.3) at its result; `None` after the final stage, or
     /// where the whole files cannot be simulated from it.
     pub whole_files_cost: Option<f64>,
+    /// Cost evaluations the stage spent, each one simulation of its files (a Jacobian by
+    /// finite differences counts one per column; by sensitivities, its simulation-cost
+    /// equivalent). With parallel starts, the other starts' evaluations in the same
+    /// interval are counted too. 0 in reports written before it was recorded.
+    #[serde(default)]
+    pub evaluations: usize,
+    /// Jacobians the stage formed (fresh or by Broyden's update).
+    #[serde(default)]
+    pub jacobians: usize,
+    /// Wall time of the stage (s), the whole files' cost at its result included.
+    #[serde(default)]
+    pub wall_s: f64,
 }
 
 impl StageRecord {
@@ -143,7 +155,18 @@ impl StageRecord {
             failures: outcome.failures,
             outcome: outcome.status.clone(),
             whole_files_cost,
+            evaluations: 0,
+            jacobians: 0,
+            wall_s: 0.0,
         }
+    }
+
+    /// This record with what the stage spent since `since` on `context`'s counters.
+    pub(crate) fn spent(mut self, since: &StageClock, context: &StageContext) -> Self {
+        self.evaluations = context.evaluations.load(Ordering::Relaxed) - since.evaluations;
+        self.jacobians = context.jacobians.load(Ordering::Relaxed) - since.jacobians;
+        self.wall_s = since.started.elapsed().as_secs_f64();
+        self
     }
 
     /// A stage that did not run, and why.
@@ -155,6 +178,27 @@ impl StageRecord {
             failures: 0,
             outcome: why,
             whole_files_cost: None,
+            evaluations: 0,
+            jacobians: 0,
+            wall_s: 0.0,
+        }
+    }
+}
+
+/// A stage's counters and clock at its start, for [`StageRecord::spent`].
+pub(crate) struct StageClock {
+    evaluations: usize,
+    jacobians: usize,
+    started: Instant,
+}
+
+impl StageClock {
+    /// `context`'s counters now, the clock started.
+    pub(crate) fn start(context: &StageContext) -> Self {
+        StageClock {
+            evaluations: context.evaluations.load(Ordering::Relaxed),
+            jacobians: context.jacobians.load(Ordering::Relaxed),
+            started: Instant::now(),
         }
     }
 }
