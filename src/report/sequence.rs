@@ -801,7 +801,8 @@ fn step_markdown(
 
 /// Where a fit's wall time went, one line: each start's stages with their wall time and
 /// cost evaluations (as recorded, [`StageRecord`](crate::identify::output_error::StageRecord)),
-/// then what the stages leave of the fit's wall time (the least change, the statistics);
+/// then what the stages leave of the fit's wall time (the least change, the statistics,
+/// and the refinements merged into the fit: the balanced refit and the like);
 /// `None` for a report written before the stages' costs were recorded.
 fn stage_costs(f: &FitResult) -> Option<String> {
     let stages: Vec<_> = f.starts.iter().flat_map(|x| &x.stages).collect();
@@ -827,7 +828,7 @@ fn stage_costs(f: &FitResult) -> Option<String> {
         .collect();
     let in_stages: f64 = stages.iter().map(|g| g.wall_s).sum();
     Some(format!(
-        "Where the fit's wall time went: {}; after the stages (least change, statistics) {:.1} s.",
+        "Where the fit's wall time went: {}; outside the stages (least change, statistics, the refinements below) {:.1} s.",
         per_start.join("; "),
         (f.wall_s - in_stages).max(0.0)
     ))
