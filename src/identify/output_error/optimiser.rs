@@ -440,6 +440,27 @@ impl<'a> Evaluator<'a> {
     }
 }
 
+/// Whether the Jacobian column `col` (∂r/∂u_j in scaled units, prior's rows included) of
+/// a parameter is numerically absent from the Gauss–Newton model at residuals `r` of
+/// cost `cost` = ‖r‖²: a move of u_j across its whole range [0, 1] changes the linear
+/// model's cost ‖r + J_j δ‖² by at most 2 |J_jᵀ r| + ‖J_j‖², and that is below the stage's
+/// relative cost tolerance `ftol` × `cost`.
+///
+/// rmpfit treats a column as singular only when it is exactly zero (MINPACK's `lmpar`).
+/// A column that is tiny but not zero — the sensitivities of a Stribeck velocity
+/// collapsed to 8e-9 m/s, ∂/∂vs of e^{−(v/vs)²} ≈ 1e-60 — gets a Gauss–Newton component
+/// of ~1e60 of its range; rmpfit's bounds then shorten the whole step to reach that
+/// parameter's limit, a step of ~1e-60 that its first iteration takes as the trust
+/// region and reports as convergence in chi-square and parameter values (k1 of the
+/// Freedom 6S on seed-11 data by sensitivities: stopped after one iteration at 16 × the
+/// noise floor, where finite differences, whose column is exactly zero, went on). The
+/// column is taken as zero for that step; the next Jacobian looks at it again.
+fn absent_from_the_linear_model(col: &[f64], r: &[f64], cost: f64, ftol: f64) -> bool {
+    let g: f64 = col.iter().zip(r).map(|(j, r)| j * r).sum();
+    let n2: f64 = col.iter().map(|j| j * j).sum();
+    2.0 * g.abs() + n2 <= ftol * cost
+}
+
 impl MPFitter for Fitter<'_> {
     fn eval(&mut self, params: &[f64], deviates: &mut [f64]) -> MPResult<()> {
         let r = self.evaluator.residuals(params);
@@ -488,11 +509,15 @@ impl MPFitter for Fitter<'_> {
         // rmpfit's deviates are (y − f): the derivative of the residual as defined here;
         // then the prior's rows.
         let prior = p.prior_jacobian(params);
+        let cost: f64 = r0.iter().map(|x| x * x).sum();
         for (i, d) in derivs.iter_mut().enumerate() {
             if let Some(col) = d {
                 col[..m].copy_from_slice(&cols[i]);
                 for (k, row) in prior.iter().enumerate() {
                     col[m + k] = row[i];
+                }
+                if absent_from_the_linear_model(col, &r0, cost, self.config.ftol) {
+                    col.fill(0.0);
                 }
             }
         }
@@ -711,6 +736,9 @@ mod tests {
         upper: Vec<f64>,
         pairs: Vec<(usize, usize)>,
         held_ties: Vec<String>,
+        /// A third parameter c ∈ [0, 1] whose residual term is −ε c, and the Jacobian in
+        /// closed form (as sensitivities give it) instead of by differences.
+        absent: Option<f64>,
     }
 
     impl Decay {
@@ -731,7 +759,18 @@ mod tests {
                 upper: vec![4.0, b_max],
                 pairs: Vec::new(),
                 held_ties: Vec::new(),
+                absent: None,
             }
+        }
+
+        /// [`Decay::new`] with b ∈ [0, 2] and the third parameter c of effect `epsilon`.
+        fn with_absent(epsilon: f64) -> Decay {
+            let mut d = Decay::new(2.0);
+            d.names.push("c".into());
+            d.lower.push(0.0);
+            d.upper.push(1.0);
+            d.absent = Some(epsilon);
+            d
         }
     }
 
@@ -747,8 +786,27 @@ mod tests {
                 .y
                 .iter()
                 .enumerate()
-                .map(|(k, y)| y - p[0] * (-p[1] * 0.1 * k as f64).exp())
+                .map(|(k, y)| {
+                    y - p[0] * (-p[1] * 0.1 * k as f64).exp()
+                        - self.absent.map_or(0.0, |e| e * p[2])
+                })
                 .collect())
+        }
+        fn jacobian_columns(&self, stencil: &Stencil) -> Vec<Vec<f64>> {
+            let Some(epsilon) = self.absent else {
+                return finite_difference_columns(self, stencil);
+            };
+            // ∂r/∂u = ∂r/∂p (upper − lower): the scaling is linear without pairs.
+            let p = (stencil.p_of)(stencil.x);
+            let t = |k: usize| 0.1 * k as f64;
+            let e = |k: usize| (-p[1] * t(k)).exp();
+            vec![
+                (0..30).map(|k| -e(k) * self.upper[0]).collect(),
+                (0..30)
+                    .map(|k| p[0] * t(k) * e(k) * self.upper[1])
+                    .collect(),
+                vec![-epsilon; 30],
+            ]
         }
     }
 
@@ -845,6 +903,47 @@ mod tests {
             "{}",
             outcome.status
         );
+    }
+
+    /// The Levenberg–Marquardt stage reaches the known minimum past a parameter whose
+    /// closed-form Jacobian column is ~1e-60 (a collapsed Stribeck velocity's
+    /// sensitivity): rmpfit alone gives it a Gauss–Newton step of ~1e60 of its range,
+    /// shortens the whole step to that parameter's bound and stops after one iteration.
+    #[test]
+    fn the_levenberg_marquardt_stage_steps_past_a_numerically_absent_parameter() {
+        let problem = Decay::with_absent(1e-60);
+        let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
+        let context = StageContext::alone(
+            &evaluations,
+            &jacobians,
+            JacobianPolicy::of(&problem.options),
+        );
+        let mut u = vec![0.1, 0.9, 0.3];
+        let start_cost: f64 = problem
+            .residuals(&problem.to_physical(&u))
+            .unwrap()
+            .iter()
+            .map(|x| x * x)
+            .sum();
+        let run = StageRun {
+            problem: &problem,
+            stage: Stage::Horizon(1.0),
+            frozen: &[false, false, false],
+            rules: stage_rules(&problem.options, Stage::Horizon(1.0)),
+            context: &context,
+            start_cost,
+        };
+        let outcome = LevenbergMarquardt.minimise(&run, &mut u);
+        let p = problem.to_physical(&u);
+        assert!(
+            (p[0] - 2.0).abs() < 1e-6 && (p[1] - 0.7).abs() < 1e-6,
+            "{p:?} from cost {start_cost}: {}",
+            outcome.status
+        );
+        assert!(outcome.iterations > 1, "{}", outcome.status);
+        // The column is zero only in what the optimiser is given.
+        assert!(absent_from_the_linear_model(&[1e-60; 30], &[0.1; 30], 0.3, 1e-6));
+        assert!(!absent_from_the_linear_model(&[1e-3; 30], &[0.1; 30], 0.3, 1e-6));
     }
 
     /// Broyden's update meets the secant condition J⁺ Δu = Δr, changes J only along Δu
