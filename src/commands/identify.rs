@@ -175,7 +175,7 @@ pub struct OutputErrorArgs {
     #[arg(long, default_value_t = 100)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub max_iter: usize,
-    /// Jacobian of the simulated positions: sensitivities (one augmented simulation per file), differences (one simulation per file and parameter), or auto (sensitivities from 8 fitted values). Default: differences for the coupled method, auto for the isolated
+    /// Jacobian of the simulated positions: sensitivities (one augmented simulation per file), differences (one simulation per file and parameter), or auto (sensitivities from 8 fitted values). Default: auto
     ///
     /// Where sensitivities are not available (the etdrk4 integrator, user-defined effects, backlash) differences are used.
     #[arg(long)]
@@ -269,12 +269,12 @@ pub struct OutputErrorArgs {
     #[arg(long, value_enum, default_value = "trf")]
     #[arg(help_heading = "Output error: starts and warm-ups")]
     pub predictor_optimiser: OptimiserArg,
-    /// Optimiser of the whole files' stage and of the release of held values: lm or trf
+    /// Optimiser of the whole files' stage and of the release of held values: lm or trf. Default: trf for the coupled method, lm for the isolated
     ///
     /// The horizons', segments' and equation error's stages run lm.
-    #[arg(long, value_enum, default_value = "lm")]
+    #[arg(long, value_enum)]
     #[arg(help_heading = "Output error: starts and warm-ups")]
-    pub whole_files_optimiser: OptimiserArg,
+    pub whole_files_optimiser: Option<OptimiserArg>,
     /// Initial positions of the free joints: estimate (as MATLAB's InitialCondition = 'estimate'), refit or the first measured sample. Default: estimate for the coupled method, refit for the isolated
     ///
     /// estimate: in every start's whole-files stage. refit: the starts compete on the measured samples, then the kept minimum, where at the noise floor, is fitted once more with them estimated (kept when the cost falls).
@@ -433,7 +433,9 @@ impl OutputErrorArgs {
             };
         }
         o.predictor_optimiser = self.predictor_optimiser.into();
-        o.whole_files_optimiser = self.whole_files_optimiser.into();
+        if let Some(w) = self.whole_files_optimiser {
+            o.whole_files_optimiser = w.into();
+        }
         if let Some(i) = self.initial_positions {
             o.estimate_initial_positions = i == InitialPositionsArg::Estimate;
         }
@@ -1037,6 +1039,10 @@ mod method_tests {
             Some((h, _)) => format!("1/{}", (1.0 / h).round()),
             None => "none".into(),
         };
+        let optimiser = |o: StageOptimiser| match o {
+            StageOptimiser::LevenbergMarquardt => "lm",
+            StageOptimiser::TrustRegionReflective => "trf",
+        };
         let refit = SequenceOptions::preset("isolated", PathBuf::new()).initial_positions_refit;
         let initial = |e: bool| match (e, refit) {
             (true, _) => "estimate",
@@ -1085,11 +1091,24 @@ mod method_tests {
                 on(SequenceOptions::preset("coupled", PathBuf::new()).earlier_information),
                 on(SequenceOptions::preset("isolated", PathBuf::new()).earlier_information)
             ),
+            if c.jacobian == i.jacobian {
+                format!(
+                    "or auto (sensitivities from {} fitted values). Default: {}",
+                    lockstep::identify::output_error::SENSITIVITIES_FROM,
+                    c.jacobian
+                )
+            } else {
+                format!(
+                    "or auto (sensitivities from {} fitted values). Default: {} for the coupled method, {} for the isolated",
+                    lockstep::identify::output_error::SENSITIVITIES_FROM,
+                    c.jacobian,
+                    i.jacobian
+                )
+            },
             format!(
-                "or auto (sensitivities from {} fitted values). Default: {} for the coupled method, {} for the isolated",
-                lockstep::identify::output_error::SENSITIVITIES_FROM,
-                c.jacobian,
-                i.jacobian
+                "lm or trf. Default: {} for the coupled method, {} for the isolated",
+                optimiser(c.whole_files_optimiser),
+                optimiser(i.whole_files_optimiser)
             ),
         ] {
             assert!(help.contains(&stated), "not in identify --help: {stated}");

@@ -942,8 +942,18 @@ mod tests {
         );
         assert!(outcome.iterations > 1, "{}", outcome.status);
         // The column is zero only in what the optimiser is given.
-        assert!(absent_from_the_linear_model(&[1e-60; 30], &[0.1; 30], 0.3, 1e-6));
-        assert!(!absent_from_the_linear_model(&[1e-3; 30], &[0.1; 30], 0.3, 1e-6));
+        assert!(absent_from_the_linear_model(
+            &[1e-60; 30],
+            &[0.1; 30],
+            0.3,
+            1e-6
+        ));
+        assert!(!absent_from_the_linear_model(
+            &[1e-3; 30],
+            &[0.1; 30],
+            0.3,
+            1e-6
+        ));
     }
 
     /// Broyden's update meets the secant condition J⁺ Δu = Δr, changes J only along Δu
