@@ -447,14 +447,13 @@ impl<'a> Evaluator<'a> {
 /// relative cost tolerance `ftol` × `cost`.
 ///
 /// rmpfit treats a column as singular only when it is exactly zero (MINPACK's `lmpar`).
-/// A column that is tiny but not zero — the sensitivities of a Stribeck velocity
-/// collapsed to 8e-9 m/s, ∂/∂vs of e^{−(v/vs)²} ≈ 1e-60 — gets a Gauss–Newton component
-/// of ~1e60 of its range; rmpfit's bounds then shorten the whole step to reach that
-/// parameter's limit, a step of ~1e-60 that its first iteration takes as the trust
-/// region and reports as convergence in chi-square and parameter values (k1 of the
-/// Freedom 6S on seed-11 data by sensitivities: stopped after one iteration at 16 × the
-/// noise floor, where finite differences, whose column is exactly zero, went on). The
-/// column is taken as zero for that step; the next Jacobian looks at it again.
+/// A column that is tiny but not zero — the sensitivity to a collapsed Stribeck velocity
+/// vs, ∂/∂vs of e^{−(v/vs)²}, which underflows toward 1e-60 where a finite difference is
+/// exactly zero — gets a Gauss–Newton component of ~1e60 of its range; rmpfit's bounds
+/// then shorten the whole step to reach that parameter's limit, a step of ~1e-60 that its
+/// first iteration takes as the trust region and reports as convergence in chi-square and
+/// parameter values, far from the minimum (the sensitivities record, stop 88). The column
+/// is taken as zero for that step; the next Jacobian looks at it again.
 fn absent_from_the_linear_model(col: &[f64], r: &[f64], cost: f64, ftol: f64) -> bool {
     let g: f64 = col.iter().zip(r).map(|(j, r)| j * r).sum();
     let n2: f64 = col.iter().map(|j| j * j).sum();
