@@ -82,8 +82,8 @@ pub enum IdentifyMethod {
 /// `lockstep identify sequence`.
 #[derive(Debug, Args)]
 pub struct SequenceArgs {
-    /// The method, its locking sequence and its defaults: `isolated` (the method of
-    /// isolated joints, thesis 4.3.1) or `coupled` (of coupling joints, 4.3.2).
+    /// The method, its locking sequence and its defaults: `isolated` (isolated joints,
+    /// thesis 4.3.1) or `coupled` (coupling joints, 4.3.2).
     #[arg(long, value_enum)]
     pub preset: Preset,
     #[command(flatten)]
@@ -107,7 +107,7 @@ pub struct SequenceArgs {
 /// Settings of output-error identification (`identify sequence`).
 #[derive(Debug, Args)]
 pub struct OutputErrorArgs {
-    /// Continue an interrupted sequence in --out from its last completed step.
+    /// Resume an interrupted run in --out from its last completed step.
     ///
     /// Starts from --out's plant.toml, skips the steps its report lists and adds the rest to that report.
     #[arg(long)]
@@ -155,7 +155,7 @@ pub struct OutputErrorArgs {
     #[arg(long)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub hold: Option<Hold>,
-    /// Starts per step: the plant's values, then random points inside the bounds (in parallel)
+    /// Starts per step: the plant's values, then random points in the bounds (in parallel)
     #[arg(long, default_value_t = 1)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub starts: usize,
@@ -175,7 +175,7 @@ pub struct OutputErrorArgs {
     #[arg(long, default_value_t = 100)]
     #[arg(help_heading = "Output error: cost, integration and stopping")]
     pub max_iter: usize,
-    /// Jacobian of the simulated positions: sensitivities (one augmented simulation per file), differences (one simulation per file and parameter), or auto (sensitivities from 8 fitted values). Default: auto
+    /// Jacobian: sensitivities (one augmented simulation per file), differences (one simulation per file and parameter), or auto (sensitivities from 8 fitted values). Default: auto
     ///
     /// Where sensitivities are not available (the etdrk4 integrator, user-defined effects, backlash) differences are used.
     #[arg(long)]
@@ -247,6 +247,12 @@ pub struct OutputErrorArgs {
     #[arg(long, value_enum, value_name = "ON|OFF")]
     #[arg(help_heading = "Output error: the sequence and its refinements")]
     pub earlier_information: Option<Switch>,
+    /// After the last step (each step under --earlier-information), refit the earlier steps whose files it left off
+    ///
+    /// An earlier step whose files end above 1.02 × its own figure has the values only its files see refitted on them; where the last step's files see every value it fitted, the two are fitted together on all their files (every free joint weighted 1). Kept where the worst joint falls; the report gives each step's figures before and after.
+    #[arg(long, value_enum, default_value = "on", value_name = "ON|OFF")]
+    #[arg(help_heading = "Output error: the sequence and its refinements")]
+    pub earlier_refit: Switch,
     /// Equation-error warm start: on (filter cut-off per joint by residual analysis), off, or a cut-off fraction of Nyquist such as 0.2. Default: on for the coupled method, off for the isolated
     ///
     /// One more start fits the torque balance at every sample (positions low-passed and differentiated; no simulation, so no drift), then the whole files; the lower cost wins.
@@ -484,6 +490,7 @@ impl OutputErrorArgs {
         if let Some(e) = self.earlier_information {
             opts.earlier_information = e.on();
         }
+        opts.earlier_refit = self.earlier_refit.on();
         if let Some(i) = self.initial_positions {
             opts.initial_positions_refit = i == InitialPositionsArg::Refit;
         }

@@ -437,6 +437,16 @@ pub struct SequenceOptions {
     /// keeps what earlier files determined (c4 of the isolated method refits I7_22, which
     /// c2 sees only over Kp_q5).
     pub earlier_information: bool,
+    /// After the run's last step (after every step under
+    /// [`SequenceOptions::earlier_information`]), the earlier steps whose files the plant
+    /// no longer reproduces (worst free joint above 1.02 × its own end figure) refitted:
+    /// the values only their files see, on them ([`refit_earlier_steps`]), and where the
+    /// last step's files see every value they fitted, those steps and the last fitted
+    /// together on all their files ([`joint_refit`]). Every coupled step frees the joints
+    /// of the one before, so the last step refits every value they fitted on its own files
+    /// and can leave their locked configurations' combinations off (held-out seed 11: k3's
+    /// files at 3.42 σ̂ after k4; the sensitivities record, stop 89).
+    pub earlier_refit: bool,
     /// Continue the sequence recorded in `out` ([`previous_report`]): the steps its report
     /// lists as completed are skipped; the plant given to [`run`] should be `out`'s
     /// `plant.toml` ([`resume_plant`]).
@@ -450,7 +460,8 @@ impl SequenceOptions {
     /// may move 0.01 rad; spanning rigid-body symbols; no joint fit; the warm-up start where
     /// the horizons end above the floor, then the initial-positions refit; held values
     /// released, ties reached across and the balanced refit after each step; the earlier
-    /// steps' information for the isolated method.
+    /// steps' information for the isolated method; the earlier steps' files checked and
+    /// refitted after the last step (after each under the earlier information).
     pub fn preset(sequence: &str, out: PathBuf) -> Self {
         SequenceOptions {
             sequence: sequence.to_string(),
@@ -466,6 +477,7 @@ impl SequenceOptions {
             warm_up_start: true,
             initial_positions_refit: true,
             earlier_information: sequence == "isolated",
+            earlier_refit: true,
             resume: false,
         }
     }
@@ -722,7 +734,8 @@ pub fn run(
     // the plant file records (a step run alone with `--config` after an earlier run).
     let mut undetermined: Vec<String> = plant.undetermined.clone();
     let position = |c: &str| plan_order.iter().position(|x| x == c).unwrap_or(usize::MAX);
-    for (mut s, first) in steps.into_iter().zip(checked) {
+    let last_step = steps.len().saturating_sub(1);
+    for (index, (mut s, first)) in steps.into_iter().zip(checked).enumerate() {
         // Symbols an earlier step of this run fitted but could not determine (not called
         // identifiable: tied, poorly determined or at a bound) stay free where they appear
         // again: held at an arbitrary point of their uncertain direction they would bias
@@ -861,8 +874,9 @@ pub fn run(
             information_now: None,
         });
         report.steps.sort_by_key(|d| position(&d.step.config));
-        if earlier.is_some() {
-            // The earlier steps' files the linear following left off, refitted.
+        if earlier.is_some() || (opts.earlier_refit && index == last_step) {
+            // The earlier steps' files the linear following (or, without the earlier
+            // information, this step's refit of their values) left off, refitted.
             let conf = problem.configuration();
             let enters = |n: &str| super::output_error::enters(plant, &occ, conf, n);
             let refits = refit_earlier_steps(
