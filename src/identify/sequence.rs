@@ -895,6 +895,19 @@ pub fn run(
                 .filter(|r| r.names.is_empty())
                 .map(|r| r.config.clone())
                 .collect();
+            // Without the earlier information, with the steps whose files see their values.
+            let left_off = if earlier.is_none() && !left_off.is_empty() {
+                let steps: Vec<(&str, &Configuration, &[String])> = before_this
+                    .iter()
+                    .filter_map(|(c, p)| {
+                        let st = report.steps.iter().find(|d| d.step.config == *c)?;
+                        Some((c.as_str(), p.configuration(), st.fit.names.as_slice()))
+                    })
+                    .collect();
+                closed_over_seen_values(&left_off, &steps, &current, &occ)
+            } else {
+                left_off
+            };
             let joint = match report.steps.iter().find(|d| d.step.config == cname) {
                 Some(st) if !left_off.is_empty() => joint_refit(
                     &mut current,
@@ -1322,6 +1335,42 @@ mod tests {
             let e = Plant::from_file(toml::from_str(&text).unwrap(), None).unwrap_err();
             assert!(e.to_string().contains(expected), "{e}");
         }
+    }
+
+    /// The joint refit's group without the earlier information
+    /// ([`closed_over_seen_values`]), on the Freedom 6S: k3 (q2..q5 free) left off after
+    /// fitting Fc_q2 draws in k4 (q1..q5), whose files see it, and not c2 (q5 alone),
+    /// whose files do not; once k4 fitted Fc_q5 too, c2 joins, by the second round.
+    #[test]
+    fn the_joint_refits_group_closes_over_the_steps_that_see_its_values() {
+        let plant = Plant::load(
+            &Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("model/plants/freedom6s_appendix_d_initial_widened.toml"),
+        )
+        .unwrap();
+        let occ = occurrence(plant.model);
+        let conf = |c: &str| plant.model.configuration(c).unwrap();
+        let names = |n: &[&str]| n.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+        let (c2, k3) = (names(&["Fc_q5"]), names(&["Fc_q2"]));
+        let group = |k4: &[String]| {
+            closed_over_seen_values(
+                &["k3".to_string()],
+                &[
+                    ("c2", conf("c2"), c2.as_slice()),
+                    ("k3", conf("k3"), k3.as_slice()),
+                    ("k4", conf("k4"), k4),
+                ],
+                &plant,
+                &occ,
+            )
+        };
+        assert_eq!(group(&names(&["Fc_q1"])), ["k3", "k4"]);
+        assert_eq!(group(&names(&["Fc_q1", "Fc_q5"])), ["c2", "k3", "k4"]);
+        // Nothing left off: no group.
+        assert!(
+            closed_over_seen_values(&[], &[("k3", conf("k3"), k3.as_slice())], &plant, &occ)
+                .is_empty()
+        );
     }
 
     /// The correlations of the recorded values are kept pairwise (each pair once), those

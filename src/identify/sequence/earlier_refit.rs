@@ -236,6 +236,55 @@ pub(super) fn refit_earlier_steps(
     Ok(out)
 }
 
+/// The earlier steps `left_off` and every other step of `ran` ((configuration name, its
+/// configuration, the values it fitted), in the plan's order) whose files see a value one
+/// of them fitted, repeated until none is added, in `ran`'s order: the group whose files
+/// the joint refit of `left_off` must hold ([`joint_refit`] keeps every value the files
+/// outside its group see where it is).
+///
+/// Under the earlier information the steps outside are held by their information, and
+/// `left_off` is the group. Without it ([`SequenceOptions::earlier_refit`] alone) nothing
+/// else keeps what their files determined, and a step that still reproduces its files can
+/// see every value the left-off one needs moved: after seed 11's coupled k5, k3's files at
+/// 1.51 σ̂ and k4's at its own figure, k4's files see every value of k1..k3, so a group
+/// without k4 could move only joint 0's values, which k3's files do not see, and did not
+/// lower them (the sensitivities record, stop 89).
+pub fn closed_over_seen_values(
+    left_off: &[String],
+    ran: &[(&str, &Configuration, &[String])],
+    current: &Plant,
+    occ: &Occurrence,
+) -> Vec<String> {
+    let mut group: Vec<&str> = ran
+        .iter()
+        .map(|(c, ..)| *c)
+        .filter(|c| left_off.iter().any(|l| l == c))
+        .collect();
+    loop {
+        let fitted: Vec<&String> = ran
+            .iter()
+            .filter(|(c, ..)| group.contains(c))
+            .flat_map(|(.., names)| names.iter())
+            .collect();
+        let more: Vec<&str> = ran
+            .iter()
+            .filter(|(c, conf, _)| {
+                !group.contains(c) && fitted.iter().any(|n| enters(current, occ, conf, n))
+            })
+            .map(|(c, ..)| *c)
+            .collect();
+        if more.is_empty() {
+            break;
+        }
+        group.extend(more);
+    }
+    ran.iter()
+        .map(|(c, ..)| *c)
+        .filter(|c| group.contains(c))
+        .map(str::to_string)
+        .collect()
+}
+
 /// A later step fitted once more jointly with the earlier steps whose files it left off
 /// although it fitted or saw every value they fitted ([`joint_refit`]).
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
