@@ -3528,6 +3528,21 @@ fn the_final_check_repeats_a_steps_figure_and_sees_a_later_move_of_its_values() 
     assert!(broken.above_floor());
 }
 
+/// c2 then c3 of the isolated method, each run alone (`--config`, options `more`) from the
+/// Appendix D initial guess on 20 s of Table 4.3's J5 and J3 chirps made from the truth in
+/// `dir`: the report after c3.
+fn c2_then_c3(dir: &Path, more: &[&str]) -> serde_json::Value {
+    let truth_file = truth(dir);
+    make_data(dir, &truth_file, "4.3", Some("J5"), "c2", "20");
+    make_data(dir, &truth_file, "4.3", Some("J3"), "c3", "20");
+    let initial = plants().join("freedom6s_appendix_d_initial.toml");
+    let c2 = identify_isolated(dir, &initial, "c2", more);
+    assert_eq!(c2["steps"][0]["step"]["config"], "c2");
+    let plant = dir.join("c2_plant.toml");
+    std::fs::copy(dir.join("out/plant.toml"), &plant).unwrap();
+    identify_isolated(dir, &plant, "c3", more)
+}
+
 /// The earlier steps' information (`--earlier-information`, the isolated default): c2 then
 /// c3 of the isolated method, each run alone (`--config`) from the Appendix D initial
 /// guess on 20 s of Table 4.3's J5 and J3 chirps made from the truth. c3 refits z7, I7_11
@@ -3540,15 +3555,7 @@ fn the_final_check_repeats_a_steps_figure_and_sees_a_later_move_of_its_values() 
 #[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn a_later_step_keeps_the_earlier_steps_files_under_their_information() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    make_data(d.path(), &truth_file, "4.3", Some("J5"), "c2", "20");
-    make_data(d.path(), &truth_file, "4.3", Some("J3"), "c3", "20");
-    let initial = plants().join("freedom6s_appendix_d_initial.toml");
-    let c2 = identify_isolated(d.path(), &initial, "c2", &[]);
-    assert_eq!(c2["steps"][0]["step"]["config"], "c2");
-    let plant = d.path().join("c2_plant.toml");
-    std::fs::copy(d.path().join("out/plant.toml"), &plant).unwrap();
-    let report = identify_isolated(d.path(), &plant, "c3", &[]);
+    let report = c2_then_c3(d.path(), &[]);
     let c3 = &report["steps"][1];
     assert_eq!(c3["step"]["config"], "c3");
     assert_eq!(c3["earlier_information"], true);
@@ -3592,15 +3599,7 @@ fn a_later_step_keeps_the_earlier_steps_files_under_their_information() {
 #[ignore = "slow end-to-end identification (minutes); cargo test --release -- --ignored"]
 fn without_the_earlier_information_the_last_step_refits_the_earlier_files_it_left_off() {
     let d = tempfile::tempdir().unwrap();
-    let truth_file = truth(d.path());
-    make_data(d.path(), &truth_file, "4.3", Some("J5"), "c2", "20");
-    make_data(d.path(), &truth_file, "4.3", Some("J3"), "c3", "20");
-    let initial = plants().join("freedom6s_appendix_d_initial.toml");
-    let off = ["--earlier-information", "off"];
-    identify_isolated(d.path(), &initial, "c2", &off);
-    let plant = d.path().join("c2_plant.toml");
-    std::fs::copy(d.path().join("out/plant.toml"), &plant).unwrap();
-    let report = identify_isolated(d.path(), &plant, "c3", &off);
+    let report = c2_then_c3(d.path(), &["--earlier-information", "off"]);
     let c3 = &report["steps"][1];
     assert_eq!(c3["step"]["config"], "c3");
     assert_eq!(c3["earlier_information"], false);
