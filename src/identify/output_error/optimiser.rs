@@ -122,7 +122,10 @@ impl Solver for LevenbergMarquardt {
         // freezes a parameter only when it equals its limit, and otherwise shortens the
         // whole step to reach the limit, a step of ~1e-16 that it then reports as
         // convergence after one iteration (k3 of the Freedom 6S from the fitted plant,
-        // I6_13 = −2.1999999999999996e-7 against a bound of −2.2e-7: no stage moved).
+        // I6_13 = −2.1999999999999996e-7 against a bound of −2.2e-7: no stage moved). The
+        // same from a trust-region-reflective stage's end, strictly inside its bounds: the
+        // joint refit after seed 11's coupled k5 started with I1_33 at 5.2e-8 of its range
+        // from its upper bound and stopped after 2 iterations, its cost unchanged.
         for x in u.iter_mut() {
             if *x < BOUND_SNAP {
                 *x = 0.0;
@@ -950,6 +953,43 @@ mod tests {
             0.3,
             1e-6
         ));
+    }
+
+    /// A Levenberg–Marquardt stage that starts 5e-8 of a range inside a bound the minimum
+    /// presses on (b ≤ 0.6 against the data's 0.7), as a trust-region-reflective stage
+    /// leaves such a value, with a far from its best (0.4): on the bound, rmpfit freezes b
+    /// and fits a; 5e-8 inside, it shortened the whole step to b's bound, ~3e-7 of it, and
+    /// stopped on the relative step.
+    #[test]
+    fn the_levenberg_marquardt_stage_is_not_held_by_a_value_just_inside_its_bound() {
+        let problem = Decay::new(0.6);
+        let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
+        let context = StageContext::alone(
+            &evaluations,
+            &jacobians,
+            JacobianPolicy::of(&problem.options),
+        );
+        let mut u = vec![0.1, 1.0 - 5e-8];
+        let start_cost = problem.cost(&u);
+        let run = StageRun {
+            problem: &problem,
+            stage: Stage::Horizon(1.0),
+            frozen: &[false, false],
+            rules: stage_rules(&problem.options, Stage::Horizon(1.0)),
+            context: &context,
+            start_cost,
+        };
+        let outcome = LevenbergMarquardt.minimise(&run, &mut u);
+        let p = problem.to_physical(&u);
+        // The best a with b = 0.6: Σ 2 e^{−1.3 t} / Σ e^{−1.2 t} over t = 0.1 k.
+        let t = (0..30).map(|k| 0.1 * k as f64);
+        let a_best = t.clone().map(|t| 2.0 * (-1.3 * t).exp()).sum::<f64>()
+            / t.map(|t| (-1.2 * t).exp()).sum::<f64>();
+        assert!(
+            (p[0] - a_best).abs() < 1e-6 && p[1] == 0.6,
+            "{p:?}, a best {a_best}: {}",
+            outcome.status
+        );
     }
 
     /// Broyden's update meets the secant condition J⁺ Δu = Δr, changes J only along Δu
