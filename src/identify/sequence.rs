@@ -440,7 +440,7 @@ pub struct SequenceOptions {
     /// After the run's last step (after every step under
     /// [`SequenceOptions::earlier_information`]), the earlier steps whose files the plant
     /// no longer reproduces (worst free joint above 1.02 × its own end figure) refitted:
-    /// the values only their files see, on them ([`refit_earlier_steps`]), and where the
+    /// the values only their files see, on them (`refit_earlier_steps`), and where the
     /// last step's files see every value they fitted, those steps and the last fitted
     /// together on all their files ([`joint_refit`]). Every coupled step frees the joints
     /// of the one before, so the last step refits every value they fitted on its own files
