@@ -909,6 +909,26 @@ mod tests {
         );
     }
 
+    /// One Levenberg–Marquardt stage of `problem` (the whole files' rules, nothing frozen)
+    /// from scaled parameters `u`, updated in place.
+    fn levenberg_marquardt_stage(problem: &Decay, u: &mut [f64]) -> StageOutcome {
+        let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
+        let context = StageContext::alone(
+            &evaluations,
+            &jacobians,
+            JacobianPolicy::of(&problem.options),
+        );
+        let run = StageRun {
+            problem,
+            stage: Stage::Horizon(1.0),
+            frozen: &vec![false; u.len()],
+            rules: stage_rules(&problem.options, Stage::Horizon(1.0)),
+            context: &context,
+            start_cost: problem.cost(u),
+        };
+        LevenbergMarquardt.minimise(&run, u)
+    }
+
     /// The Levenberg–Marquardt stage reaches the known minimum past a parameter whose
     /// closed-form Jacobian column is ~1e-60 (a collapsed Stribeck velocity's
     /// sensitivity): rmpfit alone gives it a Gauss–Newton step of ~1e60 of its range,
@@ -916,23 +936,9 @@ mod tests {
     #[test]
     fn the_levenberg_marquardt_stage_steps_past_a_numerically_absent_parameter() {
         let problem = Decay::with_absent(1e-60);
-        let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
-        let context = StageContext::alone(
-            &evaluations,
-            &jacobians,
-            JacobianPolicy::of(&problem.options),
-        );
         let mut u = vec![0.1, 0.9, 0.3];
         let start_cost = problem.cost(&u);
-        let run = StageRun {
-            problem: &problem,
-            stage: Stage::Horizon(1.0),
-            frozen: &[false, false, false],
-            rules: stage_rules(&problem.options, Stage::Horizon(1.0)),
-            context: &context,
-            start_cost,
-        };
-        let outcome = LevenbergMarquardt.minimise(&run, &mut u);
+        let outcome = levenberg_marquardt_stage(&problem, &mut u);
         let p = problem.to_physical(&u);
         assert!(
             (p[0] - 2.0).abs() < 1e-6 && (p[1] - 0.7).abs() < 1e-6,
@@ -963,23 +969,8 @@ mod tests {
     #[test]
     fn the_levenberg_marquardt_stage_is_not_held_by_a_value_just_inside_its_bound() {
         let problem = Decay::new(0.6);
-        let (evaluations, jacobians) = (AtomicUsize::new(0), AtomicUsize::new(0));
-        let context = StageContext::alone(
-            &evaluations,
-            &jacobians,
-            JacobianPolicy::of(&problem.options),
-        );
         let mut u = vec![0.1, 1.0 - 5e-8];
-        let start_cost = problem.cost(&u);
-        let run = StageRun {
-            problem: &problem,
-            stage: Stage::Horizon(1.0),
-            frozen: &[false, false],
-            rules: stage_rules(&problem.options, Stage::Horizon(1.0)),
-            context: &context,
-            start_cost,
-        };
-        let outcome = LevenbergMarquardt.minimise(&run, &mut u);
+        let outcome = levenberg_marquardt_stage(&problem, &mut u);
         let p = problem.to_physical(&u);
         // The best a with b = 0.6: Σ 2 e^{−1.3 t} / Σ e^{−1.2 t} over t = 0.1 k.
         let t = (0..30).map(|k| 0.1 * k as f64);
