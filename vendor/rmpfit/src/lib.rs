@@ -1730,12 +1730,38 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
         }
     }
 
+    /// lockstep patch (vendor/PATCHES.md): the scaled predicted reduction
+    /// 1 − ‖f + J s‖² / ‖f‖² of the linear model along step `s` (free parameters), and
+    /// the scaled directional derivative fᵀJ s / ‖f‖², from the QR factor (J Π = Q R,
+    /// R in the upper triangle of fjac, Qᵀf in qtf). For the Levenberg–Marquardt step
+    /// itself they equal MINPACK's expressions.
+    fn predicted_reduction(&self, s: &[f64]) -> (f64, f64) {
+        let m = self.m;
+        let mut rs = vec![0.; self.nfree];
+        let mut jj = 0;
+        for j in 0..self.nfree {
+            let temp = s[self.ipvt[j]];
+            for (i, r) in rs.iter_mut().enumerate().take(j + 1) {
+                *r += self.fjac[jj + i] * temp;
+            }
+            jj += m;
+        }
+        let f2 = self.fnorm * self.fnorm;
+        let qtf_rs: f64 = self.qtf.iter().zip(&rs).map(|(q, r)| q * r).sum();
+        let rs2: f64 = rs.iter().map(|r| r * r).sum();
+        (-(2. * qtf_rs + rs2) / f2, qtf_rs / f2)
+    }
+
     fn iterate(&mut self, gnorm: f64) -> MPResult<MPDone> {
         let m = self.m;
         for j in 0..self.nfree {
             self.wa1[j] = -self.wa1[j];
         }
         let mut alpha: f64 = 1.0;
+        // lockstep patch (vendor/PATCHES.md): whether the step was clipped at the limits
+        // (below); its predicted reduction and directional derivative are then those of
+        // the linear model along the clipped step.
+        let mut clipped = false;
         if !self.qanylim {
             /* No parameter limits, so just move to new position WA2 */
             for j in 0..self.nfree {
@@ -1745,6 +1771,13 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
             /* Respect the limits.  If a step were to go out of bounds, then
              * we should take a step in the same direction but shorter distance.
              * The step should take us right to the limit in that case.
+             *
+             * lockstep patch: unless that shortened step predicts less than a tenth of the
+             * reduction of the linear model that the step with each component clipped at
+             * its limit predicts (the projection of x + p on the box); then the clipped
+             * step is taken. A parameter a little inside its limit with the step pointing
+             * out of it otherwise shortened the whole step to almost nothing, which the
+             * tests below took for convergence.
              */
             let mut limit_hit: Option<(usize, f64)> = None;
             for j in 0..self.nfree {
@@ -1770,6 +1803,30 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
                         alpha = a;
                         limit_hit = Some((j, self.ulim[j]));
                     }
+                }
+            }
+            if alpha < 1. {
+                let projected: Vec<f64> = (0..self.nfree)
+                    .map(|j| {
+                        let mut to = self.x[j] + self.wa1[j];
+                        if self.qllim[j] && to < self.llim[j] {
+                            to = self.llim[j];
+                        }
+                        if self.qulim[j] && to > self.ulim[j] {
+                            to = self.ulim[j];
+                        }
+                        to - self.x[j]
+                    })
+                    .collect();
+                let shortened: Vec<f64> =
+                    self.wa1[..self.nfree].iter().map(|p| alpha * p).collect();
+                let by_projection = self.predicted_reduction(&projected).0;
+                let by_shortening = self.predicted_reduction(&shortened).0;
+                if by_shortening < 0.1 * by_projection {
+                    self.wa1[..self.nfree].copy_from_slice(&projected);
+                    alpha = 1.;
+                    limit_hit = None;
+                    clipped = true;
                 }
             }
             /* Scale the resulting vector, advance to the next position */
@@ -1843,12 +1900,16 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
          * Remember, alpha is the fraction of the full LM step actually
          * taken
          */
-        let temp1 = self.wa3[0..self.nfree].enorm() * alpha / self.fnorm;
-        let temp2 = ((alpha * self.par).sqrt() * pnorm) / self.fnorm;
-        let temp11 = temp1 * temp1;
-        let temp22 = temp2 * temp2;
-        let prered = temp11 + temp22 / 0.5;
-        let dirder = -(temp11 + temp22);
+        let (prered, dirder) = if clipped {
+            let wa1 = self.wa1[..self.nfree].to_vec();
+            self.predicted_reduction(&wa1)
+        } else {
+            let temp1 = self.wa3[0..self.nfree].enorm() * alpha / self.fnorm;
+            let temp2 = ((alpha * self.par).sqrt() * pnorm) / self.fnorm;
+            let temp11 = temp1 * temp1;
+            let temp22 = temp2 * temp2;
+            (temp11 + temp22 / 0.5, -(temp11 + temp22))
+        };
         /*
          *	    compute the ratio of the actual to the predicted
          *	    reduction.
@@ -3493,5 +3554,57 @@ mod tests {
                 panic!("Error in Lorentzian fit: {err}");
             }
         }
+    }
+
+    /// lockstep patch (vendor/PATCHES.md): a parameter a little inside its upper limit,
+    /// with the minimum beyond it, no longer shortens the whole step to nothing. CMPFIT's
+    /// step stopped here after one iteration ("convergence in parameter value") with b
+    /// still at 0; the clipped step puts a on its limit and b at its minimum.
+    #[test]
+    fn a_parameter_just_inside_its_limit_does_not_stop_the_fit() {
+        struct Pinned {
+            pars: [MPPar; 2],
+            config: MPConfig,
+        }
+        impl MPFitter for Pinned {
+            fn eval(&mut self, params: &[f64], deviates: &mut [f64]) -> MPResult<()> {
+                deviates[0] = 10.0 * (params[0] - 2.0);
+                deviates[1] = params[1] - 1.0;
+                deviates[2] = 0.5 * (params[1] - 1.0);
+                Ok(())
+            }
+            fn number_of_points(&self) -> usize {
+                3
+            }
+            fn parameters(&self) -> &[MPPar] {
+                &self.pars
+            }
+            fn config(&self) -> &MPConfig {
+                &self.config
+            }
+        }
+        let mut p = Pinned {
+            // lockstep's stopping rules (relative step and cost change).
+            config: MPConfig {
+                xtol: 2e-6,
+                ftol: 1e-6,
+                ..MPConfig::new()
+            },
+            pars: [
+                MPPar {
+                    limited_low: true,
+                    limited_up: true,
+                    limit_low: 0.0,
+                    limit_up: 1.0,
+                    ..MPPar::new()
+                },
+                MPPar::new(),
+            ],
+        };
+        let mut init = [1.0 - 1e-7, 0.0];
+        let status = p.mpfit(&mut init).expect("the fit runs");
+        assert_eq!(init[0], 1.0);
+        assert_close(init[1], 1.0, 1e-6, 1e-9);
+        assert_close(status.best_norm, 100.0, 1e-6, 1e-9);
     }
 }
