@@ -396,7 +396,7 @@ fn step_markdown(
             .collect();
         let _ = writeln!(
             s,
-            "Joint refit of {} (every value the earlier ones fitted enters this step's files; {} values, those the other steps' files do not see, on all their files at once): {}; {} ({} cost evaluations, {} Jacobians, {:.1} s).\n",
+            "Joint refit of {} (every value the earlier ones fitted enters this step's files; {} values, those the other steps' files do not see, on all their files at once): {}; {} ({} cost evaluations, {} Jacobians, {:.1} s{}).\n",
             j.configs.join(", "),
             j.names.len(),
             figures.join(", "),
@@ -418,7 +418,12 @@ fn step_markdown(
             },
             j.evaluations,
             j.jacobians,
-            j.wall_s
+            j.wall_s,
+            if j.status.is_empty() {
+                String::new()
+            } else {
+                format!("; {}", j.status)
+            }
         );
     }
     if let Some(w) = &st.warm_up_start {

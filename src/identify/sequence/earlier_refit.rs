@@ -314,6 +314,10 @@ pub struct JointRefit {
     /// Why the refit could not be fitted, when it could not.
     #[serde(default)]
     pub failure: Option<String>,
+    /// How the fit ended: each round's optimiser account and the initial positions'
+    /// rounds (`StartSummary::status`); empty where it could not be fitted.
+    #[serde(default)]
+    pub status: String,
 }
 
 impl JointRefit {
@@ -412,6 +416,7 @@ pub fn joint_refit(
         wall_s: 0.0,
         information: Vec::new(),
         failure: None,
+        status: String::new(),
     };
     // A refit that cannot be set up or fitted leaves the plant as it is: the final check
     // reports the steps.
@@ -426,6 +431,12 @@ pub fn joint_refit(
     out.cost = Some((fit.cost_before, fit.cost_after));
     out.evaluations = fit.evaluations;
     out.jacobians = fit.jacobians;
+    out.status = fit
+        .starts
+        .iter()
+        .map(|st| st.status.as_str())
+        .collect::<Vec<_>>()
+        .join("; ");
     let mut trial = current.clone();
     fit.apply(&mut trial);
     let after = final_check(&trial, &group);
