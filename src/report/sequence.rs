@@ -162,7 +162,7 @@ fn final_check_markdown(s: &mut String, checks: &[FinalCheck]) {
     if !above.is_empty() {
         let _ = writeln!(
             s,
-            "**The written plant does not reproduce the files of {}** (a joint above {} σ̂): later steps moved values these files determine only in combination with others (symbols carried because a step did not call them identifiable, the held ties and plant-gain families a least change scales). Under `--earlier-information on` the values only these files see follow such moves and are refitted on them, so what remains lies in values a later step's files see too. The joint fit (`--joint-fit after`) fits every step's files at once; from a plant this far off it can stop in a local minimum.\n",
+            "**The written plant does not reproduce the files of {}** (a joint above {} σ̂): later steps moved values these files determine only in combination with others (symbols carried because a step did not call them identifiable, the held ties and plant-gain families a least change scales). Under `--earlier-information on` the values only these files see follow such moves and are refitted on them, and under `--earlier-refit on` (after the last step) they are refitted, jointly with the steps whose files see them where needed; what remains is what those refits could not bring back. The joint fit (`--joint-fit after`) fits every step's files at once; from a plant this far off it can stop in a local minimum.\n",
             above.join(", "),
             crate::identify::output_error::FLOOR_FACTOR
         );
@@ -177,7 +177,7 @@ fn moved_since_markdown(s: &mut String, moved: &[crate::identify::sequence::Move
     }
     let _ = writeln!(
         s,
-        "**Values a step called identifiable that the written plant holds elsewhere** (more than two of the step's standard errors; no later step fitted them): {}. The step determined them given its held values; later steps moved some of those, and these values followed to keep the step's files (`--earlier-information`). Their standard errors in the plant are the step's, conditional on the held values it had.\n",
+        "**Values a step called identifiable that the written plant holds elsewhere** (more than two of the step's standard errors; no later step fitted them): {}. The step determined them given its held values; later steps moved some of those, and these values followed to keep the step's files (the linear following under `--earlier-information on`, or the refit of the earlier steps under `--earlier-refit on`). Their standard errors in the plant are the step's, conditional on the held values it had.\n",
         moved
             .iter()
             .map(|m| format!(
