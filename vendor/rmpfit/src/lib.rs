@@ -1780,6 +1780,7 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
              * tests below took for convergence.
              */
             let mut limit_hit: Option<(usize, f64)> = None;
+            let mut on_limit: Vec<Option<f64>> = Vec::new();
             for j in 0..self.nfree {
                 let lpegged = self.qllim[j] && self.x[j] <= self.llim[j];
                 let upegged = self.qulim[j] && self.x[j] >= self.ulim[j];
@@ -1806,18 +1807,20 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
                 }
             }
             if alpha < 1. {
-                let projected: Vec<f64> = (0..self.nfree)
+                // Each component's step and the limit it is clipped at, if any.
+                let clips: Vec<(f64, Option<f64>)> = (0..self.nfree)
                     .map(|j| {
-                        let mut to = self.x[j] + self.wa1[j];
+                        let to = self.x[j] + self.wa1[j];
                         if self.qllim[j] && to < self.llim[j] {
-                            to = self.llim[j];
+                            (self.llim[j] - self.x[j], Some(self.llim[j]))
+                        } else if self.qulim[j] && to > self.ulim[j] {
+                            (self.ulim[j] - self.x[j], Some(self.ulim[j]))
+                        } else {
+                            (self.wa1[j], None)
                         }
-                        if self.qulim[j] && to > self.ulim[j] {
-                            to = self.ulim[j];
-                        }
-                        to - self.x[j]
                     })
                     .collect();
+                let projected: Vec<f64> = clips.iter().map(|c| c.0).collect();
                 let shortened: Vec<f64> =
                     self.wa1[..self.nfree].iter().map(|p| alpha * p).collect();
                 let by_projection = self.predicted_reduction(&projected).0;
@@ -1827,6 +1830,8 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
                     alpha = 1.;
                     limit_hit = None;
                     clipped = true;
+                    // Put exactly on their limits below (x + (l − x) can round off l).
+                    on_limit = clips.iter().map(|c| c.1).collect();
                 }
             }
             /* Scale the resulting vector, advance to the next position */
@@ -1853,6 +1858,11 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
             // x + alpha * wa1 can round a few ULP inside the limit, past the snap band
             if let Some((j, limit)) = limit_hit {
                 self.wa2[j] = limit;
+            }
+            for (j, limit) in on_limit.iter().enumerate() {
+                if let Some(limit) = limit {
+                    self.wa2[j] = *limit;
+                }
             }
         }
         for j in 0..self.nfree {
