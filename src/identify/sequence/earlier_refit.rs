@@ -314,8 +314,8 @@ pub struct JointRefit {
     /// Why the refit could not be fitted, when it could not.
     #[serde(default)]
     pub failure: Option<String>,
-    /// How the fit ended: each round's optimiser account and the initial positions'
-    /// rounds (`StartSummary::status`); empty where it could not be fitted.
+    /// How the fit ended: its start's optimiser account of each round and the initial
+    /// positions' rounds (`StartSummary::status`); empty where it could not be fitted.
     #[serde(default)]
     pub status: String,
 }
@@ -433,10 +433,9 @@ pub fn joint_refit(
     out.jacobians = fit.jacobians;
     out.status = fit
         .starts
-        .iter()
-        .map(|st| st.status.as_str())
-        .collect::<Vec<_>>()
-        .join("; ");
+        .get(fit.best_start)
+        .map(|st| st.status.clone())
+        .unwrap_or_default();
     let mut trial = current.clone();
     fit.apply(&mut trial);
     let after = final_check(&trial, &group);
