@@ -87,8 +87,8 @@ pub const COARSE_PREDICTOR_AGREEMENT: f64 = 0.25;
 /// trust-region-reflective method, whose iterates stay strictly inside the bounds, leaves
 /// a value it pressed on a bound (I1_33 of the Freedom 6S's coupled k5 on seed 11: 5.2e-8).
 /// A value further inside no longer stops the stage either: the vendored rmpfit clips a
-/// step at the limits where shortening it as a whole would leave almost nothing of it
-/// (vendor/PATCHES.md).
+/// step at the limits, or takes the Cauchy step on the box, where shortening it as a whole
+/// would leave almost nothing of it (vendor/PATCHES.md).
 const BOUND_SNAP: f64 = 1e-6;
 
 /// Stribeck velocities tried by the Stribeck re-seed, log-spaced over vs's bounds.
