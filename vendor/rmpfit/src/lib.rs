@@ -1741,22 +1741,39 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
         }
     }
 
+    /// lockstep patch: R Πᵀ s for a step `s` of the free parameters (J s = Q R Πᵀ s), from
+    /// the QR factor in fjac.
+    fn r_times(&self, s: &[f64]) -> Vec<f64> {
+        let m = self.m;
+        let mut rs = vec![0.; self.nfree];
+        for k in 0..self.nfree {
+            let temp = s[self.ipvt[k]];
+            for (i, r) in rs.iter_mut().enumerate().take(k + 1) {
+                *r += self.fjac[k * m + i] * temp;
+            }
+        }
+        rs
+    }
+
+    /// lockstep patch: the limit free parameter `j` passes on its way to `to`, if any
+    /// (the lower one checked first, as CMPFIT does).
+    fn limit_crossed(&self, j: usize, to: f64) -> Option<f64> {
+        if self.qllim[j] && to < self.llim[j] {
+            Some(self.llim[j])
+        } else if self.qulim[j] && to > self.ulim[j] {
+            Some(self.ulim[j])
+        } else {
+            None
+        }
+    }
+
     /// lockstep patch (vendor/PATCHES.md): the scaled predicted reduction
     /// 1 − ‖f + J s‖² / ‖f‖² of the linear model along step `s` (free parameters), and
     /// the scaled directional derivative fᵀJ s / ‖f‖², from the QR factor (J Π = Q R,
     /// R in the upper triangle of fjac, Qᵀf in qtf). For the Levenberg–Marquardt step
     /// itself they equal MINPACK's expressions.
     fn predicted_reduction(&self, s: &[f64]) -> (f64, f64) {
-        let m = self.m;
-        let mut rs = vec![0.; self.nfree];
-        let mut jj = 0;
-        for j in 0..self.nfree {
-            let temp = s[self.ipvt[j]];
-            for (i, r) in rs.iter_mut().enumerate().take(j + 1) {
-                *r += self.fjac[jj + i] * temp;
-            }
-            jj += m;
-        }
+        let rs = self.r_times(s);
         let f2 = self.fnorm * self.fnorm;
         let qtf_rs: f64 = self.qtf.iter().zip(&rs).map(|(q, r)| q * r).sum();
         let rs2: f64 = rs.iter().map(|r| r * r).sum();
@@ -1793,26 +1810,17 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
         // The generalized Cauchy point along the projected path, found a bound at a time:
         // the minimiser of the model along the components still free, the clipped ones
         // held at their limits.
-        let r_times = |v: &[f64]| -> Vec<f64> {
-            let mut rv = vec![0.; n];
-            for k in 0..n {
-                let temp = v[self.ipvt[k]];
-                for (i, r) in rv.iter_mut().enumerate().take(k + 1) {
-                    *r += self.fjac[k * m + i] * temp;
-                }
-            }
-            rv
-        };
         let mut step = vec![0.; n];
         let mut limits: Vec<Option<f64>> = vec![None; n];
         let mut free_d = d.clone();
         for _ in 0..=n {
-            let a: Vec<f64> = r_times(&step)
+            let a: Vec<f64> = self
+                .r_times(&step)
                 .iter()
                 .zip(&self.qtf)
                 .map(|(r, q)| r + q)
                 .collect();
-            let b = r_times(&free_d);
+            let b = self.r_times(&free_d);
             let bb: f64 = b.iter().map(|b| b * b).sum();
             let ab: f64 = a.iter().zip(&b).map(|(a, b)| a * b).sum();
             let dn = (0..n)
@@ -1828,15 +1836,9 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
                 if free_d[j] == 0. {
                     continue;
                 }
-                let to = self.x[j] + t * free_d[j];
-                if self.qllim[j] && to < self.llim[j] {
-                    step[j] = self.llim[j] - self.x[j];
-                    limits[j] = Some(self.llim[j]);
-                    free_d[j] = 0.;
-                    newly = true;
-                } else if self.qulim[j] && to > self.ulim[j] {
-                    step[j] = self.ulim[j] - self.x[j];
-                    limits[j] = Some(self.ulim[j]);
+                if let Some(limit) = self.limit_crossed(j, self.x[j] + t * free_d[j]) {
+                    step[j] = limit - self.x[j];
+                    limits[j] = Some(limit);
                     free_d[j] = 0.;
                     newly = true;
                 }
@@ -1913,15 +1915,9 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
             if alpha < 1. {
                 // Each component's step and the limit it is clipped at, if any.
                 let clips: Vec<(f64, Option<f64>)> = (0..self.nfree)
-                    .map(|j| {
-                        let to = self.x[j] + self.wa1[j];
-                        if self.qllim[j] && to < self.llim[j] {
-                            (self.llim[j] - self.x[j], Some(self.llim[j]))
-                        } else if self.qulim[j] && to > self.ulim[j] {
-                            (self.ulim[j] - self.x[j], Some(self.ulim[j]))
-                        } else {
-                            (self.wa1[j], None)
-                        }
+                    .map(|j| match self.limit_crossed(j, self.x[j] + self.wa1[j]) {
+                        Some(limit) => (limit - self.x[j], Some(limit)),
+                        None => (self.wa1[j], None),
                     })
                     .collect();
                 let projected: Vec<f64> = clips.iter().map(|c| c.0).collect();
@@ -3816,7 +3812,10 @@ mod tests {
                 // Normal equations on the free columns, Gauss–Jordan.
                 let mut n = vec![vec![0.0; k + 1]; k];
                 for (row, bi) in a.iter().zip(b) {
-                    let r = bi - (0..4).filter_map(|j| held[j].map(|v| row[j] * v)).sum::<f64>();
+                    let r = bi
+                        - (0..4)
+                            .filter_map(|j| held[j].map(|v| row[j] * v))
+                            .sum::<f64>();
                     for p in 0..k {
                         for q in 0..k {
                             n[p][q] += row[free[p]] * row[free[q]];
@@ -3899,6 +3898,9 @@ mod tests {
                 missed.push((case, status.best_norm / best));
             }
         }
-        assert!(missed.is_empty(), "missed the optimum (case, ratio): {missed:?}");
+        assert!(
+            missed.is_empty(),
+            "missed the optimum (case, ratio): {missed:?}"
+        );
     }
 }
