@@ -505,6 +505,122 @@ fn clipped_step_pays(by_shortening: f64, by_projection: f64) -> bool {
     by_projection > 0. && by_shortening < 0.1 * by_projection
 }
 
+/// lockstep patch (vendor/PATCHES.md): the thin singular value decomposition A = U Σ Vᵀ of
+/// an `rows` × `cols` matrix stored by columns, by one-sided Jacobi rotations (Hestenes),
+/// which keeps the accuracy of the small singular values (no normal equations). Returns
+/// (U Σ by columns, σ, V by columns).
+fn jacobi_svd(mut a: Vec<f64>, rows: usize, cols: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let mut v = vec![0.; cols * cols];
+    for j in 0..cols {
+        v[j * cols + j] = 1.;
+    }
+    for _sweep in 0..60 {
+        let mut rotated = false;
+        for p in 0..cols {
+            for q in p + 1..cols {
+                let (mut alpha, mut beta, mut gamma) = (0., 0., 0.);
+                for i in 0..rows {
+                    let (ap, aq) = (a[p * rows + i], a[q * rows + i]);
+                    alpha += ap * ap;
+                    beta += aq * aq;
+                    gamma += ap * aq;
+                }
+                if gamma == 0. || gamma.abs() <= f64::EPSILON * (alpha * beta).sqrt() {
+                    continue;
+                }
+                rotated = true;
+                let zeta = (beta - alpha) / (2. * gamma);
+                let t = zeta.signum() / (zeta.abs() + (1. + zeta * zeta).sqrt());
+                let c = 1. / (1. + t * t).sqrt();
+                let s = c * t;
+                for i in 0..rows {
+                    let (ap, aq) = (a[p * rows + i], a[q * rows + i]);
+                    a[p * rows + i] = c * ap - s * aq;
+                    a[q * rows + i] = s * ap + c * aq;
+                }
+                for i in 0..cols {
+                    let (vp, vq) = (v[p * cols + i], v[q * cols + i]);
+                    v[p * cols + i] = c * vp - s * vq;
+                    v[q * cols + i] = s * vp + c * vq;
+                }
+            }
+        }
+        if !rotated {
+            break;
+        }
+    }
+    let sigma = (0..cols)
+        .map(|j| a[j * rows..(j + 1) * rows].iter().map(|x| x * x).sum::<f64>().sqrt())
+        .collect();
+    (a, sigma, v)
+}
+
+/// lockstep patch (vendor/PATCHES.md): the minimiser y of ‖A y − b‖ within ‖y‖ ≤ `radius`
+/// (A `rows` × `cols` by columns): the minimum-norm least-squares solution where it lies
+/// within the radius (singular values below `cols` · ε · σ_max taken as zero), otherwise
+/// y(μ) = (AᵀA + μI)⁻¹Aᵀb with ‖y(μ)‖ = `radius` to 10 %, as MINPACK's lmpar accepts. None
+/// where A or b is zero.
+fn trust_region_least_squares(
+    a: Vec<f64>,
+    rows: usize,
+    cols: usize,
+    b: &[f64],
+    radius: f64,
+) -> Option<Vec<f64>> {
+    let (us, sigma, v) = jacobi_svd(a, rows, cols);
+    let sigma_max = sigma.iter().cloned().fold(0., f64::max);
+    if !(sigma_max > 0.) || !(radius > 0.) {
+        return None;
+    }
+    // c_i = σ_i u_iᵀ b (U Σ is stored), so y(μ) = Σ c_i / (σ_i² + μ) v_i.
+    let c: Vec<f64> = (0..cols)
+        .map(|j| us[j * rows..(j + 1) * rows].iter().zip(b).map(|(u, b)| u * b).sum())
+        .collect();
+    let cutoff = cols as f64 * f64::EPSILON * sigma_max;
+    let norm = |mu: f64| -> f64 {
+        (0..cols)
+            .filter(|&j| mu > 0. || sigma[j] > cutoff)
+            .map(|j| (c[j] / (sigma[j] * sigma[j] + mu)).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let mu = if norm(0.) <= radius {
+        0.
+    } else {
+        // ‖y(μ)‖ decreases in μ; ‖y(μ)‖ ≤ ‖Aᵀb‖ / μ brackets the root from above.
+        let atb = c.iter().map(|c| c * c).sum::<f64>().sqrt();
+        if !(atb > 0.) {
+            return None;
+        }
+        let (mut lo, mut hi) = (0_f64, atb / radius);
+        let mut mu = hi;
+        for _ in 0..200 {
+            let n = norm(mu);
+            if (n - radius).abs() <= 0.1 * radius {
+                break;
+            }
+            if n > radius {
+                lo = mu;
+            } else {
+                hi = mu;
+            }
+            mu = if lo > 0. { (lo * hi).sqrt() } else { hi * 1e-3 };
+        }
+        mu
+    };
+    let mut y = vec![0.; cols];
+    for j in 0..cols {
+        if mu == 0. && sigma[j] <= cutoff {
+            continue;
+        }
+        let w = c[j] / (sigma[j] * sigma[j] + mu);
+        for (i, yi) in y.iter_mut().enumerate() {
+            *yi += w * v[j * cols + i];
+        }
+    }
+    Some(y)
+}
+
 impl<'a, F: MPFitter> MPFit<'a, F> {
     fn new(f: &'a mut F, xall: &'a mut [f64], cfg: &'a MPConfig) -> MPResult<MPFit<'a, F>> {
         let m = f.number_of_points();
@@ -1858,6 +1974,83 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
         Some((step, limits))
     }
 
+    /// lockstep patch (vendor/PATCHES.md): the Levenberg–Marquardt step on the face of the
+    /// box the step `p` runs into. The components of `p` that cross a limit, and those
+    /// pegged at a limit and pointing out of it, are held on that limit; the others
+    /// minimise the linear model within the trust radius (scaled by D), from the QR factor
+    /// (‖f + J s‖ = ‖Qᵀf + R Πᵀ s‖ up to a constant) by a singular value decomposition of
+    /// R Πᵀ's free columns; components that then cross a limit are held on it and the rest
+    /// solved again. With the limit each held component is put on. None where no component
+    /// is held or none can move.
+    fn face_step(&self, p: &[f64]) -> Option<(Vec<f64>, Vec<Option<f64>>)> {
+        let n = self.nfree;
+        let mut step = vec![0.; n];
+        let mut limits: Vec<Option<f64>> = vec![None; n];
+        for j in 0..n {
+            let lpegged = self.qllim[j] && self.x[j] <= self.llim[j];
+            let upegged = self.qulim[j] && self.x[j] >= self.ulim[j];
+            if lpegged && p[j] < 0. {
+                limits[j] = Some(self.llim[j]);
+            } else if upegged && p[j] > 0. {
+                limits[j] = Some(self.ulim[j]);
+            } else if let Some(limit) = self.limit_crossed(j, self.x[j] + p[j]) {
+                step[j] = limit - self.x[j];
+                limits[j] = Some(limit);
+            }
+        }
+        if limits.iter().all(Option::is_none) {
+            return None;
+        }
+        let d: Vec<f64> = (0..n)
+            .map(|j| {
+                let dj = self.diag[self.ifree[j]];
+                if dj > 0. {
+                    dj
+                } else {
+                    1.
+                }
+            })
+            .collect();
+        for _ in 0..n {
+            let free: Vec<usize> = (0..n).filter(|&j| limits[j].is_none()).collect();
+            if free.is_empty() {
+                break;
+            }
+            let held: Vec<f64> = (0..n)
+                .map(|j| if limits[j].is_some() { step[j] } else { 0. })
+                .collect();
+            let b: Vec<f64> = self
+                .r_times(&held)
+                .iter()
+                .zip(&self.qtf)
+                .map(|(r, q)| -(r + q))
+                .collect();
+            let mut a = Vec::with_capacity(n * free.len());
+            for &j in &free {
+                let mut e = vec![0.; n];
+                e[j] = 1. / d[j];
+                a.extend(self.r_times(&e));
+            }
+            let y = trust_region_least_squares(a, n, free.len(), &b, self.delta)?;
+            let mut newly = false;
+            for (&j, yj) in free.iter().zip(&y) {
+                step[j] = yj / d[j];
+                if let Some(limit) = self.limit_crossed(j, self.x[j] + step[j]) {
+                    step[j] = limit - self.x[j];
+                    limits[j] = Some(limit);
+                    newly = true;
+                }
+            }
+            if !newly {
+                break;
+            }
+        }
+        if step.iter().all(|s| *s == 0.) {
+            return None;
+        }
+        Some((step, limits))
+    }
+
     fn iterate(&mut self, gnorm: f64) -> MPResult<MPDone> {
         let m = self.m;
         for j in 0..self.nfree {
@@ -1879,23 +2072,22 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
              * The step should take us right to the limit in that case.
              *
              * lockstep patch: unless that shortened step predicts less than a tenth of the
-             * reduction of the linear model that the step with each component clipped at
-             * its limit predicts (the projection of x + p on the box); then the clipped
-             * step is taken. A parameter a little inside its limit with the step pointing
-             * out of it otherwise shortened the whole step to almost nothing, which the
-             * tests below took for convergence.
+             * reduction of the linear model that the best of three candidates predicts
+             * (below); then that candidate is taken. A parameter a little inside its limit
+             * with the step pointing out of it otherwise shortened the whole step to almost
+             * nothing, which the tests below took for convergence.
              */
             let mut limit_hit: Option<(usize, f64)> = None;
             let mut on_limit: Vec<Option<f64>> = Vec::new();
+            let lm_step = self.wa1[..self.nfree].to_vec();
+            let mut zeroed = false;
             for j in 0..self.nfree {
                 let lpegged = self.qllim[j] && self.x[j] <= self.llim[j];
                 let upegged = self.qulim[j] && self.x[j] >= self.ulim[j];
                 let dwa1 = self.wa1[j].abs() > f64::EPSILON;
-                if lpegged && self.wa1[j] < 0. {
+                if (lpegged && self.wa1[j] < 0.) || (upegged && self.wa1[j] > 0.) {
                     self.wa1[j] = 0.;
-                }
-                if upegged && self.wa1[j] > 0. {
-                    self.wa1[j] = 0.;
+                    zeroed = true;
                 }
                 if dwa1 && self.qllim[j] && self.x[j] + self.wa1[j] < self.llim[j] {
                     let a = (self.llim[j] - self.x[j]) / self.wa1[j];
@@ -1912,41 +2104,39 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
                     }
                 }
             }
-            if alpha < 1. {
-                // Each component's step and the limit it is clipped at, if any.
-                let clips: Vec<(f64, Option<f64>)> = (0..self.nfree)
-                    .map(|j| match self.limit_crossed(j, self.x[j] + self.wa1[j]) {
-                        Some(limit) => (limit - self.x[j], Some(limit)),
-                        None => (self.wa1[j], None),
-                    })
-                    .collect();
-                let projected: Vec<f64> = clips.iter().map(|c| c.0).collect();
+            // lockstep patch: where the step met a limit (shortened, or a pegged component
+            // zeroed), three candidates beside it, each formed on the free components.
+            if alpha < 1. || zeroed {
                 let shortened: Vec<f64> =
                     self.wa1[..self.nfree].iter().map(|p| alpha * p).collect();
-                let by_projection = self.predicted_reduction(&projected).0;
                 let by_shortening = self.predicted_reduction(&shortened).0;
-                if clipped_step_pays(by_shortening, by_projection) {
-                    self.wa1[..self.nfree].copy_from_slice(&projected);
-                    alpha = 1.;
-                    limit_hit = None;
-                    clipped = true;
-                    // Put exactly on their limits below (x + (l − x) can round off l).
-                    on_limit = clips.iter().map(|c| c.1).collect();
+                let mut candidates: Vec<(Vec<f64>, Vec<Option<f64>>)> = Vec::new();
+                if alpha < 1. {
+                    // 1. each component clipped at the limit it crosses (the projection of
+                    //    x + p on the box);
+                    let clips: Vec<(f64, Option<f64>)> = (0..self.nfree)
+                        .map(|j| match self.limit_crossed(j, self.x[j] + self.wa1[j]) {
+                            Some(limit) => (limit - self.x[j], Some(limit)),
+                            None => (self.wa1[j], None),
+                        })
+                        .collect();
+                    candidates.push(clips.into_iter().unzip());
                 }
-            }
-            // lockstep patch: a step that predicts almost nothing (a pegged component
-            // zeroed leaves a step that is no longer the Levenberg–Marquardt one) gives way
-            // to the Cauchy step on the box.
-            {
-                let chosen: Vec<f64> = self.wa1[..self.nfree].iter().map(|p| alpha * p).collect();
-                let by_chosen = self.predicted_reduction(&chosen).0;
-                if let Some((cauchy, limits)) = self.cauchy_step() {
-                    let by_cauchy = self.predicted_reduction(&cauchy).0;
-                    if clipped_step_pays(by_chosen, by_cauchy) {
-                        self.wa1[..self.nfree].copy_from_slice(&cauchy);
+                // 2. the Cauchy step on the box;
+                candidates.extend(self.cauchy_step());
+                // 3. the Levenberg–Marquardt step on the face the step runs into.
+                candidates.extend(self.face_step(&lm_step));
+                let best = candidates
+                    .into_iter()
+                    .map(|(step, limits)| (self.predicted_reduction(&step).0, step, limits))
+                    .max_by(|a, b| a.0.total_cmp(&b.0));
+                if let Some((by_best, step, limits)) = best {
+                    if clipped_step_pays(by_shortening, by_best) {
+                        self.wa1[..self.nfree].copy_from_slice(&step);
                         alpha = 1.;
                         limit_hit = None;
                         clipped = true;
+                        // Put exactly on their limits below (x + (l − x) can round off l).
                         on_limit = limits;
                     }
                 }
@@ -3736,6 +3926,69 @@ mod tests {
         assert_eq!(init[0], 1.0);
         assert_close(init[1], 1.0, 1e-6, 1e-9);
         assert_close(status.best_norm, 100.0, 1e-6, 1e-9);
+    }
+
+    /// lockstep patch: a step that runs through a limit and continues on its face. Two
+    /// nearly collinear values (x₁ + x₂ well determined, x₁ − x₂ by 1e-3 of it), x₁ with
+    /// an upper limit of 1 that the unbounded optimum (5, −5) lies beyond, beside a large,
+    /// well-determined value (x₀ = 1e6, so the relative-step test fires below a scaled
+    /// radius of 2,000, as the Freedom 6S's joint refit's 93 values did). The optimum holds
+    /// x₁ on its limit and x₂ = −1 − 8ε²/(1 + ε²). The Cauchy step only reaches the valley
+    /// floor x₁ + x₂ = 0 (at x₁ = 0.45); its length set the trust radius and the
+    /// relative-step test ended the fit there (cost 1.6 × the optimum, stop 91's patch).
+    /// The Levenberg–Marquardt step on the face (x₁ held on its limit, x₂ solved again)
+    /// reaches the optimum.
+    #[test]
+    fn a_step_through_a_limit_continues_on_its_face() {
+        const EPS: f64 = 1e-3;
+        struct Valley {
+            pars: [MPPar; 3],
+            config: MPConfig,
+        }
+        impl MPFitter for Valley {
+            fn eval(&mut self, params: &[f64], deviates: &mut [f64]) -> MPResult<()> {
+                let (s, t) = (params[1] + params[2], params[1] - params[2]);
+                deviates[0] = 1e3 * (params[0] - 1e6);
+                for i in 0..6 {
+                    let v = if i % 2 == 0 { 1.0 } else { -1.0 };
+                    deviates[1 + i] = s + EPS * v * (t - 10.0);
+                }
+                Ok(())
+            }
+            fn number_of_points(&self) -> usize {
+                7
+            }
+            fn parameters(&self) -> &[MPPar] {
+                &self.pars
+            }
+            fn config(&self) -> &MPConfig {
+                &self.config
+            }
+        }
+        let mut p = Valley {
+            config: MPConfig {
+                xtol: 2e-6,
+                ftol: 1e-6,
+                ..MPConfig::new()
+            },
+            pars: [
+                MPPar::new(),
+                MPPar {
+                    limited_up: true,
+                    limit_up: 1.0,
+                    ..MPPar::new()
+                },
+                MPPar::new(),
+            ],
+        };
+        let mut x = [1e6, 0.9, 0.0];
+        let status = p.mpfit(&mut x).expect("the fit runs");
+        let x2 = -1.0 - 8.0 * EPS * EPS / (1.0 + EPS * EPS);
+        // Cost on the face: 6 ((1 + x₂)² + ε²(1 − x₂ − 10)²).
+        let optimum = 6.0 * ((1.0 + x2).powi(2) + (EPS * (1.0 - x2 - 10.0)).powi(2));
+        assert_eq!(x[1], 1.0);
+        assert_close(x[2], x2, 1e-9, 1e-6);
+        assert_close(status.best_norm, optimum, 0.0, 1e-6);
     }
 
     /// lockstep patch: the rule that takes the clipped step. The pair from the coupled k5
