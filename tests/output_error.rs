@@ -2545,7 +2545,8 @@ fn check_joint_fit(out: &Path, truth: &Plant) -> serde_json::Value {
     let stages = fit["starts"][0]["stages"].as_array().unwrap();
     assert!(!stages.is_empty());
     assert_eq!(stages[0]["stage"], "joint fit 1");
-    assert_eq!(stages[0]["optimiser"], "LevenbergMarquardt");
+    // The coupled preset's whole-files optimiser.
+    assert_eq!(stages[0]["optimiser"], "TrustRegionReflective");
     let after = fit["cost_after"].as_f64().unwrap();
     assert!(
         stages

@@ -8,7 +8,7 @@
 //! show it: on the Freedom 6S's k4 (the Freedom 6S status in the record) three values called identifiable were 5–93 %
 //! off while k4's own data at the true held values called seven identifiable, all within
 //! 0.83 %. The joint fit refines all of them together from where the sequence ended
-//! (Levenberg–Marquardt on the stacked residuals; the sequence is its initialisation, as a
+//! (the whole files' optimiser of the preset on the stacked residuals; the sequence is its initialisation, as a
 //! bundle adjustment follows incremental reconstruction), and its standard errors are those
 //! of all the data, nothing held.
 //!
@@ -21,10 +21,9 @@ use super::identifiability::Occurrence;
 use super::output_error::{
     chain, difference_column, enters, feasible_bounds, fitted_companions, held_in,
     parameter_space_of, physical_derivatives, statistics_at, AtTheFit, FitResult, HeldColumns,
-    JacobianPolicy, LevenbergMarquardt, OutputErrorOptions, ParameterSpace, Problem, Progress,
-    Record, Residuals, Solver, Stage, StageClock, StageContext, StageOptimiser, StageRecord,
-    StageRun, StartSummary, Statistics, Stencil, TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS,
-    INITIAL_POSITION_SETTLED,
+    JacobianPolicy, OutputErrorOptions, ParameterSpace, Problem, Progress, Record, Residuals,
+    Stage, StageClock, StageContext, StageRecord, StageRun, StartSummary, Statistics, Stencil,
+    TrialFailure, WarmUp, INITIAL_POSITION_ROUNDS, INITIAL_POSITION_SETTLED,
 };
 use crate::plant::Plant;
 use crate::simulation::Trajectory;
@@ -207,8 +206,11 @@ impl JointProblem {
     }
 
     /// Fit from the plant's values — meant for the values a locking sequence's steps
-    /// fitted: Levenberg–Marquardt on the whole files of every configuration, on the
-    /// stopping rules of the options. With
+    /// fitted: the options' [`OutputErrorOptions::whole_files_optimiser`] on the whole
+    /// files of every configuration, on the stopping rules of the options (the coupled
+    /// preset's trust-region-reflective method: rmpfit's Levenberg–Marquardt, from the
+    /// seed-7 sequence's k5 plant of the Freedom 6S, ended after one step, its first trust
+    /// radius set by a step a bound had cut; the sensitivities record, stop 92). With
     /// [`OutputErrorOptions::estimate_initial_positions`], the initial positions estimated
     /// at the start (where that lowers the cost), then per round estimated again at the
     /// fitted values and the fit rerun from them; a round is kept only where its refit
@@ -282,16 +284,12 @@ impl JointProblem {
                 context: &context,
                 start_cost,
             };
-            let outcome = LevenbergMarquardt.minimise(&run, u);
+            let optimiser = self.options.whole_files_optimiser;
+            let outcome = optimiser.solver().minimise(&run, u);
             iterations += outcome.iterations;
             diverged += outcome.failures;
-            let record = StageRecord::ran(
-                format!("joint fit {round}"),
-                StageOptimiser::LevenbergMarquardt,
-                &outcome,
-                None,
-            )
-            .spent(&clock, &context);
+            let record = StageRecord::ran(format!("joint fit {round}"), optimiser, &outcome, None)
+                .spent(&clock, &context);
             (
                 format!("fit {round}: {}", outcome.status),
                 outcome.stop,

@@ -248,9 +248,9 @@ pub struct OutputErrorOptions {
     /// The optimiser of the predictor's stages ([`StageOptimiser`]).
     pub predictor_optimiser: StageOptimiser,
     /// The optimiser of the whole files' stage, the cost (4.2)/(4.3) itself
-    /// (`Stage::is_final`), and of the refits that release held values. Every other
-    /// stage (horizons, segments, equation error, the joint fit) runs rmpfit's
-    /// Levenberg–Marquardt.
+    /// (`Stage::is_final`), of the refits that release held values, and of a sequence's
+    /// joint fit ([`crate::identify::joint`]). Every other stage (horizons, segments,
+    /// equation error) runs rmpfit's Levenberg–Marquardt.
     pub whole_files_optimiser: StageOptimiser,
 }
 
