@@ -2564,8 +2564,9 @@ fn check_joint_fit(out: &Path, truth: &Plant) -> serde_json::Value {
 /// parameter k1 and k2 fit (those k2's plan lists, with the symbols that span the two
 /// configurations' base parameters), stays at the noise floor on every joint of both, and
 /// calls at least three values identifiable, each within 1 % of the truth and 4 of its
-/// standard errors (measured: qeq_q4, qeq_q5, G_q4_to_q5, G_q5_to_q4, vs_q3; the largest 3.4 σ,
-/// qeq_q5). The plant written holds the fitted values and lists the symbols left
+/// standard errors (measured with the Levenberg–Marquardt: qeq_q4, qeq_q5, G_q4_to_q5,
+/// G_q5_to_q4, vs_q3, the largest 3.4 σ, qeq_q5; with the trust-region-reflective method, the
+/// coupled preset's since stop 92, vs_q4 too). The plant written holds the fitted values and lists the symbols left
 /// undetermined; report.md has the joint fit's section. Without k1's file the run is
 /// refused before any fit, naming the step.
 #[test]
