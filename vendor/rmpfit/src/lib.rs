@@ -550,7 +550,13 @@ fn jacobi_svd(mut a: Vec<f64>, rows: usize, cols: usize) -> (Vec<f64>, Vec<f64>,
         }
     }
     let sigma = (0..cols)
-        .map(|j| a[j * rows..(j + 1) * rows].iter().map(|x| x * x).sum::<f64>().sqrt())
+        .map(|j| {
+            a[j * rows..(j + 1) * rows]
+                .iter()
+                .map(|x| x * x)
+                .sum::<f64>()
+                .sqrt()
+        })
         .collect();
     (a, sigma, v)
 }
@@ -574,7 +580,13 @@ fn trust_region_least_squares(
     }
     // c_i = σ_i u_iᵀ b (U Σ is stored), so y(μ) = Σ c_i / (σ_i² + μ) v_i.
     let c: Vec<f64> = (0..cols)
-        .map(|j| us[j * rows..(j + 1) * rows].iter().zip(b).map(|(u, b)| u * b).sum())
+        .map(|j| {
+            us[j * rows..(j + 1) * rows]
+                .iter()
+                .zip(b)
+                .map(|(u, b)| u * b)
+                .sum()
+        })
         .collect();
     let cutoff = cols as f64 * f64::EPSILON * sigma_max;
     let norm = |mu: f64| -> f64 {
@@ -1883,6 +1895,29 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
         }
     }
 
+    /// lockstep patch: the limit free parameter `j` is pegged on with a step component `v`
+    /// pointing out of it, if any (CMPFIT zeroes such components).
+    fn pegged_against(&self, j: usize, v: f64) -> Option<f64> {
+        if self.qllim[j] && self.x[j] <= self.llim[j] && v < 0. {
+            Some(self.llim[j])
+        } else if self.qulim[j] && self.x[j] >= self.ulim[j] && v > 0. {
+            Some(self.ulim[j])
+        } else {
+            None
+        }
+    }
+
+    /// lockstep patch: the scale D of free parameter `j` (MINPACK's diag), 1 where it is
+    /// not positive.
+    fn scale_of(&self, j: usize) -> f64 {
+        let dj = self.diag[self.ifree[j]];
+        if dj > 0. {
+            dj
+        } else {
+            1.
+        }
+    }
+
     /// lockstep patch (vendor/PATCHES.md): the scaled predicted reduction
     /// 1 − ‖f + J s‖² / ‖f‖² of the linear model along step `s` (free parameters), and
     /// the scaled directional derivative fᵀJ s / ‖f‖², from the QR factor (J Π = Q R,
@@ -1908,11 +1943,8 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
         }
         let d: Vec<f64> = (0..n)
             .map(|j| {
-                let dj = self.diag[self.ifree[j]];
-                let v = if dj > 0. { -g[j] / (dj * dj) } else { -g[j] };
-                let lpegged = self.qllim[j] && self.x[j] <= self.llim[j];
-                let upegged = self.qulim[j] && self.x[j] >= self.ulim[j];
-                if (lpegged && v < 0.) || (upegged && v > 0.) {
+                let v = -g[j] / self.scale_of(j).powi(2);
+                if self.pegged_against(j, v).is_some() {
                     0.
                 } else {
                     v
@@ -1987,12 +2019,8 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
         let mut step = vec![0.; n];
         let mut limits: Vec<Option<f64>> = vec![None; n];
         for j in 0..n {
-            let lpegged = self.qllim[j] && self.x[j] <= self.llim[j];
-            let upegged = self.qulim[j] && self.x[j] >= self.ulim[j];
-            if lpegged && p[j] < 0. {
-                limits[j] = Some(self.llim[j]);
-            } else if upegged && p[j] > 0. {
-                limits[j] = Some(self.ulim[j]);
+            if let Some(limit) = self.pegged_against(j, p[j]) {
+                limits[j] = Some(limit);
             } else if let Some(limit) = self.limit_crossed(j, self.x[j] + p[j]) {
                 step[j] = limit - self.x[j];
                 limits[j] = Some(limit);
@@ -2001,16 +2029,7 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
         if limits.iter().all(Option::is_none) {
             return None;
         }
-        let d: Vec<f64> = (0..n)
-            .map(|j| {
-                let dj = self.diag[self.ifree[j]];
-                if dj > 0. {
-                    dj
-                } else {
-                    1.
-                }
-            })
-            .collect();
+        let d: Vec<f64> = (0..n).map(|j| self.scale_of(j)).collect();
         for _ in 0..n {
             let free: Vec<usize> = (0..n).filter(|&j| limits[j].is_none()).collect();
             if free.is_empty() {
@@ -2082,10 +2101,8 @@ impl<'a, F: MPFitter> MPFit<'a, F> {
             let lm_step = self.wa1[..self.nfree].to_vec();
             let mut zeroed = false;
             for j in 0..self.nfree {
-                let lpegged = self.qllim[j] && self.x[j] <= self.llim[j];
-                let upegged = self.qulim[j] && self.x[j] >= self.ulim[j];
                 let dwa1 = self.wa1[j].abs() > f64::EPSILON;
-                if (lpegged && self.wa1[j] < 0.) || (upegged && self.wa1[j] > 0.) {
+                if self.pegged_against(j, self.wa1[j]).is_some() {
                     self.wa1[j] = 0.;
                     zeroed = true;
                 }
